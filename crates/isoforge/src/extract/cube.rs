@@ -1,0 +1,206 @@
+//! The one cube diagram: corner, edge and face numbering shared by every walker and extractor.
+//!
+//! ```text
+//!         [6]────── 3 ──────[7]        [c] corner c sits at (c & 1, (c >> 1) & 1, (c >> 2) & 1)
+//!         ╱│                 ╱│         plain numbers are edges; edge e runs along axis e / 4
+//!        6 │                7 │         (0 = x, 1 = y, 2 = z) and r = e % 4 places it:
+//!       ╱  10              ╱  11          x-edges: y = r & 1, z = r >> 1  (corners 2r, 2r + 1)
+//!     [4]────── 2 ──────[5]   │           y-edges: x = r & 1, z = r >> 1
+//!      │   │              │   │           z-edges: x = r & 1, y = r >> 1
+//!      │  [2]────── 1 ────│──[3]
+//!      8  ╱               9  ╱          z
+//!      │ 4                │ 5           │  y
+//!      │╱                 │╱            │ ╱
+//!     [0]────── 0 ──────[1]             │╱___ x
+//! ```
+//! Faces are numbered `2 · axis + side`: 0 = x-min, 1 = x-max, 2 = y-min, 3 = y-max, 4 = z-min, 5 = z-max.
+//!
+//! Classification (fixed for the whole project): a corner is *inside* when its value is below iso,
+//! ties count as outside, and case bit `c` is set when corner `c` is inside.
+
+/// An axis of the lattice.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash, PartialOrd, Ord)]
+pub enum Axis {
+    /// Along i (x), the fastest-varying index.
+    X = 0,
+    /// Along j (y).
+    Y = 1,
+    /// Along k (z), the slowest-varying index.
+    Z = 2,
+}
+
+impl Axis {
+    /// All three axes in order.
+    pub const ALL: [Axis; 3] = [Axis::X, Axis::Y, Axis::Z];
+
+    /// The axis as an index 0, 1, 2.
+    #[inline]
+    pub const fn index(self) -> usize {
+        self as usize
+    }
+
+    /// The unit step along this axis.
+    #[inline]
+    pub const fn unit(self) -> [u32; 3] {
+        match self {
+            Axis::X => [1, 0, 0],
+            Axis::Y => [0, 1, 0],
+            Axis::Z => [0, 0, 1],
+        }
+    }
+}
+
+/// Offset of each corner from the cell's origin point.
+pub const CORNER_OFFSETS: [[u32; 3]; 8] = {
+    let mut t = [[0; 3]; 8];
+    let mut c = 0;
+    while c < 8 {
+        t[c] = [(c & 1) as u32, ((c >> 1) & 1) as u32, ((c >> 2) & 1) as u32];
+        c += 1;
+    }
+    t
+};
+
+/// The two corners of each edge, the one with the smaller coordinate first.
+pub const EDGE_CORNERS: [[u8; 2]; 12] = {
+    let mut t = [[0u8; 2]; 12];
+    let mut e = 0;
+    while e < 12 {
+        let axis = e / 4;
+        let r = e % 4;
+        // The two fixed coordinates, in increasing axis order, take the bits of r.
+        let (a, b) = match axis {
+            0 => (1, 2),
+            1 => (0, 2),
+            _ => (0, 1),
+        };
+        let lo = ((r & 1) << a) | ((r >> 1) << b);
+        t[e] = [lo as u8, (lo | (1 << axis)) as u8];
+        e += 1;
+    }
+    t
+};
+
+/// One of the twelve edges of a cell, numbered as in the module diagram.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash, PartialOrd, Ord)]
+pub struct CubeEdge(pub u8);
+
+impl CubeEdge {
+    /// The axis the edge runs along.
+    #[inline]
+    pub const fn axis(self) -> Axis {
+        match self.0 / 4 {
+            0 => Axis::X,
+            1 => Axis::Y,
+            _ => Axis::Z,
+        }
+    }
+
+    /// The edge's two corners, lower first.
+    #[inline]
+    pub const fn corners(self) -> [u8; 2] {
+        EDGE_CORNERS[self.0 as usize]
+    }
+
+    /// Offset of the edge's lower corner from the cell origin.
+    #[inline]
+    pub const fn origin_offset(self) -> [u32; 3] {
+        CORNER_OFFSETS[self.corners()[0] as usize]
+    }
+}
+
+/// A lattice edge named independently of any cell: its lower point and its axis.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash, PartialOrd, Ord)]
+pub struct EdgeKey {
+    /// The edge's lower point.
+    pub origin: [u32; 3],
+    /// The direction from `origin` to the other point.
+    pub axis: Axis,
+}
+
+impl EdgeKey {
+    /// The edge of `cell` named `e` in the cube numbering.
+    #[inline]
+    pub fn of_cell(cell: [u32; 3], e: CubeEdge) -> Self {
+        let o = e.origin_offset();
+        EdgeKey { origin: [cell[0] + o[0], cell[1] + o[1], cell[2] + o[2]], axis: e.axis() }
+    }
+
+    /// The edge's upper point.
+    #[inline]
+    pub fn end(&self) -> [u32; 3] {
+        let u = self.axis.unit();
+        [self.origin[0] + u[0], self.origin[1] + u[1], self.origin[2] + u[2]]
+    }
+
+    /// The index-space point at parameter `t` from `origin` (0) to `end` (1).
+    #[inline]
+    pub fn point_at(&self, t: f64) -> [f64; 3] {
+        let mut p = [self.origin[0] as f64, self.origin[1] as f64, self.origin[2] as f64];
+        p[self.axis.index()] += t;
+        p
+    }
+}
+
+/// The case index of eight corner values already offset by iso: bit `c` set ⇔ `d[c] < 0`.
+#[inline]
+pub fn case_of(d: &[f32; 8]) -> u8 {
+    let mut case = 0u8;
+    for (c, &v) in d.iter().enumerate() {
+        case |= ((v < 0.0) as u8) << c;
+    }
+    case
+}
+
+/// Bit mask of the edges whose two corners differ in classification, for each case.
+pub const CASE_EDGES: [u16; 256] = {
+    let mut t = [0u16; 256];
+    let mut case = 0;
+    while case < 256 {
+        let mut e = 0;
+        while e < 12 {
+            let [a, b] = EDGE_CORNERS[e];
+            if ((case >> a) & 1) != ((case >> b) & 1) {
+                t[case] |= 1 << e;
+            }
+            e += 1;
+        }
+        case += 1;
+    }
+    t
+};
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn edges_join_neighbouring_corners_along_their_axis() {
+        for e in 0..12u8 {
+            let edge = CubeEdge(e);
+            let [a, b] = edge.corners();
+            let (pa, pb) = (CORNER_OFFSETS[a as usize], CORNER_OFFSETS[b as usize]);
+            let diff: Vec<i64> = (0..3).map(|i| pb[i] as i64 - pa[i] as i64).collect();
+            let mut expect = vec![0; 3];
+            expect[edge.axis().index()] = 1;
+            assert_eq!(diff, expect, "edge {e}");
+        }
+        // x-edges join corners 2r and 2r + 1 (the VTK Flying Edges order).
+        for r in 0..4u8 {
+            assert_eq!(CubeEdge(r).corners(), [2 * r, 2 * r + 1]);
+        }
+        // All twelve edges are distinct.
+        let mut seen: Vec<[u8; 2]> = EDGE_CORNERS.to_vec();
+        seen.sort();
+        seen.dedup();
+        assert_eq!(seen.len(), 12);
+    }
+
+    #[test]
+    fn case_edges_are_symmetric_under_complement() {
+        for case in 0..256 {
+            assert_eq!(CASE_EDGES[case], CASE_EDGES[255 - case]);
+        }
+        assert_eq!(CASE_EDGES[1], 0b0001_0001_0001); // corner 0: edges 0, 4, 8
+    }
+}

@@ -1,0 +1,235 @@
+use super::{DType, Lattice, Sample};
+use crate::error::{Error, Result};
+
+/// Samples stored densely on a lattice, x fastest, in their own type `S`.
+#[derive(Debug, Clone, PartialEq)]
+pub struct DenseGrid<S> {
+    lattice: Lattice,
+    data: Vec<S>,
+}
+
+/// The first non-finite sample of a grid.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct NonFinite {
+    /// Its lattice point.
+    pub ijk: [u32; 3],
+    /// Its value (NaN or ±inf).
+    pub value: f64,
+}
+
+/// The smallest and largest sample of a grid.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct ValueRange {
+    /// Smallest value.
+    pub min: f64,
+    /// Largest value.
+    pub max: f64,
+}
+
+impl<S: Sample> DenseGrid<S> {
+    /// Wraps samples (x fastest) on a lattice.
+    ///
+    /// # Errors
+    /// [`Error::InvalidInput`] when `data.len()` is not the lattice's point count.
+    pub fn new(lattice: Lattice, data: Vec<S>) -> Result<Self> {
+        if data.len() as u64 != lattice.num_points() {
+            return Err(Error::InvalidInput(format!(
+                "grid of {:?} points needs {} samples, got {}",
+                lattice.dims(),
+                lattice.num_points(),
+                data.len()
+            )));
+        }
+        Ok(DenseGrid { lattice, data })
+    }
+
+    /// A grid filled by `f(ijk)`.
+    pub fn from_fn(lattice: Lattice, mut f: impl FnMut([u32; 3]) -> S) -> Self {
+        let n = lattice.num_points() as usize;
+        let data = (0..n).map(|lin| f(lattice.ijk(lin))).collect();
+        DenseGrid { lattice, data }
+    }
+
+    /// The sampling lattice.
+    #[inline]
+    pub fn lattice(&self) -> &Lattice {
+        &self.lattice
+    }
+
+    /// All samples, x fastest.
+    #[inline]
+    pub fn data(&self) -> &[S] {
+        &self.data
+    }
+
+    /// Mutable samples, x fastest.
+    #[inline]
+    pub fn data_mut(&mut self) -> &mut [S] {
+        &mut self.data
+    }
+
+    /// The sample at `ijk`.
+    ///
+    /// # Panics
+    /// When `ijk` is outside the lattice.
+    #[inline]
+    pub fn get(&self, ijk: [u32; 3]) -> S {
+        self.data[self.lattice.linear(ijk)]
+    }
+
+    /// Replaces the lattice geometry (spacing, origin) keeping dims.
+    ///
+    /// # Errors
+    /// [`Error::InvalidInput`] when `lattice` has other dims.
+    pub fn set_lattice(&mut self, lattice: Lattice) -> Result<()> {
+        if lattice.dims() != self.lattice.dims() {
+            return Err(Error::InvalidInput(format!(
+                "new lattice dims {:?} differ from the grid's {:?}",
+                lattice.dims(),
+                self.lattice.dims()
+            )));
+        }
+        self.lattice = lattice;
+        Ok(())
+    }
+
+    /// The first sample that is NaN or infinite, if any.
+    pub fn first_non_finite(&self) -> Option<NonFinite> {
+        let lin = self.data.iter().position(|v| !v.is_finite())?;
+        Some(NonFinite { ijk: self.lattice.ijk(lin), value: self.data[lin].to_f64() })
+    }
+
+    /// Smallest and largest sample (NaN samples are skipped; `None` when all are NaN).
+    pub fn value_range(&self) -> Option<ValueRange> {
+        let mut it = self.data.iter().map(|v| v.to_f64()).filter(|v| !v.is_nan());
+        let first = it.next()?;
+        let (min, max) = it.fold((first, first), |(lo, hi), v| (lo.min(v), hi.max(v)));
+        Some(ValueRange { min, max })
+    }
+
+    /// Consumes the grid, returning its samples.
+    pub fn into_data(self) -> Vec<S> {
+        self.data
+    }
+}
+
+/// A dense grid of any sample type: the runtime choice, matched once at the top of a pipeline.
+#[derive(Debug, Clone, PartialEq)]
+#[non_exhaustive]
+pub enum AnyGrid {
+    /// `u8` samples.
+    U8(DenseGrid<u8>),
+    /// `i8` samples.
+    I8(DenseGrid<i8>),
+    /// `u16` samples.
+    U16(DenseGrid<u16>),
+    /// `i16` samples.
+    I16(DenseGrid<i16>),
+    /// `u32` samples.
+    U32(DenseGrid<u32>),
+    /// `i32` samples.
+    I32(DenseGrid<i32>),
+    /// `f32` samples.
+    F32(DenseGrid<f32>),
+    /// `f64` samples.
+    F64(DenseGrid<f64>),
+}
+
+/// Calls `$body` with `$g` bound to the typed grid inside an [`AnyGrid`].
+#[macro_export]
+macro_rules! with_grid {
+    ($any:expr, $g:ident => $body:expr) => {
+        match $any {
+            $crate::grid::AnyGrid::U8($g) => $body,
+            $crate::grid::AnyGrid::I8($g) => $body,
+            $crate::grid::AnyGrid::U16($g) => $body,
+            $crate::grid::AnyGrid::I16($g) => $body,
+            $crate::grid::AnyGrid::U32($g) => $body,
+            $crate::grid::AnyGrid::I32($g) => $body,
+            $crate::grid::AnyGrid::F32($g) => $body,
+            $crate::grid::AnyGrid::F64($g) => $body,
+        }
+    };
+}
+
+macro_rules! any_from {
+    ($t:ty, $v:ident) => {
+        impl From<DenseGrid<$t>> for AnyGrid {
+            fn from(g: DenseGrid<$t>) -> Self {
+                AnyGrid::$v(g)
+            }
+        }
+    };
+}
+any_from!(u8, U8);
+any_from!(i8, I8);
+any_from!(u16, U16);
+any_from!(i16, I16);
+any_from!(u32, U32);
+any_from!(i32, I32);
+any_from!(f32, F32);
+any_from!(f64, F64);
+
+impl AnyGrid {
+    /// The sampling lattice.
+    pub fn lattice(&self) -> &Lattice {
+        with_grid!(self, g => g.lattice())
+    }
+
+    /// The sample type.
+    pub fn dtype(&self) -> DType {
+        fn d<S: Sample>(_: &DenseGrid<S>) -> DType {
+            S::DTYPE
+        }
+        with_grid!(self, g => d(g))
+    }
+
+    /// See [`DenseGrid::first_non_finite`].
+    pub fn first_non_finite(&self) -> Option<NonFinite> {
+        with_grid!(self, g => g.first_non_finite())
+    }
+
+    /// See [`DenseGrid::value_range`].
+    pub fn value_range(&self) -> Option<ValueRange> {
+        with_grid!(self, g => g.value_range())
+    }
+
+    /// See [`DenseGrid::set_lattice`].
+    ///
+    /// # Errors
+    /// As [`DenseGrid::set_lattice`].
+    pub fn set_lattice(&mut self, lattice: Lattice) -> Result<()> {
+        with_grid!(self, g => g.set_lattice(lattice))
+    }
+
+    /// The sample at `ijk` as `f64`.
+    ///
+    /// # Panics
+    /// When `ijk` is outside the lattice.
+    pub fn get_f64(&self, ijk: [u32; 3]) -> f64 {
+        with_grid!(self, g => g.get(ijk).to_f64())
+    }
+
+    /// Iterates over all samples as `f64`, x fastest.
+    pub fn values_f64(&self) -> Box<dyn Iterator<Item = f64> + '_> {
+        with_grid!(self, g => Box::new(g.data().iter().map(|v| v.to_f64())))
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn range_and_non_finite() {
+        let l = Lattice::new([2, 2, 2]).unwrap();
+        let mut g = DenseGrid::from_fn(l, |p| (p[0] + 2 * p[1] + 4 * p[2]) as f32);
+        assert_eq!(g.value_range(), Some(ValueRange { min: 0.0, max: 7.0 }));
+        assert_eq!(g.first_non_finite(), None);
+        g.data_mut()[5] = f32::NAN;
+        let nf = g.first_non_finite().unwrap();
+        assert_eq!(nf.ijk, [1, 0, 1]);
+        assert!(nf.value.is_nan());
+        assert!(DenseGrid::new(Lattice::new([2, 2, 2]).unwrap(), vec![0u8; 7]).is_err());
+    }
+}

@@ -1,0 +1,190 @@
+use crate::error::{Error, Result};
+
+/// A regular sampling lattice: `dims` points per axis, `spacing` between them and the world
+/// position of point (0, 0, 0). Point `ijk` is at `origin + spacing · ijk`, x (i) fastest in memory.
+///
+/// A lattice of `n` points per axis has `n - 1` cells per axis (ranges are half-open).
+#[derive(Debug, Clone, PartialEq)]
+pub struct Lattice {
+    dims: [u32; 3],
+    spacing: [f64; 3],
+    origin: [f64; 3],
+}
+
+impl Lattice {
+    /// Largest number of points a lattice may have: linear indices must fit `usize` and `u64`.
+    pub const MAX_POINTS: u64 = 1 << 40;
+
+    /// A lattice with unit spacing at the origin.
+    ///
+    /// # Errors
+    /// [`Error::InvalidInput`] when a dimension is below 1; [`Error::Limit`] when the point count
+    /// overflows [`Lattice::MAX_POINTS`].
+    pub fn new(dims: [u32; 3]) -> Result<Self> {
+        Self::with_geometry(dims, [1.0; 3], [0.0; 3])
+    }
+
+    /// A lattice with the given spacing and origin.
+    ///
+    /// # Errors
+    /// As [`Lattice::new`], and [`Error::InvalidInput`] when a spacing is not finite and positive
+    /// or an origin is not finite.
+    pub fn with_geometry(dims: [u32; 3], spacing: [f64; 3], origin: [f64; 3]) -> Result<Self> {
+        if dims.contains(&0) {
+            return Err(Error::InvalidInput(format!(
+                "lattice dims {}x{}x{}: every dimension must be at least 1",
+                dims[0], dims[1], dims[2]
+            )));
+        }
+        let n = (dims[0] as u64)
+            .checked_mul(dims[1] as u64)
+            .and_then(|n| n.checked_mul(dims[2] as u64))
+            .unwrap_or(u64::MAX);
+        if n > Self::MAX_POINTS {
+            return Err(Error::Limit { what: "lattice points", requested: n, allowed: Self::MAX_POINTS });
+        }
+        if let Some(s) = spacing.iter().find(|s| !(s.is_finite() && **s > 0.0)) {
+            return Err(Error::InvalidInput(format!("lattice spacing {s}: must be finite and positive")));
+        }
+        if let Some(o) = origin.iter().find(|o| !o.is_finite()) {
+            return Err(Error::InvalidInput(format!("lattice origin {o}: must be finite")));
+        }
+        Ok(Lattice { dims, spacing, origin })
+    }
+
+    /// A lattice of `dims` points spanning the world box `[min, max]` (both ends sampled).
+    ///
+    /// # Errors
+    /// As [`Lattice::with_geometry`]; also when a dimension is below 2 or `max <= min`.
+    pub fn spanning(dims: [u32; 3], min: [f64; 3], max: [f64; 3]) -> Result<Self> {
+        let mut spacing = [0.0; 3];
+        for a in 0..3 {
+            if dims[a] < 2 {
+                return Err(Error::InvalidInput(format!("lattice spanning a box needs at least 2 points per axis, got {}", dims[a])));
+            }
+            spacing[a] = (max[a] - min[a]) / (dims[a] - 1) as f64;
+        }
+        Self::with_geometry(dims, spacing, min)
+    }
+
+    /// Points per axis.
+    #[inline]
+    pub fn dims(&self) -> [u32; 3] {
+        self.dims
+    }
+
+    /// World distance between neighbouring points, per axis.
+    #[inline]
+    pub fn spacing(&self) -> [f64; 3] {
+        self.spacing
+    }
+
+    /// World position of point (0, 0, 0).
+    #[inline]
+    pub fn origin(&self) -> [f64; 3] {
+        self.origin
+    }
+
+    /// Total number of points.
+    #[inline]
+    pub fn num_points(&self) -> u64 {
+        self.dims.iter().map(|&d| d as u64).product()
+    }
+
+    /// Number of points in one z-slab (`nx · ny`).
+    #[inline]
+    pub fn slab_len(&self) -> usize {
+        self.dims[0] as usize * self.dims[1] as usize
+    }
+
+    /// Linear index of point `ijk` (x fastest).
+    #[inline]
+    pub fn linear(&self, ijk: [u32; 3]) -> usize {
+        (ijk[2] as usize * self.dims[1] as usize + ijk[1] as usize) * self.dims[0] as usize + ijk[0] as usize
+    }
+
+    /// The point of linear index `lin`.
+    #[inline]
+    pub fn ijk(&self, lin: usize) -> [u32; 3] {
+        let nx = self.dims[0] as usize;
+        let ny = self.dims[1] as usize;
+        [(lin % nx) as u32, ((lin / nx) % ny) as u32, (lin / (nx * ny)) as u32]
+    }
+
+    /// World position of a (fractional) index-space point.
+    #[inline]
+    pub fn to_world(&self, p: [f64; 3]) -> [f64; 3] {
+        [
+            self.origin[0] + self.spacing[0] * p[0],
+            self.origin[1] + self.spacing[1] * p[1],
+            self.origin[2] + self.spacing[2] * p[2],
+        ]
+    }
+
+    /// Index-space position of a world point.
+    #[inline]
+    pub fn to_index(&self, p: [f64; 3]) -> [f64; 3] {
+        [
+            (p[0] - self.origin[0]) / self.spacing[0],
+            (p[1] - self.origin[1]) / self.spacing[1],
+            (p[2] - self.origin[2]) / self.spacing[2],
+        ]
+    }
+
+    /// Converts an index-space gradient (per unit index step) to a world-space gradient.
+    #[inline]
+    pub fn gradient_to_world(&self, g: [f64; 3]) -> [f64; 3] {
+        [g[0] / self.spacing[0], g[1] / self.spacing[1], g[2] / self.spacing[2]]
+    }
+
+    /// World bounds of the lattice points: `(min, max)`.
+    pub fn world_bounds(&self) -> ([f64; 3], [f64; 3]) {
+        let a = self.to_world([0.0; 3]);
+        let far = [self.dims[0] as f64 - 1.0, self.dims[1] as f64 - 1.0, self.dims[2] as f64 - 1.0];
+        let b = self.to_world(far);
+        ([a[0].min(b[0]), a[1].min(b[1]), a[2].min(b[2])], [a[0].max(b[0]), a[1].max(b[1]), a[2].max(b[2])])
+    }
+
+    /// True when every axis has at least two points, so the lattice has at least one cell.
+    pub fn has_cells(&self) -> bool {
+        self.dims.iter().all(|&d| d >= 2)
+    }
+
+    /// A copy of this lattice with other dims (same spacing and origin).
+    ///
+    /// # Errors
+    /// As [`Lattice::new`].
+    pub fn with_dims(&self, dims: [u32; 3]) -> Result<Self> {
+        Self::with_geometry(dims, self.spacing, self.origin)
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn linear_and_ijk_round_trip() {
+        let l = Lattice::new([3, 4, 5]).unwrap();
+        for lin in 0..60 {
+            assert_eq!(l.linear(l.ijk(lin)), lin);
+        }
+        assert_eq!(l.linear([1, 2, 3]), (3 * 4 + 2) * 3 + 1);
+    }
+
+    #[test]
+    fn rejects_bad_geometry() {
+        assert!(Lattice::new([0, 4, 4]).is_err());
+        assert!(matches!(Lattice::new([u32::MAX, u32::MAX, 2]), Err(Error::Limit { .. })));
+        assert!(Lattice::with_geometry([2, 2, 2], [1.0, 0.0, 1.0], [0.0; 3]).is_err());
+        assert!(Lattice::with_geometry([2, 2, 2], [1.0; 3], [f64::NAN, 0.0, 0.0]).is_err());
+    }
+
+    #[test]
+    fn world_mapping() {
+        let l = Lattice::with_geometry([3, 3, 3], [0.5, 2.0, 1.0], [10.0, 0.0, -1.0]).unwrap();
+        assert_eq!(l.to_world([2.0, 1.0, 0.5]), [11.0, 2.0, -0.5]);
+        assert_eq!(l.to_index([11.0, 2.0, -0.5]), [2.0, 1.0, 0.5]);
+        assert_eq!(l.world_bounds(), ([10.0, 0.0, -1.0], [11.0, 4.0, 1.0]));
+    }
+}

@@ -1,0 +1,11 @@
+//! Data: the sampling [`Lattice`], sample types ([`Sample`], [`DType`]) and dense grids.
+//!
+//! Nothing here depends on other modules; volumes, walkers and readers build on it.
+
+mod dense;
+mod lattice;
+mod sample;
+
+pub use dense::{AnyGrid, DenseGrid, NonFinite, ValueRange};
+pub use lattice::Lattice;
+pub use sample::{DType, Sample};

@@ -1,0 +1,125 @@
+//! The whole pipeline in one call: volume + iso + method → checked [`Mesh`].
+//!
+//! Runtime choices (sample type, built-in field, method) are matched once here; each arm calls
+//! the same generic walk, monomorphised for its volume and extractor.
+
+use crate::error::{Error, Result};
+use crate::extract::MarchingCubes;
+use crate::grid::{AnyGrid, DenseGrid, Sample};
+use crate::mesh::{Mesh, MeshBuilder};
+use crate::volume::catalog::Builtin;
+use crate::volume::{Field, FieldVisitor, GridVolume, Iso, Sampled, Volume};
+use crate::walk::{Progress, SlabWalker, WalkStats, Walker};
+
+/// An extraction algorithm.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
+#[non_exhaustive]
+pub enum Method {
+    /// Classic marching cubes ([`MarchingCubes`]).
+    #[default]
+    MarchingCubes,
+}
+
+impl Method {
+    /// Every method, in CLI order.
+    pub const ALL: [Method; 1] = [Method::MarchingCubes];
+
+    /// The short CLI name (`mc`).
+    pub fn name(self) -> &'static str {
+        match self {
+            Method::MarchingCubes => "mc",
+        }
+    }
+
+    /// Parses a short CLI name.
+    pub fn parse(s: &str) -> Option<Method> {
+        Method::ALL.into_iter().find(|m| m.name() == s)
+    }
+}
+
+/// Whether vertices get normals.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
+pub enum Normals {
+    /// Unit normals from the field gradient (central differences for grids).
+    #[default]
+    Gradient,
+    /// No normals (`Mesh::normals` stays empty).
+    None,
+}
+
+/// Extraction options.
+#[derive(Debug, Clone, Default)]
+pub struct Options {
+    /// The method.
+    pub method: Method,
+    /// Normals or not.
+    pub normals: Normals,
+}
+
+/// A mesh and what the walk saw.
+#[derive(Debug, Clone)]
+pub struct Extraction {
+    /// The mesh (world coordinates).
+    pub mesh: Mesh,
+    /// Cell counts.
+    pub stats: WalkStats,
+}
+
+/// Extracts the surface of `vol` at `iso`.
+///
+/// # Errors
+/// [`Error::InvalidInput`] when `iso` is not finite; [`Error::Limit`] when the mesh outgrows
+/// `u32` indices.
+pub fn extract<V: Volume>(vol: &V, iso: Iso, opts: &Options) -> Result<Extraction> {
+    extract_with_progress(vol, iso, opts, None)
+}
+
+/// [`extract`], reporting progress per slab.
+///
+/// # Errors
+/// As [`extract`].
+pub fn extract_with_progress<V: Volume>(vol: &V, iso: Iso, opts: &Options, progress: Option<&dyn Progress>) -> Result<Extraction> {
+    if !iso.value.is_finite() {
+        return Err(Error::InvalidInput(format!("iso {}: must be a finite number", iso.value)));
+    }
+    let mut out = MeshBuilder::new(opts.normals == Normals::Gradient);
+    let mut walker = SlabWalker::new();
+    if let Some(p) = progress {
+        walker = walker.with_progress(p);
+    }
+    let stats = match opts.method {
+        Method::MarchingCubes => walker.walk(vol, iso, &mut MarchingCubes, &mut out)?,
+    };
+    Ok(Extraction { mesh: out.finish()?, stats })
+}
+
+/// Extracts from a grid of any sample type (matched once).
+///
+/// # Errors
+/// As [`extract`].
+pub fn extract_grid(grid: &AnyGrid, iso: Iso, opts: &Options, progress: Option<&dyn Progress>) -> Result<Extraction> {
+    fn go<S: Sample>(g: &DenseGrid<S>, iso: Iso, opts: &Options, p: Option<&dyn Progress>) -> Result<Extraction> {
+        extract_with_progress(&GridVolume::new(g), iso, opts, p)
+    }
+    crate::with_grid!(grid, g => go(g, iso, opts, progress))
+}
+
+/// Extracts a built-in field on its lattice (matched once).
+///
+/// # Errors
+/// As [`extract`].
+pub fn extract_builtin(b: &Builtin, iso: Iso, opts: &Options, progress: Option<&dyn Progress>) -> Result<Extraction> {
+    struct Go<'a> {
+        b: &'a Builtin,
+        iso: Iso,
+        opts: &'a Options,
+        progress: Option<&'a dyn Progress>,
+    }
+    impl FieldVisitor for Go<'_> {
+        type Output = Result<Extraction>;
+        fn visit<F: Field + Clone + Sync>(self, field: &F) -> Self::Output {
+            extract_with_progress(&Sampled::new(field.clone(), self.b.lattice.clone()), self.iso, self.opts, self.progress)
+        }
+    }
+    b.field.visit(Go { b, iso, opts, progress })
+}

@@ -1,0 +1,536 @@
+use std::fmt;
+
+use crate::grid::Lattice;
+use crate::math::Aabb;
+use crate::mesh::Mesh;
+
+/// How to check.
+#[derive(Debug, Clone)]
+pub struct CheckOptions {
+    /// How many examples each finding keeps.
+    pub max_examples: usize,
+    /// When given, findings also name the lattice cell they lie in.
+    pub lattice: Option<Lattice>,
+}
+
+impl Default for CheckOptions {
+    fn default() -> Self {
+        CheckOptions { max_examples: 10, lattice: None }
+    }
+}
+
+/// A count and the first few examples of one kind of defect.
+#[derive(Debug, Clone, PartialEq)]
+pub struct Findings<T> {
+    /// How many there are.
+    pub count: usize,
+    /// The first ones found (at most `max_examples`).
+    pub examples: Vec<T>,
+}
+
+impl<T> Default for Findings<T> {
+    fn default() -> Self {
+        Findings { count: 0, examples: Vec::new() }
+    }
+}
+
+impl<T> Findings<T> {
+    fn push(&mut self, t: T, max: usize) {
+        self.count += 1;
+        if self.examples.len() < max {
+            self.examples.push(t);
+        }
+    }
+}
+
+/// An edge named by its vertices, where it is, and (with a lattice) which cell holds it.
+#[derive(Debug, Clone, PartialEq)]
+pub struct EdgeFinding {
+    /// The edge's two vertices, smaller first.
+    pub edge: [u32; 2],
+    /// How many triangles use it.
+    pub faces: usize,
+    /// Its midpoint.
+    pub midpoint: [f32; 3],
+    /// The lattice cell containing the midpoint, when a lattice was given.
+    pub cell: Option<[i64; 3]>,
+}
+
+impl fmt::Display for EdgeFinding {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        let m = self.midpoint;
+        write!(f, "edge ({}, {}) with {} face(s) at ({}, {}, {})", self.edge[0], self.edge[1], self.faces, m[0], m[1], m[2])?;
+        if let Some(c) = self.cell {
+            write!(f, " in cell ({}, {}, {})", c[0], c[1], c[2])?;
+        }
+        Ok(())
+    }
+}
+
+/// One connected component (triangles joined through shared vertices).
+#[derive(Debug, Clone, PartialEq)]
+pub struct ComponentReport {
+    /// Vertices used.
+    pub vertices: usize,
+    /// Distinct edges.
+    pub edges: usize,
+    /// Triangles.
+    pub triangles: usize,
+    /// Euler characteristic V − E + F.
+    pub euler: i64,
+    /// No boundary edge.
+    pub closed: bool,
+    /// Genus `(2 − χ) / 2` when the component is closed, manifold and oriented.
+    pub genus: Option<i64>,
+    /// Surface area.
+    pub area: f64,
+    /// Signed enclosed volume (positive when oriented outward); meaningful when closed.
+    pub volume: f64,
+}
+
+/// Everything [`check`] finds.
+#[derive(Debug, Clone, PartialEq)]
+pub struct MeshReport {
+    /// Vertices in the mesh.
+    pub vertices: usize,
+    /// Triangles in the mesh.
+    pub triangles: usize,
+    /// Distinct undirected edges.
+    pub edges: usize,
+    /// Vertices no triangle uses.
+    pub isolated_vertices: Findings<u32>,
+    /// Edges used by one triangle.
+    pub boundary_edges: Findings<EdgeFinding>,
+    /// Edges used by more than two triangles.
+    pub non_manifold_edges: Findings<EdgeFinding>,
+    /// Vertices whose triangles form more than one fan.
+    pub non_manifold_vertices: Findings<u32>,
+    /// Edges whose two triangles traverse it in the same direction.
+    pub inconsistent_edges: Findings<EdgeFinding>,
+    /// Triangles with a repeated vertex.
+    pub collapsed_triangles: Findings<u32>,
+    /// Triangles of distinct vertices but zero area.
+    pub zero_area_triangles: Findings<u32>,
+    /// Pairs of triangles on the same three vertices.
+    pub duplicate_triangles: Findings<[u32; 2]>,
+    /// Connected components, largest first.
+    pub components: Vec<ComponentReport>,
+    /// Euler characteristic of the whole mesh (used vertices − edges + triangles).
+    pub euler: i64,
+    /// Total area.
+    pub area: f64,
+    /// Total signed volume.
+    pub volume: f64,
+    /// Bounding box of the used vertices.
+    pub bounds: Aabb,
+}
+
+/// A property a caller can require of a mesh.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum Guarantee {
+    /// No boundary edge.
+    Closed,
+    /// Every edge has at most two triangles and every vertex one fan.
+    Manifold,
+    /// Neighbouring triangles agree on orientation.
+    Oriented,
+    /// Closed, manifold and oriented.
+    Watertight,
+    /// No collapsed, zero-area or duplicate triangle.
+    NoDegenerate,
+}
+
+impl Guarantee {
+    /// Parses `closed`, `manifold`, `oriented`, `watertight`, `no-degenerate`.
+    pub fn parse(s: &str) -> Option<Guarantee> {
+        Some(match s {
+            "closed" => Guarantee::Closed,
+            "manifold" => Guarantee::Manifold,
+            "oriented" => Guarantee::Oriented,
+            "watertight" => Guarantee::Watertight,
+            "no-degenerate" => Guarantee::NoDegenerate,
+            _ => return None,
+        })
+    }
+
+    /// The name `parse` accepts.
+    pub fn name(self) -> &'static str {
+        match self {
+            Guarantee::Closed => "closed",
+            Guarantee::Manifold => "manifold",
+            Guarantee::Oriented => "oriented",
+            Guarantee::Watertight => "watertight",
+            Guarantee::NoDegenerate => "no-degenerate",
+        }
+    }
+}
+
+impl MeshReport {
+    /// No boundary edge.
+    pub fn is_closed(&self) -> bool {
+        self.boundary_edges.count == 0
+    }
+    /// No edge with more than two triangles.
+    pub fn is_edge_manifold(&self) -> bool {
+        self.non_manifold_edges.count == 0
+    }
+    /// Edge- and vertex-manifold.
+    pub fn is_manifold(&self) -> bool {
+        self.is_edge_manifold() && self.non_manifold_vertices.count == 0
+    }
+    /// Consistently oriented.
+    pub fn is_oriented(&self) -> bool {
+        self.inconsistent_edges.count == 0
+    }
+    /// Closed, manifold and oriented.
+    pub fn is_watertight(&self) -> bool {
+        self.is_closed() && self.is_manifold() && self.is_oriented()
+    }
+    /// True when `g` holds.
+    pub fn holds(&self, g: Guarantee) -> bool {
+        match g {
+            Guarantee::Closed => self.is_closed(),
+            Guarantee::Manifold => self.is_manifold(),
+            Guarantee::Oriented => self.is_oriented(),
+            Guarantee::Watertight => self.is_watertight(),
+            Guarantee::NoDegenerate => {
+                self.collapsed_triangles.count + self.zero_area_triangles.count + self.duplicate_triangles.count == 0
+            }
+        }
+    }
+    /// Sum of the genera of the closed components (`None` if any component is open or defective).
+    pub fn genus(&self) -> Option<i64> {
+        self.components.iter().map(|c| c.genus).sum()
+    }
+}
+
+/// Checks `mesh` with default options.
+pub fn check(mesh: &Mesh) -> MeshReport {
+    check_with(mesh, &CheckOptions::default())
+}
+
+/// Checks `mesh`: O(T log T) time for T triangles; triangles with out-of-range indices are
+/// counted as collapsed and otherwise ignored.
+pub fn check_with(mesh: &Mesh, opts: &CheckOptions) -> MeshReport {
+    let nv = mesh.positions.len();
+    let max = opts.max_examples;
+    let pos = |v: u32| mesh.positions[v as usize];
+    let mut collapsed = Findings::default();
+    let mut zero_area = Findings::default();
+
+    // PASS 1: valid triangles, area, volume, union-find of vertices.
+    let mut valid: Vec<u32> = Vec::with_capacity(mesh.triangles.len());
+    let mut uf = UnionFind::new(nv);
+    let mut used = vec![false; nv];
+    let mut bounds = Aabb::EMPTY;
+    for (ti, t) in mesh.triangles.iter().enumerate() {
+        let ti = ti as u32;
+        if t.iter().any(|&v| v as usize >= nv) || t[0] == t[1] || t[1] == t[2] || t[0] == t[2] {
+            collapsed.push(ti, max);
+            continue;
+        }
+        valid.push(ti);
+        for &v in t {
+            used[v as usize] = true;
+        }
+        uf.union(t[0], t[1]);
+        uf.union(t[1], t[2]);
+    }
+    let mut isolated = Findings::default();
+    for (v, &u) in used.iter().enumerate() {
+        if u {
+            let p = pos(v as u32);
+            bounds.add([p[0] as f64, p[1] as f64, p[2] as f64]);
+        } else {
+            isolated.push(v as u32, max);
+        }
+    }
+    // Volume relative to the box centre keeps the f64 sums well conditioned.
+    let c = if bounds.is_empty() { [0.0; 3] } else { [0, 1, 2].map(|a| 0.5 * (bounds.min[a] + bounds.max[a])) };
+    let p64 = |v: u32| {
+        let p = pos(v);
+        [p[0] as f64 - c[0], p[1] as f64 - c[1], p[2] as f64 - c[2]]
+    };
+
+    // Component ids: dense numbering of union-find roots.
+    let mut comp_of_root = vec![u32::MAX; nv];
+    let mut ncomp = 0usize;
+    let mut comp = |uf: &mut UnionFind, v: u32| -> usize {
+        let r = uf.find(v) as usize;
+        if comp_of_root[r] == u32::MAX {
+            comp_of_root[r] = ncomp as u32;
+            ncomp += 1;
+        }
+        comp_of_root[r] as usize
+    };
+    let mut comps: Vec<ComponentReport> = Vec::new();
+    let blank = ComponentReport { vertices: 0, edges: 0, triangles: 0, euler: 0, closed: true, genus: None, area: 0.0, volume: 0.0 };
+    let mut tri_comp = vec![0u32; mesh.triangles.len()];
+    for &ti in &valid {
+        let t = mesh.triangles[ti as usize];
+        let ci = comp(&mut uf, t[0]);
+        if ci == comps.len() {
+            comps.push(blank.clone());
+        }
+        tri_comp[ti as usize] = ci as u32;
+        let (a, b, d) = (p64(t[0]), p64(t[1]), p64(t[2]));
+        let u = [b[0] - a[0], b[1] - a[1], b[2] - a[2]];
+        let w = [d[0] - a[0], d[1] - a[1], d[2] - a[2]];
+        let n = [u[1] * w[2] - u[2] * w[1], u[2] * w[0] - u[0] * w[2], u[0] * w[1] - u[1] * w[0]];
+        let area2 = (n[0] * n[0] + n[1] * n[1] + n[2] * n[2]).sqrt();
+        if area2 == 0.0 {
+            zero_area.push(ti, max);
+        }
+        let k = &mut comps[ci];
+        k.triangles += 1;
+        k.area += 0.5 * area2;
+        k.volume += (a[0] * n[0] + a[1] * n[1] + a[2] * n[2]) / 6.0;
+    }
+    for (v, &u) in used.iter().enumerate() {
+        if u {
+            let ci = comp(&mut uf, v as u32);
+            comps[ci].vertices += 1;
+        }
+    }
+
+    // PASS 2: edges, sorted by key; a group of equal keys is one undirected edge.
+    let mut edges: Vec<(u64, u32)> = Vec::with_capacity(valid.len() * 3);
+    for &ti in &valid {
+        let t = mesh.triangles[ti as usize];
+        for s in 0..3 {
+            let (a, b) = (t[s], t[(s + 1) % 3]);
+            let forward = (a < b) as u32;
+            let key = ((a.min(b) as u64) << 32) | a.max(b) as u64;
+            edges.push((key, (ti << 1) | forward));
+        }
+    }
+    edges.sort_unstable();
+    let finding = |key: u64, faces: usize| {
+        let (a, b) = ((key >> 32) as u32, key as u32);
+        let (pa, pb) = (pos(a), pos(b));
+        let midpoint = [0, 1, 2].map(|i| 0.5 * (pa[i] + pb[i]));
+        let cell = opts.lattice.as_ref().map(|l| {
+            let p = l.to_index(midpoint.map(|x| x as f64));
+            p.map(|x| x.floor() as i64)
+        });
+        EdgeFinding { edge: [a, b], faces, midpoint, cell }
+    };
+    let (mut boundary, mut non_manifold, mut inconsistent) = (Findings::default(), Findings::default(), Findings::default());
+    let mut nedges = 0usize;
+    let mut i = 0;
+    while i < edges.len() {
+        let key = edges[i].0;
+        let mut j = i;
+        while j < edges.len() && edges[j].0 == key {
+            j += 1;
+        }
+        nedges += 1;
+        let ci = tri_comp[(edges[i].1 >> 1) as usize] as usize;
+        comps[ci].edges += 1;
+        match j - i {
+            1 => {
+                boundary.push(finding(key, 1), max);
+                comps[ci].closed = false;
+            }
+            2 => {
+                if (edges[i].1 & 1) == (edges[i + 1].1 & 1) {
+                    inconsistent.push(finding(key, 2), max);
+                }
+            }
+            n => non_manifold.push(finding(key, n), max),
+        }
+        i = j;
+    }
+
+    // PASS 3: vertex fans. Each triangle adds the opposite edge to each corner's link; a manifold
+    // vertex's link is one path or one cycle, i.e. connected.
+    let mut links: Vec<(u32, u32, u32)> = Vec::with_capacity(valid.len() * 3);
+    for &ti in &valid {
+        let t = mesh.triangles[ti as usize];
+        for s in 0..3 {
+            links.push((t[s], t[(s + 1) % 3], t[(s + 2) % 3]));
+        }
+    }
+    links.sort_unstable();
+    let mut non_manifold_vertices = Findings::default();
+    let mut local: Vec<u32> = Vec::new();
+    let mut parent: Vec<usize> = Vec::new();
+    let mut i = 0;
+    while i < links.len() {
+        let v = links[i].0;
+        let mut j = i;
+        while j < links.len() && links[j].0 == v {
+            j += 1;
+        }
+        local.clear();
+        for &(_, a, b) in &links[i..j] {
+            local.push(a);
+            local.push(b);
+        }
+        local.sort_unstable();
+        local.dedup();
+        parent.clear();
+        parent.extend(0..local.len());
+        let idx = |x: u32| local.binary_search(&x).unwrap_or(0);
+        fn root(p: &mut [usize], mut x: usize) -> usize {
+            while p[x] != x {
+                p[x] = p[p[x]];
+                x = p[x];
+            }
+            x
+        }
+        let mut groups = local.len();
+        for &(_, a, b) in &links[i..j] {
+            let (ra, rb) = (root(&mut parent, idx(a)), root(&mut parent, idx(b)));
+            if ra != rb {
+                parent[ra] = rb;
+                groups -= 1;
+            }
+        }
+        if groups > 1 {
+            non_manifold_vertices.push(v, max);
+        }
+        i = j;
+    }
+
+    // Duplicate triangles: same sorted vertex triple.
+    let mut sorted: Vec<([u32; 3], u32)> = valid
+        .iter()
+        .map(|&ti| {
+            let mut t = mesh.triangles[ti as usize];
+            t.sort_unstable();
+            (t, ti)
+        })
+        .collect();
+    sorted.sort_unstable();
+    let mut duplicates = Findings::default();
+    for w in sorted.windows(2) {
+        if w[0].0 == w[1].0 {
+            duplicates.push([w[0].1, w[1].1], max);
+        }
+    }
+
+    let vertex_manifold_ok = non_manifold_vertices.count == 0 && non_manifold.count == 0 && inconsistent.count == 0;
+    for k in &mut comps {
+        k.euler = k.vertices as i64 - k.edges as i64 + k.triangles as i64;
+        if k.closed && vertex_manifold_ok && k.euler % 2 == 0 {
+            k.genus = Some((2 - k.euler) / 2);
+        }
+    }
+    comps.sort_by(|a, b| b.triangles.cmp(&a.triangles));
+    let used_count = used.iter().filter(|&&u| u).count();
+    MeshReport {
+        vertices: nv,
+        triangles: mesh.triangles.len(),
+        edges: nedges,
+        isolated_vertices: isolated,
+        boundary_edges: boundary,
+        non_manifold_edges: non_manifold,
+        non_manifold_vertices,
+        inconsistent_edges: inconsistent,
+        collapsed_triangles: collapsed,
+        zero_area_triangles: zero_area,
+        duplicate_triangles: duplicates,
+        euler: used_count as i64 - nedges as i64 + valid.len() as i64,
+        area: comps.iter().map(|c| c.area).sum(),
+        volume: comps.iter().map(|c| c.volume).sum(),
+        bounds,
+        components: comps,
+    }
+}
+
+struct UnionFind {
+    parent: Vec<u32>,
+}
+
+impl UnionFind {
+    fn new(n: usize) -> Self {
+        UnionFind { parent: (0..n as u32).collect() }
+    }
+    fn find(&mut self, mut x: u32) -> u32 {
+        while self.parent[x as usize] != x {
+            let p = self.parent[self.parent[x as usize] as usize];
+            self.parent[x as usize] = p;
+            x = p;
+        }
+        x
+    }
+    fn union(&mut self, a: u32, b: u32) {
+        let (ra, rb) = (self.find(a), self.find(b));
+        if ra != rb {
+            // Smaller root index wins: deterministic component numbering.
+            let (lo, hi) = if ra < rb { (ra, rb) } else { (rb, ra) };
+            self.parent[hi as usize] = lo;
+        }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn tetra() -> Mesh {
+        Mesh {
+            positions: vec![[0.0, 0.0, 0.0], [1.0, 0.0, 0.0], [0.0, 1.0, 0.0], [0.0, 0.0, 1.0]],
+            normals: vec![],
+            triangles: vec![[0, 2, 1], [0, 1, 3], [0, 3, 2], [1, 2, 3]],
+        }
+    }
+
+    #[test]
+    fn closed_tetrahedron() {
+        let r = check(&tetra());
+        assert!(r.is_watertight(), "{r:?}");
+        assert_eq!(r.euler, 2);
+        assert_eq!(r.genus(), Some(0));
+        assert!((r.volume - 1.0 / 6.0).abs() < 1e-12, "{}", r.volume);
+        assert_eq!(r.components.len(), 1);
+    }
+
+    #[test]
+    fn finds_defects() {
+        let mut m = tetra();
+        m.triangles.pop();
+        let r = check(&m);
+        assert_eq!(r.boundary_edges.count, 3);
+        assert!(!r.is_closed() && r.is_oriented());
+        assert_eq!(r.genus(), None);
+
+        let mut m = tetra();
+        m.triangles[3] = [1, 3, 2]; // flipped
+        let r = check(&m);
+        assert_eq!(r.inconsistent_edges.count, 3);
+
+        let mut m = tetra();
+        m.triangles.push([1, 2, 3]);
+        let r = check(&m);
+        assert_eq!(r.non_manifold_edges.count, 3);
+        assert_eq!(r.duplicate_triangles.count, 1);
+
+        // Two tetrahedra sharing only a vertex: a non-manifold vertex.
+        let mut m = tetra();
+        m.positions.extend([[-1.0, 0.0, 0.0], [0.0, -1.0, 0.0], [0.0, 0.0, -1.0]]);
+        m.triangles.extend([[0, 4, 5], [0, 5, 6], [0, 6, 4], [4, 6, 5]]);
+        let r = check(&m);
+        assert_eq!(r.non_manifold_vertices.examples, vec![0]);
+        assert!(r.is_edge_manifold() && !r.is_manifold());
+
+        let mut m = tetra();
+        m.triangles.push([0, 0, 1]);
+        m.positions.push([5.0, 5.0, 5.0]);
+        let r = check(&m);
+        assert_eq!(r.collapsed_triangles.examples, vec![4]);
+        assert_eq!(r.isolated_vertices.examples, vec![4]);
+    }
+
+    #[test]
+    fn findings_name_the_cell() {
+        let mut m = tetra();
+        m.triangles.pop();
+        let l = Lattice::with_geometry([4, 4, 4], [0.5; 3], [0.0; 3]).unwrap();
+        let r = check_with(&m, &CheckOptions { max_examples: 10, lattice: Some(l) });
+        let f = &r.boundary_edges.examples[0];
+        assert!(f.cell.is_some());
+        assert!(f.to_string().contains("in cell"), "{f}");
+    }
+}

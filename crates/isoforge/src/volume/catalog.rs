@@ -1,0 +1,201 @@
+//! Built-in fields by name, for the command line and the demo: `gyroid?n=128&periods=4`.
+//!
+//! | name | field | domain | default iso |
+//! |---|---|---|---|
+//! | `sphere` (`r`) | [`Sphere`] SDF, r 0.7 | [-1, 1]³ | 0, inside below |
+//! | `torus` (`R`, `r`) | [`Torus`] SDF, 0.6 / 0.25 | [-1, 1]³ | 0, inside below |
+//! | `box` (`h`) | [`Cuboid`] SDF, half size 0.6 | [-1, 1]³ | 0, inside below |
+//! | `gyroid` (`periods`) | [`Gyroid`], 2 periods | [-1, 1]³ | 0, inside below |
+//! | `metaballs` (`t`) | [`ChargePoints`] at time t (0.5) | [0, 1]³ | 48, inside above |
+//! | `lines` (`t`) | [`ChargeLines`] at time t (0.5) | [0, 1]³ | 48, inside above |
+//! | `height` | [`HeightField`] | [0, 1]³ | 48, inside below |
+//!
+//! Every name takes `n` (points per axis, default 64, at least 2).
+
+use super::classic::{ChargeLines, ChargePoints, HeightField, CLASSIC_ISO};
+use super::sdf::{Cuboid, Gyroid, Sphere, Torus};
+use super::{FieldVisitor, Iso};
+use crate::error::{Error, Result};
+use crate::grid::Lattice;
+use crate::math::Vec3;
+
+/// Names and one-line descriptions of the built-in fields.
+pub const NAMES: [(&str, &str); 7] = [
+    ("sphere", "signed distance to a sphere of radius r (0.7) in [-1,1]^3"),
+    ("torus", "signed distance to a torus R (0.6), r (0.25) around z in [-1,1]^3"),
+    ("box", "signed distance to a cube of half size h (0.6) in [-1,1]^3"),
+    ("gyroid", "gyroid with `periods` (2) periods across [-1,1]^3"),
+    ("metaballs", "classic demo: charges around three moving points at time t (0.5), iso 48"),
+    ("lines", "classic demo: charges around three moving lines at time t (0.5), iso 48"),
+    ("height", "classic demo: radial height field, iso 48"),
+];
+
+/// Default animation time of the classic fields: the three sources sit apart but their
+/// surfaces still merge.
+pub const DEFAULT_TIME: f32 = 0.5;
+
+/// Default points per axis.
+pub const DEFAULT_POINTS: u32 = 64;
+
+/// A built-in field: the runtime choice, matched once by [`BuiltinField::visit`].
+#[derive(Debug, Clone, Copy, PartialEq)]
+#[non_exhaustive]
+pub enum BuiltinField {
+    /// See [`Sphere`].
+    Sphere(Sphere),
+    /// See [`Torus`].
+    Torus(Torus),
+    /// See [`Cuboid`].
+    Cuboid(Cuboid),
+    /// See [`Gyroid`].
+    Gyroid(Gyroid),
+    /// See [`ChargePoints`].
+    ChargePoints(ChargePoints),
+    /// See [`ChargeLines`].
+    ChargeLines(ChargeLines),
+    /// See [`HeightField`].
+    HeightField(HeightField),
+}
+
+impl BuiltinField {
+    /// Calls `visitor` with the concrete field.
+    pub fn visit<V: FieldVisitor>(&self, visitor: V) -> V::Output {
+        match self {
+            BuiltinField::Sphere(f) => visitor.visit(f),
+            BuiltinField::Torus(f) => visitor.visit(f),
+            BuiltinField::Cuboid(f) => visitor.visit(f),
+            BuiltinField::Gyroid(f) => visitor.visit(f),
+            BuiltinField::ChargePoints(f) => visitor.visit(f),
+            BuiltinField::ChargeLines(f) => visitor.visit(f),
+            BuiltinField::HeightField(f) => visitor.visit(f),
+        }
+    }
+}
+
+/// A parsed built-in: the field, its lattice and its default iso.
+#[derive(Debug, Clone, PartialEq)]
+pub struct Builtin {
+    /// The field.
+    pub field: BuiltinField,
+    /// The sampling lattice (domain and `n`).
+    pub lattice: Lattice,
+    /// The iso value and inside side the field is meant for.
+    pub iso: Iso,
+}
+
+/// Parses `name` or `name?key=value&key=value`.
+///
+/// # Errors
+/// [`Error::InvalidInput`] naming the unknown field, the unknown parameter or the bad value.
+pub fn parse(spec: &str) -> Result<Builtin> {
+    let (name, query) = spec.split_once('?').unwrap_or((spec, ""));
+    let mut params: Vec<(&str, f64)> = Vec::new();
+    for kv in query.split('&').filter(|s| !s.is_empty()) {
+        let (k, v) = kv
+            .split_once('=')
+            .ok_or_else(|| Error::InvalidInput(format!("field:{spec}: parameter {kv:?} must be key=value")))?;
+        let v: f64 = v
+            .parse()
+            .ok()
+            .filter(|v: &f64| v.is_finite())
+            .ok_or_else(|| Error::InvalidInput(format!("field:{spec}: parameter {k}={v:?} is not a finite number")))?;
+        params.push((k, v));
+    }
+    let allowed: &[&str] = match name {
+        "sphere" => &["n", "r"],
+        "torus" => &["n", "R", "r"],
+        "box" => &["n", "h"],
+        "gyroid" => &["n", "periods"],
+        "metaballs" | "lines" => &["n", "t"],
+        "height" => &["n"],
+        _ => {
+            let names: Vec<&str> = NAMES.iter().map(|(n, _)| *n).collect();
+            return Err(Error::InvalidInput(format!("field:{name}: unknown field (known: {})", names.join(", "))));
+        }
+    };
+    if let Some((k, _)) = params.iter().find(|(k, _)| !allowed.contains(k)) {
+        return Err(Error::InvalidInput(format!(
+            "field:{spec}: unknown parameter {k:?} for {name} (known: {})",
+            allowed.join(", ")
+        )));
+    }
+    let get = |k: &str, default: f64| params.iter().rev().find(|(p, _)| *p == k).map_or(default, |p| p.1);
+    let n = get("n", DEFAULT_POINTS as f64);
+    if !(n >= 2.0 && n <= 4096.0 && n.fract() == 0.0) {
+        return Err(Error::InvalidInput(format!("field:{spec}: n={n} must be a whole number from 2 to 4096")));
+    }
+    let n = n as u32;
+    let positive = |k: &str, default: f64| -> Result<f32> {
+        let v = get(k, default);
+        if v > 0.0 {
+            Ok(v as f32)
+        } else {
+            Err(Error::InvalidInput(format!("field:{spec}: {k}={v} must be positive")))
+        }
+    };
+    let centered = |dims| Lattice::spanning(dims, [-1.0; 3], [1.0; 3]);
+    let unit = |dims| Lattice::spanning(dims, [0.0; 3], [1.0; 3]);
+    let dims = [n; 3];
+    let below0 = Iso::below(0.0);
+    Ok(match name {
+        "sphere" => Builtin {
+            field: BuiltinField::Sphere(Sphere { center: Vec3::ZERO, radius: positive("r", 0.7)? }),
+            lattice: centered(dims)?,
+            iso: below0,
+        },
+        "torus" => Builtin {
+            field: BuiltinField::Torus(Torus { center: Vec3::ZERO, major: positive("R", 0.6)?, minor: positive("r", 0.25)? }),
+            lattice: centered(dims)?,
+            iso: below0,
+        },
+        "box" => Builtin {
+            field: BuiltinField::Cuboid(Cuboid { center: Vec3::ZERO, half: Vec3::splat(positive("h", 0.6)?) }),
+            lattice: centered(dims)?,
+            iso: below0,
+        },
+        "gyroid" => Builtin {
+            // `periods` full periods across the 2-unit domain.
+            field: BuiltinField::Gyroid(Gyroid { frequency: std::f32::consts::PI * positive("periods", 2.0)? }),
+            lattice: centered(dims)?,
+            iso: below0,
+        },
+        "metaballs" => Builtin {
+            field: BuiltinField::ChargePoints(ChargePoints::at_time(get("t", DEFAULT_TIME as f64) as f32)),
+            lattice: unit(dims)?,
+            iso: Iso::above(CLASSIC_ISO),
+        },
+        "lines" => Builtin {
+            field: BuiltinField::ChargeLines(ChargeLines::at_time(get("t", DEFAULT_TIME as f64) as f32)),
+            lattice: unit(dims)?,
+            iso: Iso::above(CLASSIC_ISO),
+        },
+        _ => Builtin {
+            field: BuiltinField::HeightField(HeightField::default()),
+            lattice: unit(dims)?,
+            iso: Iso::below(CLASSIC_ISO),
+        },
+    })
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn parses_names_and_parameters() {
+        let b = parse("gyroid?n=32&periods=3").unwrap();
+        assert_eq!(b.lattice.dims(), [32; 3]);
+        assert!(matches!(b.field, BuiltinField::Gyroid(_)));
+        for (name, _) in NAMES {
+            assert!(parse(name).is_ok(), "{name}");
+        }
+    }
+
+    #[test]
+    fn rejects_bad_specs() {
+        for bad in ["nope", "sphere?n=1", "sphere?n=2.5", "sphere?r=-1", "sphere?q=1", "sphere?n", "sphere?n=nan"] {
+            let e = parse(bad).unwrap_err().to_string();
+            assert!(e.contains("field:"), "{bad}: {e}");
+        }
+    }
+}

@@ -1,0 +1,156 @@
+//! ① Volume: a field or a grid on a lattice that gives values and exact edge crossings.
+//!
+//! In: a [`Field`] (any closure `Fn(Vec3) -> f32`) or a [`DenseGrid`](crate::grid::DenseGrid).
+//! Out: the [`Volume`] that walkers consume — slabs of values offset by iso, the crossing on an
+//! edge ([`GridVolume`]: linear interpolation, exact for the trilinear interpolant; [`Sampled`]:
+//! root finding by an [`Oracle`]) and the gradient there.
+
+pub mod catalog;
+pub mod classic;
+mod field;
+mod grid_volume;
+mod oracle;
+mod sampled;
+pub mod sdf;
+
+pub use field::{central_difference, Field, FieldVisitor};
+pub use grid_volume::GridVolume;
+pub use oracle::{Bisection, Illinois, Linear, Oracle};
+pub use sampled::Sampled;
+
+use crate::extract::cube::EdgeKey;
+use crate::grid::Lattice;
+use crate::math::Vec3;
+
+/// Which side of the iso value is *inside*.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
+pub enum Inside {
+    /// Inside ⇔ value < iso (the project's convention; signed distance fields, ties outside).
+    #[default]
+    Below,
+    /// Inside ⇔ value > iso (densities such as CT bone or metaball potentials; ties outside).
+    Above,
+}
+
+/// An iso value and the side that counts as inside.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Iso {
+    /// The iso value.
+    pub value: f64,
+    /// Which side is inside.
+    pub inside: Inside,
+}
+
+impl Iso {
+    /// Inside ⇔ value < `iso`.
+    pub fn below(iso: f64) -> Self {
+        Iso { value: iso, inside: Inside::Below }
+    }
+
+    /// Inside ⇔ value > `iso`.
+    pub fn above(iso: f64) -> Self {
+        Iso { value: iso, inside: Inside::Above }
+    }
+
+    /// The value offset so that inside ⇔ result < 0 and ties give 0 (outside).
+    ///
+    /// The sign is exact for every sample type: the difference is taken in `f64` (exact sign for
+    /// finite operands) and a negative difference too small for `f32` is kept negative.
+    #[inline(always)]
+    pub fn offset(&self, v: f64) -> f32 {
+        let d = match self.inside {
+            Inside::Below => v - self.value,
+            Inside::Above => self.value - v,
+        };
+        let f = d as f32;
+        if d < 0.0 {
+            f.min(-f32::MIN_POSITIVE)
+        } else {
+            f
+        }
+    }
+
+    /// +1 when inside is below iso, -1 when above: multiplies gradients into outward normals.
+    #[inline]
+    pub fn sign(&self) -> f32 {
+        match self.inside {
+            Inside::Below => 1.0,
+            Inside::Above => -1.0,
+        }
+    }
+}
+
+/// What walkers consume: a scalar function on a lattice with exact edge crossings.
+///
+/// Values reach walkers already offset by iso ([`Iso::offset`]), so one comparison with zero
+/// classifies a point exactly whatever the sample type.
+pub trait Volume {
+    /// The lattice the volume is sampled on.
+    fn lattice(&self) -> &Lattice;
+
+    /// Writes `iso.offset(value)` for every point of z-slab `k`, x fastest (`out.len()` = nx·ny).
+    fn fill_slab(&self, k: u32, iso: Iso, out: &mut [f32]);
+
+    /// The crossing on edge `e` as a parameter `t` in [0, 1] from `e.origin`, given the offset
+    /// values `d0` at the origin and `d1` at the end (one < 0, the other ≥ 0).
+    fn crossing(&self, e: EdgeKey, d0: f32, d1: f32, iso: Iso) -> f32;
+
+    /// The world-space gradient of the value at parameter `t` on edge `e` (not normalised; may
+    /// be zero).
+    fn gradient(&self, e: EdgeKey, t: f32) -> Vec3;
+}
+
+impl<V: Volume + ?Sized> Volume for &V {
+    #[inline]
+    fn lattice(&self) -> &Lattice {
+        (**self).lattice()
+    }
+    #[inline]
+    fn fill_slab(&self, k: u32, iso: Iso, out: &mut [f32]) {
+        (**self).fill_slab(k, iso, out)
+    }
+    #[inline]
+    fn crossing(&self, e: EdgeKey, d0: f32, d1: f32, iso: Iso) -> f32 {
+        (**self).crossing(e, d0, d1, iso)
+    }
+    #[inline]
+    fn gradient(&self, e: EdgeKey, t: f32) -> Vec3 {
+        (**self).gradient(e, t)
+    }
+}
+
+/// Linear interpolation parameter between two offset values of opposite class, clamped to [0, 1].
+#[inline]
+pub fn linear_crossing(d0: f32, d1: f32) -> f32 {
+    let t = d0 / (d0 - d1);
+    if t.is_nan() {
+        0.5
+    } else {
+        t.clamp(0.0, 1.0)
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn offset_sign_is_exact() {
+        let iso = Iso::below(1e-300);
+        assert!(iso.offset(0.0) < 0.0, "0 < 1e-300 must be inside");
+        assert_eq!(Iso::below(5.0).offset(5.0), 0.0, "ties are outside");
+        assert!(!(Iso::below(5.0).offset(5.0) < 0.0));
+        let big = 16_777_217.0; // not representable in f32
+        assert!(Iso::below(big).offset(16_777_216.0) < 0.0);
+        assert!(Iso::below(big).offset(16_777_218.0) > 0.0);
+        assert!(Iso::above(3.0).offset(4.0) < 0.0);
+        assert_eq!(Iso::above(3.0).offset(3.0), 0.0);
+    }
+
+    #[test]
+    fn linear_crossing_is_clamped() {
+        assert_eq!(linear_crossing(-1.0, 1.0), 0.5);
+        assert_eq!(linear_crossing(-1.0, 3.0), 0.25);
+        assert_eq!(linear_crossing(-f32::INFINITY, f32::INFINITY), 0.5);
+    }
+}

@@ -1,0 +1,65 @@
+use super::{Field, Illinois, Iso, Oracle, Volume};
+use crate::extract::cube::EdgeKey;
+use crate::grid::Lattice;
+use crate::math::Vec3;
+
+/// A continuous field sampled on a lattice: values are evaluated at the lattice points, crossings
+/// are the field's own roots on each edge found by the oracle `O`, gradients are the field's.
+#[derive(Debug, Clone)]
+pub struct Sampled<F, O = Illinois> {
+    field: F,
+    lattice: Lattice,
+    oracle: O,
+}
+
+impl<F: Field> Sampled<F> {
+    /// Samples `field` on `lattice` with the default oracle ([`Illinois`]).
+    pub fn new(field: F, lattice: Lattice) -> Self {
+        Sampled { field, lattice, oracle: Illinois::default() }
+    }
+}
+
+impl<F: Field, O: Oracle> Sampled<F, O> {
+    /// Samples `field` on `lattice`, finding crossings with `oracle`.
+    pub fn with_oracle(field: F, lattice: Lattice, oracle: O) -> Self {
+        Sampled { field, lattice, oracle }
+    }
+
+    /// The field.
+    pub fn field(&self) -> &F {
+        &self.field
+    }
+
+    #[inline]
+    fn world(&self, p: [f64; 3]) -> Vec3 {
+        let w = self.lattice.to_world(p);
+        Vec3::new(w[0] as f32, w[1] as f32, w[2] as f32)
+    }
+}
+
+impl<F: Field, O: Oracle> Volume for Sampled<F, O> {
+    #[inline]
+    fn lattice(&self) -> &Lattice {
+        &self.lattice
+    }
+
+    fn fill_slab(&self, k: u32, iso: Iso, out: &mut [f32]) {
+        let [nx, _, _] = self.lattice.dims();
+        for (lin, o) in out.iter_mut().enumerate() {
+            let (i, j) = (lin % nx as usize, lin / nx as usize);
+            let p = self.world([i as f64, j as f64, k as f64]);
+            *o = iso.offset(self.field.value(p) as f64);
+        }
+    }
+
+    fn crossing(&self, e: EdgeKey, d0: f32, d1: f32, iso: Iso) -> f32 {
+        let p0 = self.world(e.point_at(0.0));
+        let p1 = self.world(e.point_at(1.0));
+        let g = |t: f32| iso.offset(self.field.value(p0.lerp(p1, t)) as f64);
+        self.oracle.root(g, d0, d1)
+    }
+
+    fn gradient(&self, e: EdgeKey, t: f32) -> Vec3 {
+        self.field.gradient(self.world(e.point_at(t as f64)))
+    }
+}
