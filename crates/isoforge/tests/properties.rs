@@ -1,0 +1,199 @@
+//! Property tests on random lattices (seeded): walkers agree, closed ⇒ watertight, negation flips.
+
+mod common;
+
+use common::*;
+use isoforge::extract::marching_cubes::TRI_TABLE;
+use isoforge::extract::cube::case_of;
+use isoforge::grid::{DenseGrid, Lattice};
+use isoforge::mesh::Mesh;
+use isoforge::topo;
+use isoforge::volume::{Iso, Sampled};
+use isoforge::math::Vec3;
+use proptest::prelude::*;
+use proptest::test_runner::{Config, RngSeed};
+
+fn config(cases: u32) -> Config {
+    Config { cases, rng_seed: RngSeed::Fixed(0x150f_0e6e), failure_persistence: None, ..Config::default() }
+}
+
+/// Random lattices of 2..=7 points per axis with values from a small set (so ties at iso occur).
+fn lattice_values() -> impl Strategy<Value = ([u32; 3], Vec<f32>)> {
+    [2u32..=7, 2u32..=7, 2u32..=7].prop_flat_map(|dims| {
+        let n = (dims[0] * dims[1] * dims[2]) as usize;
+        (Just(dims), prop::collection::vec(prop::sample::select(vec![-2.0f32, -1.0, -0.5, 0.0, 0.25, 1.0, 3.0]), n))
+    })
+}
+
+/// The same values with a border of outside points added on every side.
+fn with_border(dims: [u32; 3], values: &[f32]) -> DenseGrid<f32> {
+    let inner = Lattice::new(dims).unwrap();
+    let outer = Lattice::new(dims.map(|d| d + 2)).unwrap();
+    DenseGrid::from_fn(outer, |p| {
+        if p.iter().zip(dims).all(|(&x, d)| x >= 1 && x <= d) {
+            values[inner.linear([p[0] - 1, p[1] - 1, p[2] - 1])]
+        } else {
+            5.0
+        }
+    })
+}
+
+/// Cases whose complement is not the same triangulation reversed (the table's fixed choices).
+fn complement_asymmetric() -> Vec<bool> {
+    (0..256)
+        .map(|c| {
+            let mut a: Vec<[u8; 3]> = TRI_TABLE[c].triangles().iter().map(|t| canon([t[0], t[2], t[1]])).collect();
+            let mut b: Vec<[u8; 3]> = TRI_TABLE[255 - c].triangles().iter().map(|&t| canon(t)).collect();
+            a.sort();
+            b.sort();
+            a != b
+        })
+        .collect()
+}
+
+fn canon(t: [u8; 3]) -> [u8; 3] {
+    let m = (0..3).min_by_key(|&i| t[i]).unwrap();
+    [t[m], t[(m + 1) % 3], t[(m + 2) % 3]]
+}
+
+fn has_case_in(g: &DenseGrid<f32>, iso: f32, set: &[bool]) -> bool {
+    let [nx, ny, nz] = g.lattice().dims();
+    for k in 0..nz - 1 {
+        for j in 0..ny - 1 {
+            for i in 0..nx - 1 {
+                let d = isoforge::extract::cube::CORNER_OFFSETS.map(|o| g.get([i + o[0], j + o[1], k + o[2]]) - iso);
+                if set[case_of(&d) as usize] {
+                    return true;
+                }
+            }
+        }
+    }
+    false
+}
+
+fn flipped(m: &Mesh) -> Mesh {
+    let mut m = m.clone();
+    m.flip();
+    m
+}
+
+proptest! {
+    #![proptest_config(config(2000))]
+
+    #[test]
+    fn slab_walker_equals_reference_walker((dims, values) in lattice_values()) {
+        let g = grid(dims, values);
+        let (a, b) = (mc(&vol(&g), Iso::below(0.0)), mc_reference(&vol(&g), Iso::below(0.0)));
+        prop_assert_eq!(a.num_vertices(), b.num_vertices());
+        prop_assert_eq!(a.canonical_triangles(), b.canonical_triangles());
+        prop_assert_eq!(a.num_vertices(), crossed_edges(&g, 0.0));
+    }
+
+    #[test]
+    fn bordered_lattices_give_watertight_meshes((dims, values) in lattice_values()) {
+        let g = with_border(dims, &values);
+        let mesh = mc(&vol(&g), Iso::below(0.0));
+        let r = topo::check(&mesh);
+        prop_assert!(r.is_watertight(), "boundary {:?} nm {:?} {:?} orient {:?}",
+            r.boundary_edges.examples, r.non_manifold_edges.examples, r.non_manifold_vertices.examples, r.inconsistent_edges.examples);
+        prop_assert_eq!(r.duplicate_triangles.count, 0);
+        prop_assert_eq!(r.isolated_vertices.count, 0);
+        for c in &r.components {
+            prop_assert!(c.euler % 2 == 0 && c.euler <= 2);
+        }
+        prop_assert!(r.volume >= -1e-9, "closed surface around inside points must enclose positive volume: {}", r.volume);
+    }
+
+    #[test]
+    fn negating_field_and_iso_flips_orientation((dims, values) in lattice_values()) {
+        // −v < −iso ⇔ v > iso: the complement, with the same crossings (ties stay outside in
+        // both, so pick an iso no value equals).
+        let iso = 0.1f32;
+        let g = grid(dims, values.clone());
+        let neg = grid(dims, values.iter().map(|v| -v).collect());
+        let a = mc(&vol(&g), Iso::below(iso as f64));
+        let b = mc(&vol(&neg), Iso::below(-iso as f64));
+        let pos = |m: &Mesh| { let mut p: Vec<[u32; 3]> = m.positions.iter().map(|p| p.map(f32::to_bits)).collect(); p.sort(); p };
+        prop_assert_eq!(pos(&a), pos(&b), "same crossings");
+        if !has_case_in(&g, iso, &complement_asymmetric()) {
+            prop_assert_eq!(flipped(&a).canonical_triangles(), b.canonical_triangles());
+        } else {
+            // The table's fixed choice on ambiguous configurations may differ; both stay manifold.
+            let (ra, rb) = (topo::check(&a), topo::check(&b));
+            prop_assert!(ra.is_manifold() && ra.is_oriented() && rb.is_manifold() && rb.is_oriented());
+        }
+    }
+
+    #[test]
+    fn every_sample_type_gives_the_same_mesh((dims, values) in lattice_values()) {
+        // Integer-valued data at a non-integer iso: identical in every type.
+        let ints: Vec<f32> = values.iter().map(|v| v.round() + 3.0).collect();
+        let l = Lattice::new(dims).unwrap();
+        let iso = Iso::below(3.5);
+        let reference = mc(&vol(&DenseGrid::new(l.clone(), ints.clone()).unwrap()), iso).canonical_triangles();
+        macro_rules! same {
+            ($t:ty) => {{
+                let g = DenseGrid::new(l.clone(), ints.iter().map(|&v| v as $t).collect()).unwrap();
+                let m = mc(&isoforge::volume::GridVolume::new(&g), iso);
+                prop_assert_eq!(&m.canonical_triangles(), &reference, "{}", stringify!($t));
+            }};
+        }
+        same!(u8); same!(i8); same!(u16); same!(i16); same!(u32); same!(i32); same!(f64);
+    }
+}
+
+#[test]
+fn classification_is_exact_in_wide_types() {
+    // 2²⁴ + 1 is not an f32; u32 and f64 classification must still see 16777216 < iso < 16777218.
+    let l = Lattice::new([3, 3, 3]).unwrap();
+    let g = DenseGrid::from_fn(l, |p| if p == [1, 1, 1] { 16_777_216u32 } else { 16_777_218 });
+    let m = mc(&isoforge::volume::GridVolume::new(&g), Iso::below(16_777_217.0));
+    assert_eq!(m.num_triangles(), 8, "octahedron around the one inside point");
+    let g = DenseGrid::from_fn(Lattice::new([3, 3, 3]).unwrap(), |p| if p == [1, 1, 1] { 0.0f64 } else { 1.0 });
+    let m = mc(&isoforge::volume::GridVolume::new(&g), Iso::below(1e-300));
+    assert_eq!(m.num_triangles(), 8, "0 < 1e-300 is inside even though 1e-300 underflows f32");
+}
+
+#[test]
+fn closures_work_with_every_walker() {
+    // Archetype: a bare closure field through `Sampled`, the slab and the reference walker.
+    let field = |p: Vec3| (p - Vec3::splat(0.5)).length() - 0.3;
+    let v = Sampled::new(field, Lattice::spanning([9; 3], [0.0; 3], [1.0; 3]).unwrap());
+    let (a, b) = (mc(&v, Iso::below(0.0)), mc_reference(&v, Iso::below(0.0)));
+    assert!(!a.is_empty());
+    assert_eq!(a.canonical_triangles(), b.canonical_triangles());
+    assert!(topo::check(&a).is_watertight());
+}
+
+#[test]
+fn sphere_area_and_volume_converge() {
+    use std::f64::consts::PI;
+    let r = 0.7f64;
+    let (area, volume) = (4.0 * PI * r * r, 4.0 / 3.0 * PI * r * r * r);
+    let mut last = (f64::INFINITY, f64::INFINITY);
+    for n in [8u32, 16, 32, 64, 128] {
+        let b = isoforge::volume::catalog::parse(&format!("sphere?n={n}")).unwrap();
+        let out = isoforge::pipeline::extract_builtin(&b, b.iso, &Default::default(), None).unwrap();
+        let rep = topo::check(&out.mesh);
+        assert!(rep.is_watertight() && rep.genus() == Some(0), "n = {n}");
+        let err = ((rep.area - area).abs() / area, (rep.volume - volume).abs() / volume);
+        assert!(err.0 < last.0 && err.1 < last.1, "n = {n}: errors {err:?} did not shrink from {last:?}");
+        last = err;
+    }
+    assert!(last.0 < 2e-3 && last.1 < 1e-3, "128³ errors {last:?}");
+}
+
+#[test]
+fn normals_point_outward_and_are_unit() {
+    let b = isoforge::volume::catalog::parse("torus?n=40").unwrap();
+    let out = isoforge::pipeline::extract_builtin(&b, b.iso, &Default::default(), None).unwrap();
+    let m = &out.mesh;
+    assert_eq!(m.normals.len(), m.positions.len());
+    for t in &m.triangles {
+        let [a, b, c] = t.map(|v| Vec3::from_array(m.positions[v as usize]));
+        let face = (b - a).cross(c - a);
+        let vn: Vec3 = t.iter().map(|&v| Vec3::from_array(m.normals[v as usize])).sum();
+        assert!(face.dot(vn) > 0.0, "triangle {t:?} winds against its vertex normals");
+    }
+    assert!(m.normals.iter().all(|n| (Vec3::from_array(*n).length() - 1.0).abs() < 1e-4));
+}
