@@ -1,1 +1,52 @@
-fn main(){}
+//! The `isoforge` command line: `extract`, `info`, `check`, `demo`.
+//!
+//! Exit codes: 0 success, 1 a requested check failed, 2 an error (printed as one line naming the
+//! file and the problem). A closed stdout (broken pipe) counts as success.
+
+mod args;
+mod config;
+mod progress;
+mod report;
+mod run;
+
+use std::io::Write;
+use std::process::ExitCode;
+
+use clap::Parser;
+
+use args::{Args, Command};
+use run::Outcome;
+
+fn main() -> ExitCode {
+    let args = match Args::try_parse() {
+        Ok(a) => a,
+        Err(e) => {
+            let code = if e.use_stderr() { 2 } else { 0 };
+            let _ = e.print();
+            return ExitCode::from(code);
+        }
+    };
+    let result = match &args.command {
+        Command::Extract(a) => config::ExtractConfig::from_args(a).and_then(|c| run::extract(&c)),
+        Command::Info(a) => {
+            config::InputConfig::from_args(&a.input_args()).and_then(|c| run::info(&c, a.json))
+        }
+        Command::Check(a) => config::CheckConfig::from_args(a).and_then(|c| run::check(&c)),
+        Command::Demo(a) => config::DemoConfig::from_args(a).and_then(|c| run::demo(&c)),
+    };
+    let _ = std::io::stdout().flush();
+    match result {
+        Ok(Outcome::Success) => ExitCode::SUCCESS,
+        Ok(Outcome::CheckFailed) => ExitCode::from(1),
+        Err(e) => {
+            if e.chain().any(|c| {
+                c.downcast_ref::<std::io::Error>()
+                    .is_some_and(|io| io.kind() == std::io::ErrorKind::BrokenPipe)
+            }) {
+                return ExitCode::SUCCESS;
+            }
+            eprintln!("isoforge: error: {e:#}");
+            ExitCode::from(2)
+        }
+    }
+}

@@ -1,1 +1,108 @@
+//! File formats for isoforge: volumes in, meshes in and out.
+//!
+//! Every reader checks header-declared sizes against [`Limits`] before allocating, rejects
+//! non-finite samples naming the first one, and returns an [`Error`] naming the file, the field
+//! and the value instead of panicking on bad bytes. Every writer goes through [`write_atomic`].
+#![warn(missing_docs)]
+#![deny(clippy::unwrap_used, clippy::expect_used)]
 
+mod atomic;
+pub mod error;
+pub mod format;
+pub mod limits;
+pub mod read;
+pub mod write;
+
+use std::path::Path;
+
+pub use atomic::write_atomic;
+pub use error::{Error, Result};
+pub use format::{MeshFormat, VolumeFormat};
+pub use limits::Limits;
+#[cfg(feature = "raw")]
+pub use read::raw::RawSpec;
+
+use isoforge::grid::AnyGrid;
+use isoforge::mesh::Mesh;
+
+/// Reads a volume, choosing the reader by extension (raw files need [`read::raw::read_raw`]).
+///
+/// # Errors
+/// [`Error::Unsupported`] for an unknown extension or a raw file; otherwise the reader's errors.
+pub fn read_volume(path: &Path, limits: &Limits) -> Result<AnyGrid> {
+    if !path.exists() {
+        return Err(Error::Io {
+            path: path.to_path_buf(),
+            source: std::io::Error::new(std::io::ErrorKind::NotFound, "no such file"),
+        });
+    }
+    let unsupported = |detail: &str| {
+        Err(Error::Unsupported {
+            path: path.to_path_buf(),
+            detail: detail.to_string(),
+        })
+    };
+    match VolumeFormat::from_path(path) {
+        #[cfg(feature = "nrrd")]
+        Some(VolumeFormat::Nrrd) => read::nrrd::read_nrrd(path, limits),
+        #[cfg(feature = "nifti")]
+        Some(VolumeFormat::Nifti) => read::nifti::read_nifti(path, limits),
+        #[cfg(feature = "metaimage")]
+        Some(VolumeFormat::MetaImage) => read::metaimage::read_metaimage(path, limits),
+        Some(VolumeFormat::Raw) => unsupported("raw volumes need their layout: pass --dims X,Y,Z and --dtype"),
+        #[allow(unreachable_patterns)]
+        Some(f) => unsupported(&format!("{} support is not compiled in", f.name())),
+        None => unsupported("unknown volume format (expected .nrrd, .nhdr, .nii, .nii.gz, .mha, .mhd, or .raw with --dims/--dtype)"),
+    }
+}
+
+/// Reads a mesh, choosing the reader by extension.
+///
+/// # Errors
+/// [`Error::Unsupported`] for an unknown extension; otherwise the reader's errors.
+pub fn read_mesh(path: &Path, limits: &Limits) -> Result<Mesh> {
+    if !path.exists() {
+        return Err(Error::Io {
+            path: path.to_path_buf(),
+            source: std::io::Error::new(std::io::ErrorKind::NotFound, "no such file"),
+        });
+    }
+    match MeshFormat::from_path(path) {
+        #[cfg(feature = "ply")]
+        Some(MeshFormat::Ply | MeshFormat::PlyAscii) => read::ply::read_ply(path, limits),
+        #[cfg(feature = "obj")]
+        Some(MeshFormat::Obj) => read::obj::read_obj(path, limits),
+        #[cfg(feature = "stl")]
+        Some(MeshFormat::Stl) => read::stl::read_stl(path, limits),
+        #[cfg(feature = "off")]
+        Some(MeshFormat::Off) => read::off::read_off(path, limits),
+        _ => Err(Error::Unsupported {
+            path: path.to_path_buf(),
+            detail: "unknown mesh format (expected .ply, .obj, .stl or .off)".into(),
+        }),
+    }
+}
+
+/// Writes `mesh` to `path` atomically in `format`.
+///
+/// # Errors
+/// [`Error::Io`] naming `path`; [`Error::Unsupported`] when the format is not compiled in.
+pub fn write_mesh(path: &Path, mesh: &Mesh, format: MeshFormat) -> Result<()> {
+    match format {
+        #[cfg(feature = "ply")]
+        MeshFormat::Ply => write_atomic(path, |w| write::ply::write_ply(w, mesh, false)),
+        #[cfg(feature = "ply")]
+        MeshFormat::PlyAscii => write_atomic(path, |w| write::ply::write_ply(w, mesh, true)),
+        #[cfg(feature = "obj")]
+        MeshFormat::Obj => write_atomic(path, |w| write::obj::write_obj(w, mesh)),
+        #[cfg(feature = "stl")]
+        MeshFormat::Stl => write_atomic(path, |w| write::stl::write_stl(w, mesh)),
+        #[cfg(feature = "off")]
+        MeshFormat::Off => write_atomic(path, |w| write::off::write_off(w, mesh)),
+        #[allow(unreachable_patterns)]
+        f => Err(Error::Unsupported {
+            path: path.to_path_buf(),
+            detail: format!("{} support is not compiled in", f.name()),
+        }),
+    }
+}

@@ -78,9 +78,17 @@ pub fn extract<V: Volume>(vol: &V, iso: Iso, opts: &Options) -> Result<Extractio
 ///
 /// # Errors
 /// As [`extract`].
-pub fn extract_with_progress<V: Volume>(vol: &V, iso: Iso, opts: &Options, progress: Option<&dyn Progress>) -> Result<Extraction> {
+pub fn extract_with_progress<V: Volume>(
+    vol: &V,
+    iso: Iso,
+    opts: &Options,
+    progress: Option<&dyn Progress>,
+) -> Result<Extraction> {
     if !iso.value.is_finite() {
-        return Err(Error::InvalidInput(format!("iso {}: must be a finite number", iso.value)));
+        return Err(Error::InvalidInput(format!(
+            "iso {}: must be a finite number",
+            iso.value
+        )));
     }
     let mut out = MeshBuilder::new(opts.normals == Normals::Gradient);
     let mut walker = SlabWalker::new();
@@ -90,15 +98,28 @@ pub fn extract_with_progress<V: Volume>(vol: &V, iso: Iso, opts: &Options, progr
     let stats = match opts.method {
         Method::MarchingCubes => walker.walk(vol, iso, &mut MarchingCubes, &mut out)?,
     };
-    Ok(Extraction { mesh: out.finish()?, stats })
+    Ok(Extraction {
+        mesh: out.finish()?,
+        stats,
+    })
 }
 
 /// Extracts from a grid of any sample type (matched once).
 ///
 /// # Errors
 /// As [`extract`].
-pub fn extract_grid(grid: &AnyGrid, iso: Iso, opts: &Options, progress: Option<&dyn Progress>) -> Result<Extraction> {
-    fn go<S: Sample>(g: &DenseGrid<S>, iso: Iso, opts: &Options, p: Option<&dyn Progress>) -> Result<Extraction> {
+pub fn extract_grid(
+    grid: &AnyGrid,
+    iso: Iso,
+    opts: &Options,
+    progress: Option<&dyn Progress>,
+) -> Result<Extraction> {
+    fn go<S: Sample>(
+        g: &DenseGrid<S>,
+        iso: Iso,
+        opts: &Options,
+        p: Option<&dyn Progress>,
+    ) -> Result<Extraction> {
         extract_with_progress(&GridVolume::new(g), iso, opts, p)
     }
     crate::with_grid!(grid, g => go(g, iso, opts, progress))
@@ -108,7 +129,12 @@ pub fn extract_grid(grid: &AnyGrid, iso: Iso, opts: &Options, progress: Option<&
 ///
 /// # Errors
 /// As [`extract`].
-pub fn extract_builtin(b: &Builtin, iso: Iso, opts: &Options, progress: Option<&dyn Progress>) -> Result<Extraction> {
+pub fn extract_builtin(
+    b: &Builtin,
+    iso: Iso,
+    opts: &Options,
+    progress: Option<&dyn Progress>,
+) -> Result<Extraction> {
     struct Go<'a> {
         b: &'a Builtin,
         iso: Iso,
@@ -118,8 +144,18 @@ pub fn extract_builtin(b: &Builtin, iso: Iso, opts: &Options, progress: Option<&
     impl FieldVisitor for Go<'_> {
         type Output = Result<Extraction>;
         fn visit<F: Field + Clone + Sync>(self, field: &F) -> Self::Output {
-            extract_with_progress(&Sampled::new(field.clone(), self.b.lattice.clone()), self.iso, self.opts, self.progress)
+            extract_with_progress(
+                &Sampled::new(field.clone(), self.b.lattice.clone()),
+                self.iso,
+                self.opts,
+                self.progress,
+            )
         }
     }
-    b.field.visit(Go { b, iso, opts, progress })
+    b.field.visit(Go {
+        b,
+        iso,
+        opts,
+        progress,
+    })
 }

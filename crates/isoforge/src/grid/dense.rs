@@ -96,7 +96,10 @@ impl<S: Sample> DenseGrid<S> {
     /// The first sample that is NaN or infinite, if any.
     pub fn first_non_finite(&self) -> Option<NonFinite> {
         let lin = self.data.iter().position(|v| !v.is_finite())?;
-        Some(NonFinite { ijk: self.lattice.ijk(lin), value: self.data[lin].to_f64() })
+        Some(NonFinite {
+            ijk: self.lattice.ijk(lin),
+            value: self.data[lin].to_f64(),
+        })
     }
 
     /// Smallest and largest sample (NaN samples are skipped; `None` when all are NaN).
@@ -114,8 +117,9 @@ impl<S: Sample> DenseGrid<S> {
 }
 
 /// A dense grid of any sample type: the runtime choice, matched once at the top of a pipeline.
+///
+/// Exhaustive on purpose: [`with_grid!`](crate::with_grid) matches every variant, in any crate.
 #[derive(Debug, Clone, PartialEq)]
-#[non_exhaustive]
 pub enum AnyGrid {
     /// `u8` samples.
     U8(DenseGrid<u8>),

@@ -1,15 +1,25 @@
 use crate::error::{Error, Result};
 
-/// A regular sampling lattice: `dims` points per axis, `spacing` between them and the world
-/// position of point (0, 0, 0). Point `ijk` is at `origin + spacing · ijk`, x (i) fastest in memory.
+/// A regular sampling lattice: `dims` points per axis, `spacing` between them, the world
+/// position of point (0, 0, 0) and the world direction of each index axis. Point `ijk` is at
+/// `origin + Σₐ direction[a] · spacing[a] · ijk[a]`, x (i) fastest in memory.
 ///
 /// A lattice of `n` points per axis has `n - 1` cells per axis (ranges are half-open).
+/// Directions are orthonormal; a left-handed frame (negative determinant) mirrors the lattice,
+/// and walkers then reverse the triangle winding so normals still point outward.
 #[derive(Debug, Clone, PartialEq)]
 pub struct Lattice {
     dims: [u32; 3],
     spacing: [f64; 3],
     origin: [f64; 3],
+    direction: [[f64; 3]; 3],
 }
+
+/// The identity direction matrix (index axes along world axes).
+pub const IDENTITY: [[f64; 3]; 3] = [[1.0, 0.0, 0.0], [0.0, 1.0, 0.0], [0.0, 0.0, 1.0]];
+
+/// How far from orthonormal a direction matrix may be (dot products and lengths).
+const ORTHONORMAL_TOLERANCE: f64 = 1e-4;
 
 impl Lattice {
     /// Largest number of points a lattice may have: linear indices must fit `usize` and `u64`.
@@ -41,15 +51,63 @@ impl Lattice {
             .and_then(|n| n.checked_mul(dims[2] as u64))
             .unwrap_or(u64::MAX);
         if n > Self::MAX_POINTS {
-            return Err(Error::Limit { what: "lattice points", requested: n, allowed: Self::MAX_POINTS });
+            return Err(Error::Limit {
+                what: "lattice points",
+                requested: n,
+                allowed: Self::MAX_POINTS,
+            });
         }
         if let Some(s) = spacing.iter().find(|s| !(s.is_finite() && **s > 0.0)) {
-            return Err(Error::InvalidInput(format!("lattice spacing {s}: must be finite and positive")));
+            return Err(Error::InvalidInput(format!(
+                "lattice spacing {s}: must be finite and positive"
+            )));
         }
         if let Some(o) = origin.iter().find(|o| !o.is_finite()) {
-            return Err(Error::InvalidInput(format!("lattice origin {o}: must be finite")));
+            return Err(Error::InvalidInput(format!(
+                "lattice origin {o}: must be finite"
+            )));
         }
-        Ok(Lattice { dims, spacing, origin })
+        Ok(Lattice {
+            dims,
+            spacing,
+            origin,
+            direction: IDENTITY,
+        })
+    }
+
+    /// A copy with the world direction of each index axis (`direction[a]` for axis `a`).
+    ///
+    /// # Errors
+    /// [`Error::InvalidInput`] when the directions are not orthonormal (shear is not supported).
+    pub fn with_direction(mut self, direction: [[f64; 3]; 3]) -> Result<Self> {
+        let dot = |a: [f64; 3], b: [f64; 3]| a[0] * b[0] + a[1] * b[1] + a[2] * b[2];
+        for a in 0..3 {
+            for b in 0..3 {
+                let expect = if a == b { 1.0 } else { 0.0 };
+                let d = dot(direction[a], direction[b]);
+                if !((d - expect).abs() <= ORTHONORMAL_TOLERANCE) {
+                    return Err(Error::InvalidInput(format!(
+                        "direction matrix {direction:?}: axes must be orthonormal (axis {a} · axis {b} = {d})"
+                    )));
+                }
+            }
+        }
+        self.direction = direction;
+        Ok(self)
+    }
+
+    /// World direction of each index axis.
+    #[inline]
+    pub fn direction(&self) -> [[f64; 3]; 3] {
+        self.direction
+    }
+
+    /// True when the index frame is left-handed in world space (determinant of the directions < 0).
+    pub fn is_mirrored(&self) -> bool {
+        let [a, b, c] = self.direction;
+        let det = a[0] * (b[1] * c[2] - b[2] * c[1]) - a[1] * (b[0] * c[2] - b[2] * c[0])
+            + a[2] * (b[0] * c[1] - b[1] * c[0]);
+        det < 0.0
     }
 
     /// A lattice of `dims` points spanning the world box `[min, max]` (both ends sampled).
@@ -60,7 +118,10 @@ impl Lattice {
         let mut spacing = [0.0; 3];
         for a in 0..3 {
             if dims[a] < 2 {
-                return Err(Error::InvalidInput(format!("lattice spanning a box needs at least 2 points per axis, got {}", dims[a])));
+                return Err(Error::InvalidInput(format!(
+                    "lattice spanning a box needs at least 2 points per axis, got {}",
+                    dims[a]
+                )));
             }
             spacing[a] = (max[a] - min[a]) / (dims[a] - 1) as f64;
         }
@@ -100,7 +161,8 @@ impl Lattice {
     /// Linear index of point `ijk` (x fastest).
     #[inline]
     pub fn linear(&self, ijk: [u32; 3]) -> usize {
-        (ijk[2] as usize * self.dims[1] as usize + ijk[1] as usize) * self.dims[0] as usize + ijk[0] as usize
+        (ijk[2] as usize * self.dims[1] as usize + ijk[1] as usize) * self.dims[0] as usize
+            + ijk[0] as usize
     }
 
     /// The point of linear index `lin`.
@@ -108,41 +170,71 @@ impl Lattice {
     pub fn ijk(&self, lin: usize) -> [u32; 3] {
         let nx = self.dims[0] as usize;
         let ny = self.dims[1] as usize;
-        [(lin % nx) as u32, ((lin / nx) % ny) as u32, (lin / (nx * ny)) as u32]
+        [
+            (lin % nx) as u32,
+            ((lin / nx) % ny) as u32,
+            (lin / (nx * ny)) as u32,
+        ]
     }
 
     /// World position of a (fractional) index-space point.
     #[inline]
     pub fn to_world(&self, p: [f64; 3]) -> [f64; 3] {
-        [
-            self.origin[0] + self.spacing[0] * p[0],
-            self.origin[1] + self.spacing[1] * p[1],
-            self.origin[2] + self.spacing[2] * p[2],
-        ]
+        let mut w = self.origin;
+        for a in 0..3 {
+            let s = self.spacing[a] * p[a];
+            for (wi, di) in w.iter_mut().zip(self.direction[a]) {
+                *wi += di * s;
+            }
+        }
+        w
     }
 
     /// Index-space position of a world point.
     #[inline]
     pub fn to_index(&self, p: [f64; 3]) -> [f64; 3] {
-        [
-            (p[0] - self.origin[0]) / self.spacing[0],
-            (p[1] - self.origin[1]) / self.spacing[1],
-            (p[2] - self.origin[2]) / self.spacing[2],
-        ]
+        let d = [
+            p[0] - self.origin[0],
+            p[1] - self.origin[1],
+            p[2] - self.origin[2],
+        ];
+        let dir = &self.direction;
+        [0, 1, 2]
+            .map(|a| (dir[a][0] * d[0] + dir[a][1] * d[1] + dir[a][2] * d[2]) / self.spacing[a])
     }
 
     /// Converts an index-space gradient (per unit index step) to a world-space gradient.
     #[inline]
     pub fn gradient_to_world(&self, g: [f64; 3]) -> [f64; 3] {
-        [g[0] / self.spacing[0], g[1] / self.spacing[1], g[2] / self.spacing[2]]
+        // Orthonormal directions: the inverse transpose is the matrix itself.
+        let mut w = [0.0; 3];
+        for a in 0..3 {
+            let s = g[a] / self.spacing[a];
+            for (wi, di) in w.iter_mut().zip(self.direction[a]) {
+                *wi += di * s;
+            }
+        }
+        w
     }
 
     /// World bounds of the lattice points: `(min, max)`.
     pub fn world_bounds(&self) -> ([f64; 3], [f64; 3]) {
-        let a = self.to_world([0.0; 3]);
-        let far = [self.dims[0] as f64 - 1.0, self.dims[1] as f64 - 1.0, self.dims[2] as f64 - 1.0];
-        let b = self.to_world(far);
-        ([a[0].min(b[0]), a[1].min(b[1]), a[2].min(b[2])], [a[0].max(b[0]), a[1].max(b[1]), a[2].max(b[2])])
+        let (mut lo, mut hi) = ([f64::INFINITY; 3], [f64::NEG_INFINITY; 3]);
+        for c in 0..8u32 {
+            let p = [0, 1, 2].map(|a| {
+                if c >> a & 1 == 1 {
+                    self.dims[a] as f64 - 1.0
+                } else {
+                    0.0
+                }
+            });
+            let w = self.to_world(p);
+            for a in 0..3 {
+                lo[a] = lo[a].min(w[a]);
+                hi[a] = hi[a].max(w[a]);
+            }
+        }
+        (lo, hi)
     }
 
     /// True when every axis has at least two points, so the lattice has at least one cell.
@@ -155,7 +247,7 @@ impl Lattice {
     /// # Errors
     /// As [`Lattice::new`].
     pub fn with_dims(&self, dims: [u32; 3]) -> Result<Self> {
-        Self::with_geometry(dims, self.spacing, self.origin)
+        Self::with_geometry(dims, self.spacing, self.origin)?.with_direction(self.direction)
     }
 }
 
@@ -175,7 +267,10 @@ mod tests {
     #[test]
     fn rejects_bad_geometry() {
         assert!(Lattice::new([0, 4, 4]).is_err());
-        assert!(matches!(Lattice::new([u32::MAX, u32::MAX, 2]), Err(Error::Limit { .. })));
+        assert!(matches!(
+            Lattice::new([u32::MAX, u32::MAX, 2]),
+            Err(Error::Limit { .. })
+        ));
         assert!(Lattice::with_geometry([2, 2, 2], [1.0, 0.0, 1.0], [0.0; 3]).is_err());
         assert!(Lattice::with_geometry([2, 2, 2], [1.0; 3], [f64::NAN, 0.0, 0.0]).is_err());
     }
@@ -186,5 +281,25 @@ mod tests {
         assert_eq!(l.to_world([2.0, 1.0, 0.5]), [11.0, 2.0, -0.5]);
         assert_eq!(l.to_index([11.0, 2.0, -0.5]), [2.0, 1.0, 0.5]);
         assert_eq!(l.world_bounds(), ([10.0, 0.0, -1.0], [11.0, 4.0, 1.0]));
+    }
+
+    #[test]
+    fn directions_rotate_and_mirror() {
+        // i along −x, j along +y, k along +z: a mirror (LPS vs RAS style flip).
+        let flip = [[-1.0, 0.0, 0.0], [0.0, 1.0, 0.0], [0.0, 0.0, 1.0]];
+        let l = Lattice::with_geometry([3, 3, 3], [2.0, 1.0, 1.0], [5.0, 0.0, 0.0])
+            .unwrap()
+            .with_direction(flip)
+            .unwrap();
+        assert!(l.is_mirrored());
+        assert_eq!(l.to_world([1.0, 1.0, 0.0]), [3.0, 1.0, 0.0]);
+        assert_eq!(l.to_index([3.0, 1.0, 0.0]), [1.0, 1.0, 0.0]);
+        assert_eq!(l.world_bounds(), ([1.0, 0.0, 0.0], [5.0, 2.0, 2.0]));
+        assert_eq!(l.gradient_to_world([2.0, 0.0, 0.0]), [-1.0, 0.0, 0.0]);
+        let shear = [[1.0, 0.0, 0.0], [0.5, 1.0, 0.0], [0.0, 0.0, 1.0]];
+        assert!(Lattice::new([2, 2, 2])
+            .unwrap()
+            .with_direction(shear)
+            .is_err());
     }
 }

@@ -3,9 +3,11 @@
 //! Nothing here depends on other modules; volumes, walkers and readers build on it.
 
 mod dense;
+mod histogram;
 mod lattice;
 mod sample;
 
 pub use dense::{AnyGrid, DenseGrid, NonFinite, ValueRange};
-pub use lattice::Lattice;
+pub use histogram::Histogram;
+pub use lattice::{Lattice, IDENTITY};
 pub use sample::{DType, Sample};

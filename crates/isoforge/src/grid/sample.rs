@@ -24,8 +24,16 @@ pub enum DType {
 
 impl DType {
     /// Every supported type.
-    pub const ALL: [DType; 8] =
-        [DType::U8, DType::I8, DType::U16, DType::I16, DType::U32, DType::I32, DType::F32, DType::F64];
+    pub const ALL: [DType; 8] = [
+        DType::U8,
+        DType::I8,
+        DType::U16,
+        DType::I16,
+        DType::U32,
+        DType::I32,
+        DType::F32,
+        DType::F64,
+    ];
 
     /// Bytes per sample.
     pub const fn size(self) -> usize {
@@ -111,7 +119,11 @@ macro_rules! impl_sample {
             fn from_bytes(bytes: &[u8], big_endian: bool) -> Self {
                 let mut b = [0u8; $n];
                 b.copy_from_slice(&bytes[..$n]);
-                if big_endian { <$t>::from_be_bytes(b) } else { <$t>::from_le_bytes(b) }
+                if big_endian {
+                    <$t>::from_be_bytes(b)
+                } else {
+                    <$t>::from_le_bytes(b)
+                }
             }
         }
     };
@@ -127,7 +139,11 @@ macro_rules! impl_sample {
             fn from_bytes(bytes: &[u8], big_endian: bool) -> Self {
                 let mut b = [0u8; $n];
                 b.copy_from_slice(&bytes[..$n]);
-                if big_endian { <$t>::from_be_bytes(b) } else { <$t>::from_le_bytes(b) }
+                if big_endian {
+                    <$t>::from_be_bytes(b)
+                } else {
+                    <$t>::from_le_bytes(b)
+                }
             }
             #[inline]
             fn is_finite(self) -> bool {

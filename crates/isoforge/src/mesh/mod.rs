@@ -77,8 +77,15 @@ impl Mesh {
             )));
         }
         let n = self.positions.len();
-        if let Some((i, t)) = self.triangles.iter().enumerate().find(|(_, t)| t.iter().any(|&v| v as usize >= n)) {
-            return Err(Error::InvalidInput(format!("triangle {i} {t:?} refers to a vertex beyond the {n} vertices")));
+        if let Some((i, t)) = self
+            .triangles
+            .iter()
+            .enumerate()
+            .find(|(_, t)| t.iter().any(|&v| v as usize >= n))
+        {
+            return Err(Error::InvalidInput(format!(
+                "triangle {i} {t:?} refers to a vertex beyond the {n} vertices"
+            )));
         }
         Ok(())
     }
@@ -109,6 +116,7 @@ impl Mesh {
 pub struct MeshBuilder {
     mesh: Mesh,
     with_normals: bool,
+    reverse_winding: bool,
     overflow: bool,
 }
 
@@ -118,13 +126,23 @@ impl MeshBuilder {
 
     /// A builder that stores normals when `with_normals` is true.
     pub fn new(with_normals: bool) -> Self {
-        MeshBuilder { mesh: Mesh::default(), with_normals, overflow: false }
+        MeshBuilder {
+            mesh: Mesh::default(),
+            with_normals,
+            reverse_winding: false,
+            overflow: false,
+        }
     }
 
     /// A builder that reuses `mesh`'s buffers (cleared).
     pub fn reuse(mut mesh: Mesh, with_normals: bool) -> Self {
         mesh.clear();
-        MeshBuilder { mesh, with_normals, overflow: false }
+        MeshBuilder {
+            mesh,
+            with_normals,
+            reverse_winding: false,
+            overflow: false,
+        }
     }
 
     /// True when normals are stored.
@@ -148,10 +166,21 @@ impl MeshBuilder {
         VertexId(id as u32)
     }
 
+    /// Reverses the winding of every triangle pushed from now on: walkers set it for mirrored
+    /// lattices, whose world frame is left-handed, so triangles stay counter-clockwise from outside.
+    pub fn set_reverse_winding(&mut self, reverse: bool) {
+        self.reverse_winding = reverse;
+    }
+
     /// Adds a triangle.
     #[inline]
     pub fn push_triangle(&mut self, t: [VertexId; 3]) {
-        self.mesh.triangles.push([t[0].0, t[1].0, t[2].0]);
+        let t = if self.reverse_winding {
+            [t[0].0, t[2].0, t[1].0]
+        } else {
+            [t[0].0, t[1].0, t[2].0]
+        };
+        self.mesh.triangles.push(t);
     }
 
     /// Number of vertices so far.

@@ -4,4 +4,6 @@
 
 mod check;
 
-pub use check::{check, check_with, CheckOptions, ComponentReport, EdgeFinding, Findings, Guarantee, MeshReport};
+pub use check::{
+    check, check_with, CheckOptions, ComponentReport, EdgeFinding, Findings, Guarantee, MeshReport,
+};

@@ -39,7 +39,13 @@ pub trait Walker {
     ///
     /// # Errors
     /// [`Error::Limit`](crate::Error::Limit) when the mesh outgrows `u32` indices.
-    fn walk<V: Volume, X: Extractor>(&mut self, vol: &V, iso: Iso, x: &mut X, out: &mut MeshBuilder) -> Result<WalkStats>;
+    fn walk<V: Volume, X: Extractor>(
+        &mut self,
+        vol: &V,
+        iso: Iso,
+        x: &mut X,
+        out: &mut MeshBuilder,
+    ) -> Result<WalkStats>;
 }
 
 /// Counts gathered during a walk.
@@ -78,14 +84,23 @@ pub struct Hermite {
 /// Computes the crossing on `key` (offset values `d0` at its origin, `d1` at its end) and, when
 /// `normals` is set, its outward normal. Shared by every walker so all agree bit for bit.
 #[inline]
-pub fn hermite<V: Volume + ?Sized>(vol: &V, key: EdgeKey, d0: f32, d1: f32, iso: Iso, normals: bool) -> Hermite {
-    // The volume sees values in its own orientation (value − iso); the walker's offsets may be negated.
+pub fn hermite<V: Volume + ?Sized>(
+    vol: &V,
+    key: EdgeKey,
+    d0: f32,
+    d1: f32,
+    iso: Iso,
+    normals: bool,
+) -> Hermite {
     let s = iso.sign();
-    let t = vol.crossing(key, s * d0, s * d1, iso);
+    let t = vol.crossing(key, d0, d1, iso);
     let w = vol.lattice().to_world(key.point_at(t as f64));
     let point = [w[0] as f32, w[1] as f32, w[2] as f32];
     if !normals {
-        return Hermite { point, normal: [0.0; 3] };
+        return Hermite {
+            point,
+            normal: [0.0; 3],
+        };
     }
     let g = vol.gradient(key, t) * s;
     let n = g.normalize_or_zero();

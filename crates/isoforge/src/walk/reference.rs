@@ -16,19 +16,27 @@ use crate::volume::{Iso, Volume};
 pub struct ReferenceWalker;
 
 impl Walker for ReferenceWalker {
-    fn walk<V: Volume, X: Extractor>(&mut self, vol: &V, iso: Iso, x: &mut X, out: &mut MeshBuilder) -> Result<WalkStats> {
+    fn walk<V: Volume, X: Extractor>(
+        &mut self,
+        vol: &V,
+        iso: Iso,
+        x: &mut X,
+        out: &mut MeshBuilder,
+    ) -> Result<WalkStats> {
         let lattice = vol.lattice().clone();
         let mut stats = WalkStats::default();
         if !lattice.has_cells() {
             return Ok(stats);
         }
+        out.set_reverse_winding(lattice.is_mirrored());
         let [nx, ny, nz] = lattice.dims();
         let mut ids: HashMap<EdgeKey, (VertexId, [f32; 3])> = HashMap::new();
         let mut mismatch = None;
         for k in 0..nz - 1 {
             for j in 0..ny - 1 {
                 for i in 0..nx - 1 {
-                    let (mut s0, mut s1) = (vec![0.0; lattice.slab_len()], vec![0.0; lattice.slab_len()]);
+                    let (mut s0, mut s1) =
+                        (vec![0.0; lattice.slab_len()], vec![0.0; lattice.slab_len()]);
                     vol.fill_slab(k, iso, &mut s0);
                     vol.fill_slab(k + 1, iso, &mut s1);
                     let d = CORNER_OFFSETS.map(|o| {
@@ -41,7 +49,16 @@ impl Walker for ReferenceWalker {
                         0 => stats.cells_outside += 1,
                         255 => stats.cells_inside += 1,
                         _ => {
-                            let mut cell = RefCell { ijk: [i, j, k], d, case, vol, iso, ids: &mut ids, out, mismatch: &mut mismatch };
+                            let mut cell = RefCell {
+                                ijk: [i, j, k],
+                                d,
+                                case,
+                                vol,
+                                iso,
+                                ids: &mut ids,
+                                out,
+                                mismatch: &mut mismatch,
+                            };
                             x.process(&mut cell);
                         }
                     }
@@ -49,7 +66,9 @@ impl Walker for ReferenceWalker {
             }
         }
         match mismatch {
-            Some(key) => Err(Error::Internal(format!("crossing on {key:?} is not reproducible"))),
+            Some(key) => Err(Error::Internal(format!(
+                "crossing on {key:?} is not reproducible"
+            ))),
             None => Ok(stats),
         }
     }
@@ -79,7 +98,14 @@ impl<V: Volume> Cell for RefCell<'_, V> {
     fn edge_vertex(&mut self, e: CubeEdge) -> VertexId {
         let [c0, c1] = e.corners();
         let key = EdgeKey::of_cell(self.ijk, e);
-        let h = hermite(self.vol, key, self.d[c0 as usize], self.d[c1 as usize], self.iso, self.out.wants_normals());
+        let h = hermite(
+            self.vol,
+            key,
+            self.d[c0 as usize],
+            self.d[c1 as usize],
+            self.iso,
+            self.out.wants_normals(),
+        );
         if let Some(&(id, p)) = self.ids.get(&key) {
             if p.map(f32::to_bits) != h.point.map(f32::to_bits) {
                 *self.mismatch = Some(key);

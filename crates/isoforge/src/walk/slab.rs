@@ -37,19 +37,31 @@ impl<'p> SlabWalker<'p> {
 }
 
 impl Walker for SlabWalker<'_> {
-    fn walk<V: Volume, X: Extractor>(&mut self, vol: &V, iso: Iso, x: &mut X, out: &mut MeshBuilder) -> Result<WalkStats> {
+    fn walk<V: Volume, X: Extractor>(
+        &mut self,
+        vol: &V,
+        iso: Iso,
+        x: &mut X,
+        out: &mut MeshBuilder,
+    ) -> Result<WalkStats> {
         let lattice = vol.lattice();
         let mut stats = WalkStats::default();
         if !lattice.has_cells() {
             return Ok(stats);
         }
+        out.set_reverse_winding(lattice.is_mirrored());
         let [nx, ny, nz] = lattice.dims();
         let n = lattice.slab_len();
         for buf in [&mut self.below, &mut self.above] {
             buf.clear();
             buf.resize(n, 0.0);
         }
-        for ids in self.x_ids.iter_mut().chain(self.y_ids.iter_mut()).chain(std::iter::once(&mut self.z_ids)) {
+        for ids in self
+            .x_ids
+            .iter_mut()
+            .chain(self.y_ids.iter_mut())
+            .chain(std::iter::once(&mut self.z_ids))
+        {
             ids.clear();
             ids.resize(n, VertexId::NONE);
         }
@@ -68,7 +80,16 @@ impl Walker for SlabWalker<'_> {
                 let (b0, b1) = (&self.below[r0..r0 + nxu], &self.below[r1..r1 + nxu]);
                 let (a0, a1) = (&self.above[r0..r0 + nxu], &self.above[r1..r1 + nxu]);
                 for i in 0..nxu - 1 {
-                    let d = [b0[i], b0[i + 1], b1[i], b1[i + 1], a0[i], a0[i + 1], a1[i], a1[i + 1]];
+                    let d = [
+                        b0[i],
+                        b0[i + 1],
+                        b1[i],
+                        b1[i + 1],
+                        a0[i],
+                        a0[i + 1],
+                        a1[i],
+                        a1[i + 1],
+                    ];
                     let case = case_of(&d);
                     stats.cells += 1;
                     match case {
@@ -149,7 +170,14 @@ impl<V: Volume> Cell for SlabCell<'_, V> {
         }
         let [c0, c1] = e.corners();
         let key = EdgeKey::of_cell(self.ijk, e);
-        let h = hermite(self.vol, key, self.d[c0 as usize], self.d[c1 as usize], self.iso, self.normals);
+        let h = hermite(
+            self.vol,
+            key,
+            self.d[c0 as usize],
+            self.d[c1 as usize],
+            self.iso,
+            self.normals,
+        );
         let id = self.out.push_vertex(h.point, h.normal);
         *slot = id;
         id

@@ -27,7 +27,11 @@ impl Extractor for MarchingCubes {
     #[inline]
     fn process<C: Cell>(&mut self, cell: &mut C) {
         for [a, b, c] in TRI_TABLE[cell.case() as usize].iter() {
-            let t = [cell.edge_vertex(a), cell.edge_vertex(b), cell.edge_vertex(c)];
+            let t = [
+                cell.edge_vertex(a),
+                cell.edge_vertex(b),
+                cell.edge_vertex(c),
+            ];
             cell.push_triangle(t);
         }
     }
@@ -55,7 +59,11 @@ mod tests {
                     used |= 1 << e;
                 }
             }
-            assert_eq!(used, CASE_EDGES[case], "case {case}: edges used {used:012b}, crossed {:012b}", CASE_EDGES[case]);
+            assert_eq!(
+                used, CASE_EDGES[case],
+                "case {case}: edges used {used:012b}, crossed {:012b}",
+                CASE_EDGES[case]
+            );
         }
     }
 
@@ -86,10 +94,17 @@ mod tests {
             let [a, b, d] = t.map(mid);
             let u = [b[0] - a[0], b[1] - a[1], b[2] - a[2]];
             let v = [d[0] - a[0], d[1] - a[1], d[2] - a[2]];
-            let n = [u[1] * v[2] - u[2] * v[1], u[2] * v[0] - u[0] * v[2], u[0] * v[1] - u[1] * v[0]];
+            let n = [
+                u[1] * v[2] - u[2] * v[1],
+                u[2] * v[0] - u[0] * v[2],
+                u[0] * v[1] - u[1] * v[0],
+            ];
             let p = CORNER_OFFSETS[c].map(|x| x as f64);
             let away = [a[0] - p[0], a[1] - p[1], a[2] - p[2]];
-            assert!(n[0] * away[0] + n[1] * away[1] + n[2] * away[2] > 0.0, "corner {c}");
+            assert!(
+                n[0] * away[0] + n[1] * away[1] + n[2] * away[2] > 0.0,
+                "corner {c}"
+            );
         }
     }
 }

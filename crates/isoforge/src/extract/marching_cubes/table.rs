@@ -10,12 +10,32 @@
 use crate::extract::cube::{CubeEdge, CORNER_OFFSETS};
 
 /// Corner positions in the source numbering.
-const SOURCE_CORNERS: [[u32; 3]; 8] =
-    [[0, 0, 0], [1, 0, 0], [1, 1, 0], [0, 1, 0], [0, 0, 1], [1, 0, 1], [1, 1, 1], [0, 1, 1]];
+const SOURCE_CORNERS: [[u32; 3]; 8] = [
+    [0, 0, 0],
+    [1, 0, 0],
+    [1, 1, 0],
+    [0, 1, 0],
+    [0, 0, 1],
+    [1, 0, 1],
+    [1, 1, 1],
+    [0, 1, 1],
+];
 
 /// Edge endpoints in the source numbering.
-const SOURCE_EDGES: [[usize; 2]; 12] =
-    [[0, 1], [1, 2], [2, 3], [3, 0], [4, 5], [5, 6], [6, 7], [7, 4], [0, 4], [1, 5], [2, 6], [3, 7]];
+const SOURCE_EDGES: [[usize; 2]; 12] = [
+    [0, 1],
+    [1, 2],
+    [2, 3],
+    [3, 0],
+    [4, 5],
+    [5, 6],
+    [6, 7],
+    [7, 4],
+    [0, 4],
+    [1, 5],
+    [2, 6],
+    [3, 7],
+];
 
 /// The source table, indexed by source case, rows of source edge triples ended by -1.
 #[rustfmt::skip]
@@ -294,7 +314,9 @@ impl CaseTriangles {
 
     /// Iterator over the triangles as [`CubeEdge`] triples.
     pub fn iter(&self) -> impl Iterator<Item = [CubeEdge; 3]> + '_ {
-        self.triangles().iter().map(|t| [CubeEdge(t[0]), CubeEdge(t[1]), CubeEdge(t[2])])
+        self.triangles()
+            .iter()
+            .map(|t| [CubeEdge(t[0]), CubeEdge(t[1]), CubeEdge(t[2])])
     }
 }
 
@@ -335,7 +357,10 @@ pub(crate) const fn source_case(case: usize) -> usize {
 
 /// The classic table in our numbering: `TRI_TABLE[case]`, case bit `c` set ⇔ corner `c` inside.
 pub const TRI_TABLE: [CaseTriangles; 256] = {
-    let mut t = [CaseTriangles { len: 0, edges: [[0; 3]; 5] }; 256];
+    let mut t = [CaseTriangles {
+        len: 0,
+        edges: [[0; 3]; 5],
+    }; 256];
     let mut case = 0;
     while case < 256 {
         let row = SOURCE_TRI_TABLE[source_case(case)];

@@ -34,7 +34,11 @@ impl<A: Field, B: Field> Field for Union<A, B> {
         self.0.value(p).min(self.1.value(p))
     }
     fn gradient(&self, p: Vec3) -> Vec3 {
-        if self.0.value(p) <= self.1.value(p) { self.0.gradient(p) } else { self.1.gradient(p) }
+        if self.0.value(p) <= self.1.value(p) {
+            self.0.gradient(p)
+        } else {
+            self.1.gradient(p)
+        }
     }
 }
 
@@ -44,7 +48,11 @@ impl<A: Field, B: Field> Field for Intersection<A, B> {
         self.0.value(p).max(self.1.value(p))
     }
     fn gradient(&self, p: Vec3) -> Vec3 {
-        if self.0.value(p) >= self.1.value(p) { self.0.gradient(p) } else { self.1.gradient(p) }
+        if self.0.value(p) >= self.1.value(p) {
+            self.0.gradient(p)
+        } else {
+            self.1.gradient(p)
+        }
     }
 }
 
@@ -54,7 +62,11 @@ impl<A: Field, B: Field> Field for Difference<A, B> {
         self.0.value(p).max(-self.1.value(p))
     }
     fn gradient(&self, p: Vec3) -> Vec3 {
-        if self.0.value(p) >= -self.1.value(p) { self.0.gradient(p) } else { -self.1.gradient(p) }
+        if self.0.value(p) >= -self.1.value(p) {
+            self.0.gradient(p)
+        } else {
+            -self.1.gradient(p)
+        }
     }
 }
 
@@ -87,8 +99,14 @@ mod tests {
 
     #[test]
     fn csg_values() {
-        let a = Sphere { center: Vec3::new(-0.5, 0.0, 0.0), radius: 1.0 };
-        let b = Sphere { center: Vec3::new(0.5, 0.0, 0.0), radius: 1.0 };
+        let a = Sphere {
+            center: Vec3::new(-0.5, 0.0, 0.0),
+            radius: 1.0,
+        };
+        let b = Sphere {
+            center: Vec3::new(0.5, 0.0, 0.0),
+            radius: 1.0,
+        };
         let p = Vec3::new(-1.2, 0.0, 0.0); // inside a only
         assert!(Union(a, b).value(p) < 0.0);
         assert!(Intersection(a, b).value(p) > 0.0);

@@ -1,0 +1,159 @@
+//! Raw command-line arguments (clap). Converted once into a validated `Config` by `config.rs`.
+
+use std::path::PathBuf;
+
+use clap::{Args as ClapArgs, Parser, Subcommand};
+
+/// isoforge: turn volumes into meshes.
+#[derive(Debug, Parser)]
+#[command(name = "isoforge", version, about, long_about = None)]
+pub struct Args {
+    #[command(subcommand)]
+    pub command: Command,
+}
+
+#[derive(Debug, Subcommand)]
+pub enum Command {
+    /// Extract an isosurface from a volume file or a built-in field and write a mesh.
+    Extract(ExtractArgs),
+    /// Describe a volume: dims, type, geometry, value range, histogram, suggested iso.
+    Info(InfoArgs),
+    /// Check a mesh: boundary, manifoldness, orientation, components, Euler characteristic, genus.
+    Check(CheckArgs),
+    /// Build the classic three-metaball field, extract it, write demo.ply and print the report.
+    Demo(DemoArgs),
+}
+
+/// Where the volume comes from.
+#[derive(Debug, ClapArgs)]
+pub struct InputArgs {
+    /// Volume file (.nrrd .nhdr .nii .nii.gz .mha .mhd, or raw with --dims/--dtype) or a
+    /// built-in field such as `field:gyroid?n=128` (fields: sphere torus box gyroid metaballs lines height).
+    #[arg(short = 'i', long = "input", value_name = "INPUT")]
+    pub input: String,
+    /// Raw input: points per axis, x fastest.
+    #[arg(long, value_name = "X,Y,Z")]
+    pub dims: Option<String>,
+    /// Raw input: sample type (u8 i8 u16 i16 u32 i32 f32 f64).
+    #[arg(long, value_name = "TYPE")]
+    pub dtype: Option<String>,
+    /// Raw input: byte order.
+    #[arg(long, value_name = "little|big")]
+    pub endian: Option<String>,
+    /// Raw input: bytes to skip before the samples.
+    #[arg(long, value_name = "N")]
+    pub header_bytes: Option<u64>,
+    /// Raw input: spacing between points (default 1: voxel-index units).
+    #[arg(long, value_name = "SX,SY,SZ")]
+    pub spacing: Option<String>,
+    /// Raw input: world position of the first point.
+    #[arg(long, value_name = "OX,OY,OZ")]
+    pub origin: Option<String>,
+    /// Largest volume or mesh a reader may allocate, in bytes (suffixes K, M, G accepted).
+    #[arg(long, value_name = "BYTES")]
+    pub max_bytes: Option<String>,
+}
+
+#[derive(Debug, ClapArgs)]
+pub struct ExtractArgs {
+    #[command(flatten)]
+    pub input: InputArgs,
+    /// Output mesh (.ply .obj .stl .off).
+    #[arg(short = 'o', long = "output", value_name = "OUTPUT")]
+    pub output: PathBuf,
+    /// Iso value (required for volume files; built-in fields have a default).
+    #[arg(long, value_name = "V", allow_hyphen_values = true)]
+    pub iso: Option<String>,
+    /// Which side of iso is inside: below (value < iso, default for files) or above.
+    #[arg(long, value_name = "below|above")]
+    pub inside: Option<String>,
+    /// Extraction method.
+    #[arg(long, default_value = "mc", value_name = "mc")]
+    pub method: String,
+    /// Worker threads (default: all cores).
+    #[arg(long, value_name = "N")]
+    pub threads: Option<usize>,
+    /// Vertex normals: gradient (default) or none.
+    #[arg(long, default_value = "gradient", value_name = "gradient|none")]
+    pub normals: String,
+    /// Write PLY as ASCII instead of binary.
+    #[arg(long)]
+    pub ascii: bool,
+    /// Write {"seconds", "vertices", "triangles"} of the extraction (not reading or writing) here.
+    #[arg(long, value_name = "FILE")]
+    pub time_json: Option<PathBuf>,
+    /// Check the mesh after extraction and exit 1 unless these hold (closed manifold oriented watertight no-degenerate).
+    #[arg(long, value_delimiter = ',', value_name = "LIST")]
+    pub require: Vec<String>,
+}
+
+#[derive(Debug, ClapArgs)]
+pub struct InfoArgs {
+    /// Volume file or built-in field (as for `extract -i`).
+    #[arg(value_name = "INPUT")]
+    pub input: String,
+    #[arg(long, value_name = "X,Y,Z")]
+    pub dims: Option<String>,
+    #[arg(long, value_name = "TYPE")]
+    pub dtype: Option<String>,
+    #[arg(long, value_name = "little|big")]
+    pub endian: Option<String>,
+    #[arg(long, value_name = "N")]
+    pub header_bytes: Option<u64>,
+    #[arg(long, value_name = "SX,SY,SZ")]
+    pub spacing: Option<String>,
+    #[arg(long, value_name = "OX,OY,OZ")]
+    pub origin: Option<String>,
+    #[arg(long, value_name = "BYTES")]
+    pub max_bytes: Option<String>,
+    /// Print JSON instead of text.
+    #[arg(long)]
+    pub json: bool,
+}
+
+#[derive(Debug, ClapArgs)]
+pub struct CheckArgs {
+    /// Mesh file (.ply .obj .stl .off).
+    #[arg(value_name = "MESH")]
+    pub mesh: PathBuf,
+    /// Print JSON instead of text.
+    #[arg(long)]
+    pub json: bool,
+    /// Exit 1 unless these hold: closed, manifold, oriented, watertight, no-degenerate.
+    #[arg(long, value_delimiter = ',', value_name = "LIST")]
+    pub require: Vec<String>,
+    /// How many examples to list per finding.
+    #[arg(long, default_value_t = 10)]
+    pub examples: usize,
+    #[arg(long, value_name = "BYTES")]
+    pub max_bytes: Option<String>,
+}
+
+#[derive(Debug, ClapArgs)]
+pub struct DemoArgs {
+    /// Output mesh.
+    #[arg(short = 'o', long = "output", default_value = "demo.ply")]
+    pub output: PathBuf,
+    /// Points per axis.
+    #[arg(long, default_value_t = 64)]
+    pub n: u32,
+    /// Print JSON instead of text.
+    #[arg(long)]
+    pub json: bool,
+}
+
+impl InfoArgs {
+    /// The input options in the shape `extract` uses.
+    pub fn input_args(&self) -> InputArgs {
+        InputArgs {
+            input: self.input.clone(),
+            dims: self.dims.clone(),
+            dtype: self.dtype.clone(),
+            endian: self.endian.clone(),
+            header_bytes: self.header_bytes,
+            spacing: self.spacing.clone(),
+            origin: self.origin.clone(),
+            max_bytes: self.max_bytes.clone(),
+        }
+    }
+}

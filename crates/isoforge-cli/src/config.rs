@@ -1,0 +1,285 @@
+//! Validated configuration: everything after this module sees typed values, never raw strings.
+
+use std::path::PathBuf;
+
+use anyhow::{anyhow, bail, Context, Result};
+use isoforge::grid::DType;
+use isoforge::pipeline::{Method, Normals, Options};
+use isoforge::topo::Guarantee;
+use isoforge::volume::catalog::{self, Builtin};
+use isoforge::volume::Inside;
+use isoforge_io::{Limits, MeshFormat, RawSpec};
+
+use crate::args::{CheckArgs, DemoArgs, ExtractArgs, InputArgs};
+
+/// Where values come from.
+pub enum Source {
+    /// A volume file; `raw` carries the layout of headerless files.
+    File { path: PathBuf, raw: Option<RawSpec> },
+    /// A built-in field.
+    Field(Builtin),
+}
+
+pub struct InputConfig {
+    pub source: Source,
+    pub limits: Limits,
+}
+
+pub struct ExtractConfig {
+    pub input: InputConfig,
+    pub output: PathBuf,
+    pub format: MeshFormat,
+    pub iso: Option<f64>,
+    pub inside: Option<Inside>,
+    pub options: Options,
+    /// Validated now; the slab walker is serial, so it takes effect with the parallel walker.
+    #[allow(dead_code)]
+    pub threads: usize,
+    pub time_json: Option<PathBuf>,
+    pub require: Vec<Guarantee>,
+}
+
+pub struct CheckConfig {
+    pub mesh: PathBuf,
+    pub json: bool,
+    pub require: Vec<Guarantee>,
+    pub examples: usize,
+    pub limits: Limits,
+}
+
+pub struct DemoConfig {
+    pub output: PathBuf,
+    pub n: u32,
+    pub json: bool,
+}
+
+fn triplet<T: std::str::FromStr>(flag: &str, s: &str) -> Result<[T; 3]> {
+    let v: Vec<T> = s
+        .split(',')
+        .map(|t| {
+            t.trim()
+                .parse::<T>()
+                .map_err(|_| anyhow!("--{flag} {s:?}: {t:?} is not a valid number"))
+        })
+        .collect::<Result<_>>()?;
+    v.try_into().map_err(|v: Vec<T>| {
+        anyhow!(
+            "--{flag} {s:?}: needs 3 comma-separated values, got {}",
+            v.len()
+        )
+    })
+}
+
+fn bytes(s: &str) -> Result<u64> {
+    let t = s.trim();
+    let (num, mult) = match t.char_indices().find(|(_, c)| c.is_ascii_alphabetic()) {
+        Some((i, _)) => {
+            let unit = t[i..].to_ascii_lowercase();
+            let m: u64 = match unit.as_str() {
+                "b" => 1,
+                "k" | "kb" | "kib" => 1 << 10,
+                "m" | "mb" | "mib" => 1 << 20,
+                "g" | "gb" | "gib" => 1 << 30,
+                "t" | "tb" | "tib" => 1 << 40,
+                _ => bail!("--max-bytes {s:?}: unknown unit {unit:?} (use K, M, G, T)"),
+            };
+            (&t[..i], m)
+        }
+        None => (t, 1),
+    };
+    let n: u64 = num
+        .trim()
+        .parse()
+        .map_err(|_| anyhow!("--max-bytes {s:?}: not a whole number of bytes"))?;
+    n.checked_mul(mult)
+        .ok_or_else(|| anyhow!("--max-bytes {s:?}: too large"))
+}
+
+fn limits(max_bytes: Option<&str>) -> Result<Limits> {
+    Ok(match max_bytes {
+        Some(s) => Limits::new(bytes(s)?),
+        None => Limits::default(),
+    })
+}
+
+impl InputConfig {
+    pub fn from_args(a: &InputArgs) -> Result<Self> {
+        let limits = limits(a.max_bytes.as_deref())?;
+        if let Some(spec) = a.input.strip_prefix("field:") {
+            if a.dims.is_some() || a.dtype.is_some() {
+                bail!(
+                    "--dims/--dtype describe raw files; {} is a built-in field",
+                    a.input
+                );
+            }
+            return Ok(InputConfig {
+                source: Source::Field(catalog::parse(spec)?),
+                limits,
+            });
+        }
+        let path = PathBuf::from(&a.input);
+        let raw = match (&a.dims, &a.dtype) {
+            (None, None) => {
+                if a.endian.is_some()
+                    || a.header_bytes.is_some()
+                    || a.spacing.is_some()
+                    || a.origin.is_some()
+                {
+                    bail!("--endian, --header-bytes, --spacing and --origin describe raw files; pass --dims and --dtype too");
+                }
+                None
+            }
+            (Some(d), Some(t)) => {
+                let dims: [u32; 3] = triplet("dims", d)?;
+                if dims.contains(&0) {
+                    bail!("--dims {d:?}: every dimension must be at least 1");
+                }
+                let dtype = DType::parse(t).ok_or_else(|| {
+                    anyhow!("--dtype {t:?}: unknown sample type (u8 i8 u16 i16 u32 i32 f32 f64)")
+                })?;
+                let mut spec = RawSpec::new(dims, dtype);
+                spec.big_endian = match a.endian.as_deref() {
+                    None | Some("little") => false,
+                    Some("big") => true,
+                    Some(e) => bail!("--endian {e:?}: must be little or big"),
+                };
+                spec.header_bytes = a.header_bytes.unwrap_or(0);
+                if let Some(s) = &a.spacing {
+                    spec.spacing = triplet("spacing", s)?;
+                }
+                if let Some(o) = &a.origin {
+                    spec.origin = triplet("origin", o)?;
+                }
+                Some(spec)
+            }
+            _ => bail!("raw input needs both --dims and --dtype"),
+        };
+        Ok(InputConfig {
+            source: Source::File { path, raw },
+            limits,
+        })
+    }
+}
+
+fn guarantees(list: &[String]) -> Result<Vec<Guarantee>> {
+    list.iter()
+        .filter(|s| !s.is_empty())
+        .map(|s| Guarantee::parse(s).ok_or_else(|| anyhow!("--require {s:?}: unknown guarantee (closed, manifold, oriented, watertight, no-degenerate)")))
+        .collect()
+}
+
+pub fn output_format(path: &std::path::Path, ascii: bool) -> Result<MeshFormat> {
+    let f = MeshFormat::from_path(path).with_context(|| {
+        format!(
+            "{}: unknown output format (use .ply, .obj, .stl or .off)",
+            path.display()
+        )
+    })?;
+    Ok(match (f, ascii) {
+        (MeshFormat::Ply, true) => MeshFormat::PlyAscii,
+        (_, true) => bail!("--ascii applies to PLY output only"),
+        (f, false) => f,
+    })
+}
+
+impl ExtractConfig {
+    pub fn from_args(a: &ExtractArgs) -> Result<Self> {
+        let input = InputConfig::from_args(&a.input)?;
+        let format = output_format(&a.output, a.ascii)?;
+        let iso = match &a.iso {
+            Some(s) => {
+                let v: f64 = s
+                    .trim()
+                    .parse()
+                    .map_err(|_| anyhow!("--iso {s:?}: not a number"))?;
+                if !v.is_finite() {
+                    bail!("--iso {s:?}: must be a finite number");
+                }
+                Some(v)
+            }
+            None => None,
+        };
+        if iso.is_none() && matches!(input.source, Source::File { .. }) {
+            bail!(
+                "--iso is required for volume files (see `isoforge info {}` for a suggestion)",
+                a.input.input
+            );
+        }
+        let inside = match a.inside.as_deref() {
+            None => None,
+            Some("below") => Some(Inside::Below),
+            Some("above") => Some(Inside::Above),
+            Some(s) => bail!("--inside {s:?}: must be below or above"),
+        };
+        let method = Method::parse(&a.method).ok_or_else(|| {
+            let names: Vec<&str> = Method::ALL.iter().map(|m| m.name()).collect();
+            anyhow!(
+                "--method {:?}: unknown method (available: {})",
+                a.method,
+                names.join(", ")
+            )
+        })?;
+        let normals = match a.normals.as_str() {
+            "gradient" => Normals::Gradient,
+            "none" => Normals::None,
+            s => bail!("--normals {s:?}: must be gradient or none"),
+        };
+        let threads = match a.threads {
+            Some(0) => bail!("--threads 0: must be at least 1"),
+            Some(n) => n,
+            None => std::thread::available_parallelism().map_or(1, |n| n.get()),
+        };
+        Ok(ExtractConfig {
+            input,
+            output: a.output.clone(),
+            format,
+            iso,
+            inside,
+            options: Options { method, normals },
+            threads,
+            time_json: a.time_json.clone(),
+            require: guarantees(&a.require)?,
+        })
+    }
+}
+
+impl CheckConfig {
+    pub fn from_args(a: &CheckArgs) -> Result<Self> {
+        Ok(CheckConfig {
+            mesh: a.mesh.clone(),
+            json: a.json,
+            require: guarantees(&a.require)?,
+            examples: a.examples,
+            limits: limits(a.max_bytes.as_deref())?,
+        })
+    }
+}
+
+impl DemoConfig {
+    pub fn from_args(a: &DemoArgs) -> Result<Self> {
+        if !(2..=1024).contains(&a.n) {
+            bail!("--n {}: must be from 2 to 1024", a.n);
+        }
+        output_format(&a.output, false)?;
+        Ok(DemoConfig {
+            output: a.output.clone(),
+            n: a.n,
+            json: a.json,
+        })
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn parses_sizes_and_triplets() {
+        assert_eq!(bytes("2GiB").unwrap(), 2 << 30);
+        assert_eq!(bytes("512").unwrap(), 512);
+        assert!(bytes("12Q").is_err());
+        assert_eq!(triplet::<u32>("dims", "1, 2,3").unwrap(), [1, 2, 3]);
+        assert!(triplet::<u32>("dims", "1,2").is_err());
+        assert!(triplet::<u32>("dims", "1,-2,3").is_err());
+    }
+}

@@ -1,0 +1,93 @@
+//! File formats, recognised by extension.
+
+use std::path::Path;
+
+/// A volume file format.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+#[non_exhaustive]
+pub enum VolumeFormat {
+    /// Headerless samples (`.raw`, or anything with `--dims`).
+    Raw,
+    /// NRRD (`.nrrd`, `.nhdr`).
+    Nrrd,
+    /// NIfTI-1 (`.nii`, `.nii.gz`, `.hdr`).
+    Nifti,
+    /// MetaImage (`.mha`, `.mhd`).
+    MetaImage,
+}
+
+/// A mesh file format.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+#[non_exhaustive]
+pub enum MeshFormat {
+    /// PLY; written binary little-endian.
+    Ply,
+    /// PLY written as ASCII.
+    PlyAscii,
+    /// Wavefront OBJ.
+    Obj,
+    /// STL; written binary.
+    Stl,
+    /// OFF.
+    Off,
+}
+
+fn lower_name(path: &Path) -> String {
+    path.file_name()
+        .map(|n| n.to_string_lossy().to_ascii_lowercase())
+        .unwrap_or_default()
+}
+
+impl VolumeFormat {
+    /// The format a path's extension names, if any.
+    pub fn from_path(path: &Path) -> Option<Self> {
+        let n = lower_name(path);
+        Some(if n.ends_with(".nrrd") || n.ends_with(".nhdr") {
+            VolumeFormat::Nrrd
+        } else if n.ends_with(".nii") || n.ends_with(".nii.gz") || n.ends_with(".hdr") {
+            VolumeFormat::Nifti
+        } else if n.ends_with(".mha") || n.ends_with(".mhd") {
+            VolumeFormat::MetaImage
+        } else if n.ends_with(".raw") {
+            VolumeFormat::Raw
+        } else {
+            return None;
+        })
+    }
+
+    /// Display name.
+    pub fn name(self) -> &'static str {
+        match self {
+            VolumeFormat::Raw => "raw",
+            VolumeFormat::Nrrd => "NRRD",
+            VolumeFormat::Nifti => "NIfTI-1",
+            VolumeFormat::MetaImage => "MetaImage",
+        }
+    }
+}
+
+impl MeshFormat {
+    /// The format a path's extension names, if any.
+    pub fn from_path(path: &Path) -> Option<Self> {
+        let n = lower_name(path);
+        let ext = n.rsplit_once('.').map(|(_, e)| e)?;
+        Some(match ext {
+            "ply" => MeshFormat::Ply,
+            "obj" => MeshFormat::Obj,
+            "stl" => MeshFormat::Stl,
+            "off" => MeshFormat::Off,
+            _ => return None,
+        })
+    }
+
+    /// Display name.
+    pub fn name(self) -> &'static str {
+        match self {
+            MeshFormat::Ply => "PLY",
+            MeshFormat::PlyAscii => "PLY (ASCII)",
+            MeshFormat::Obj => "OBJ",
+            MeshFormat::Stl => "STL",
+            MeshFormat::Off => "OFF",
+        }
+    }
+}

@@ -1,0 +1,26 @@
+//! Limits checked against header-declared sizes before anything is allocated.
+
+/// The most a reader may allocate for one file's samples or mesh.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub struct Limits {
+    /// Largest decoded sample (or mesh) buffer, in bytes.
+    pub max_bytes: u64,
+}
+
+impl Limits {
+    /// 4 GiB: a 1024 × 1024 × 2048 u16 CT fits; a corrupt header asking for terabytes does not.
+    pub const DEFAULT_MAX_BYTES: u64 = 4 << 30;
+
+    /// Limits with `max_bytes`.
+    pub fn new(max_bytes: u64) -> Self {
+        Limits { max_bytes }
+    }
+}
+
+impl Default for Limits {
+    fn default() -> Self {
+        Limits {
+            max_bytes: Self::DEFAULT_MAX_BYTES,
+        }
+    }
+}

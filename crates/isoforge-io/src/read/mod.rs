@@ -1,0 +1,21 @@
+//! Readers: volumes (raw, NRRD, NIfTI-1, MetaImage) and meshes (PLY, OBJ, STL, OFF).
+
+pub(crate) mod decode;
+#[cfg(any(feature = "ply", feature = "obj", feature = "stl", feature = "off"))]
+mod mesh_text;
+#[cfg(feature = "metaimage")]
+pub mod metaimage;
+#[cfg(feature = "nifti")]
+pub mod nifti;
+#[cfg(feature = "nrrd")]
+pub mod nrrd;
+#[cfg(feature = "obj")]
+pub mod obj;
+#[cfg(feature = "off")]
+pub mod off;
+#[cfg(feature = "ply")]
+pub mod ply;
+#[cfg(feature = "raw")]
+pub mod raw;
+#[cfg(feature = "stl")]
+pub mod stl;

@@ -1,0 +1,396 @@
+//! NRRD (`.nrrd` attached, `.nhdr` detached): raw, gzip and ASCII encodings, either endianness,
+//! `spacings`, `space directions`, `space origin`, `byte skip`, `line skip`.
+//!
+//! World coordinates are the file's own space (`space` is kept as given, e.g. LPS for DICOM-derived
+//! volumes). 2D images are read as one z-slab.
+
+use std::path::{Path, PathBuf};
+
+use isoforge::grid::{AnyGrid, DType};
+
+use super::decode::{self, Compression};
+use crate::error::{Ctx, Result};
+use crate::limits::Limits;
+
+/// Longest header accepted before the blank line.
+const MAX_HEADER_BYTES: usize = 1 << 20;
+
+/// Reads an NRRD file (attached or detached header).
+///
+/// # Errors
+/// A [`crate::Error`] naming the line, field and value of any header problem, a truncated body,
+/// a size over `limits`, or a non-finite sample.
+pub fn read_nrrd(path: &Path, limits: &Limits) -> Result<AnyGrid> {
+    let ctx = Ctx::new(path, "NRRD");
+    let bytes = decode::read_file(
+        ctx,
+        path,
+        limits.max_bytes.saturating_add(MAX_HEADER_BYTES as u64),
+    )?;
+    let header_end = header_end(&bytes);
+    let header_text = std::str::from_utf8(&bytes[..header_end.min(bytes.len())])
+        .map_err(|e| ctx.bad(format!("byte {}: header is not text", e.valid_up_to())))?;
+    let h = Header::parse(ctx, header_text)?;
+    let need = decode::sample_bytes(ctx, h.dims, h.dtype, limits)?;
+    let lattice = decode::lattice(ctx, h.dims, h.spacing, h.origin, h.direction)?;
+
+    // The data: after the header, or in the detached file.
+    let data_path = h.data_file.as_ref().map(|name| resolve(path, name));
+    let detached;
+    let (data_ctx, raw): (Ctx, &[u8]) = match &data_path {
+        None => (ctx, &bytes[header_end.min(bytes.len())..]),
+        Some(p) => {
+            let dctx = Ctx::new(p, "NRRD data");
+            detached = decode::read_file(dctx, p, limits.max_bytes.saturating_mul(2))?;
+            (dctx, &detached[..])
+        }
+    };
+    let raw = skip_lines(data_ctx, raw, h.line_skip)?;
+    let body: std::borrow::Cow<[u8]> = match h.encoding {
+        Encoding::Ascii => std::borrow::Cow::Owned(ascii_to_bytes(data_ctx, raw, h.dims, h.dtype)?),
+        Encoding::Raw => {
+            let start = match h.byte_skip {
+                ByteSkip::Bytes(n) => n,
+                ByteSkip::FromEnd => raw.len().checked_sub(need).ok_or_else(|| {
+                    data_ctx.bad(format!(
+                        "byte skip -1: the data has {} bytes, fewer than the {need} needed",
+                        raw.len()
+                    ))
+                })?,
+            };
+            let rest = raw.get(start..).ok_or_else(|| {
+                data_ctx.bad(format!(
+                    "byte skip {start} is past the end of the data ({} bytes)",
+                    raw.len()
+                ))
+            })?;
+            decode::take_data(data_ctx, rest, Compression::None, need, "raw data")?
+        }
+        Encoding::Gzip => {
+            let ByteSkip::Bytes(start) = h.byte_skip else {
+                return Err(ctx.unsupported("byte skip -1 is only defined for raw encoding"));
+            };
+            let rest = raw.get(start..).ok_or_else(|| {
+                data_ctx.bad(format!("byte skip {start} is past the end of the data"))
+            })?;
+            decode::take_data(data_ctx, rest, Compression::Gzip, need, "gzip data")?
+        }
+    };
+    decode::decode(data_ctx, lattice, h.dtype, h.big_endian, &body)
+}
+
+fn header_end(bytes: &[u8]) -> usize {
+    decode::find_header_end(bytes, MAX_HEADER_BYTES).unwrap_or(bytes.len())
+}
+
+fn resolve(header: &Path, name: &str) -> PathBuf {
+    let p = Path::new(name);
+    if p.is_absolute() {
+        p.to_path_buf()
+    } else {
+        header.parent().unwrap_or(Path::new(".")).join(p)
+    }
+}
+
+fn skip_lines<'a>(ctx: Ctx, mut data: &'a [u8], n: usize) -> Result<&'a [u8]> {
+    for i in 0..n {
+        let nl = data
+            .iter()
+            .position(|&b| b == b'\n')
+            .ok_or_else(|| ctx.bad(format!("line skip {n}: data has only {i} lines")))?;
+        data = &data[nl + 1..];
+    }
+    Ok(data)
+}
+
+fn ascii_to_bytes(ctx: Ctx, data: &[u8], dims: [u32; 3], dtype: DType) -> Result<Vec<u8>> {
+    let text = std::str::from_utf8(data)
+        .map_err(|e| ctx.bad(format!("ASCII data: byte {} is not text", e.valid_up_to())))?;
+    let n = dims.iter().map(|&d| d as usize).product::<usize>();
+    let mut out = Vec::with_capacity(n * dtype.size());
+    let mut count = 0usize;
+    for tok in text
+        .split(|c: char| c.is_whitespace() || c == ',')
+        .filter(|t| !t.is_empty())
+    {
+        if count == n {
+            break;
+        }
+        let bad = || {
+            ctx.bad(format!(
+                "ASCII data: value {} {tok:?} is not a {dtype}",
+                count + 1
+            ))
+        };
+        macro_rules! put {
+            ($t:ty) => {{
+                let v: $t = tok.parse().map_err(|_| bad())?;
+                out.extend_from_slice(&v.to_le_bytes());
+            }};
+        }
+        match dtype {
+            DType::U8 => put!(u8),
+            DType::I8 => put!(i8),
+            DType::U16 => put!(u16),
+            DType::I16 => put!(i16),
+            DType::U32 => put!(u32),
+            DType::I32 => put!(i32),
+            DType::F32 => put!(f32),
+            _ => put!(f64),
+        }
+        count += 1;
+    }
+    if count < n {
+        return Err(ctx.bad(format!(
+            "ASCII data has {count} values, the header declares {n}"
+        )));
+    }
+    Ok(out)
+}
+
+#[derive(Debug, Clone, Copy, PartialEq)]
+enum Encoding {
+    Raw,
+    Gzip,
+    Ascii,
+}
+
+#[derive(Debug, Clone, Copy, PartialEq)]
+enum ByteSkip {
+    Bytes(usize),
+    FromEnd,
+}
+
+struct Header {
+    dims: [u32; 3],
+    dtype: DType,
+    encoding: Encoding,
+    big_endian: bool,
+    spacing: [f64; 3],
+    origin: [f64; 3],
+    direction: Option<[[f64; 3]; 3]>,
+    data_file: Option<String>,
+    byte_skip: ByteSkip,
+    line_skip: usize,
+}
+
+impl Header {
+    fn parse(ctx: Ctx, text: &str) -> Result<Header> {
+        let mut lines = decode::numbered_lines(text);
+        match lines.next() {
+            Some((_, magic)) if magic.starts_with("NRRD000") => {}
+            Some((_, magic)) => {
+                return Err(ctx.bad(format!(
+                    "line 1: {:?} is not an NRRD magic (NRRD0001…NRRD0005)",
+                    truncate(magic)
+                )))
+            }
+            None => return Err(ctx.bad("empty file")),
+        }
+        let mut dimension = None;
+        let (mut sizes, mut dtype, mut encoding, mut endian) = (None, None, None, None);
+        let (mut spacings, mut directions, mut origin, mut data_file) = (None, None, None, None);
+        let (mut byte_skip, mut line_skip) = (ByteSkip::Bytes(0), 0usize);
+        for (no, line) in lines {
+            if line.is_empty() {
+                break;
+            }
+            if line.starts_with('#') {
+                continue;
+            }
+            if line.contains(":=") {
+                continue; // key/value pairs: free-form metadata
+            }
+            let Some((field, value)) = line.split_once(": ") else {
+                return Err(ctx.bad(format!(
+                    "line {no}: {:?} is not \"field: value\"",
+                    truncate(line)
+                )));
+            };
+            let value = value.trim();
+            let bad =
+                |why: &str| ctx.bad(format!("line {no}: {field} {:?}: {why}", truncate(value)));
+            match field.to_ascii_lowercase().as_str() {
+                "dimension" => {
+                    let d: usize = value.parse().map_err(|_| bad("must be a whole number"))?;
+                    if !(2..=3).contains(&d) {
+                        return Err(ctx.unsupported(format!(
+                            "line {no}: dimension {d}: only 2D and 3D scalar volumes are supported"
+                        )));
+                    }
+                    dimension = Some(d);
+                }
+                "sizes" => {
+                    let v: Option<Vec<u32>> =
+                        value.split_whitespace().map(decode::parse_dim).collect();
+                    sizes = Some(v.ok_or_else(|| bad("sizes must be positive integers"))?);
+                }
+                "type" => {
+                    dtype = Some(parse_type(value).ok_or_else(|| {
+                        ctx.unsupported(format!(
+                            "line {no}: type {:?}: unknown or unsupported sample type",
+                            truncate(value)
+                        ))
+                    })?);
+                }
+                "encoding" => {
+                    encoding =
+                        Some(match value.to_ascii_lowercase().as_str() {
+                            "raw" => Encoding::Raw,
+                            "gzip" | "gz" => Encoding::Gzip,
+                            "ascii" | "text" | "txt" => Encoding::Ascii,
+                            other => return Err(ctx.unsupported(format!(
+                                "line {no}: encoding {other:?} is not supported (raw, gzip, ascii)"
+                            ))),
+                        });
+                }
+                "endian" => {
+                    endian = Some(match value {
+                        "little" => false,
+                        "big" => true,
+                        _ => return Err(bad("must be little or big")),
+                    });
+                }
+                "spacings" => {
+                    let v: Option<Vec<f64>> =
+                        value.split_whitespace().map(|t| t.parse().ok()).collect();
+                    spacings = Some(v.ok_or_else(|| bad("spacings must be numbers"))?);
+                }
+                "space directions" => {
+                    let mut v = Vec::new();
+                    for tok in value.split_whitespace() {
+                        if tok == "none" {
+                            continue;
+                        }
+                        let inner = tok
+                            .strip_prefix('(')
+                            .and_then(|t| t.strip_suffix(')'))
+                            .ok_or_else(|| bad("vectors must look like (x,y,z)"))?;
+                        let n: Vec<f64> = decode::parse_numbers(inner)
+                            .filter(|n: &Vec<f64>| n.len() == 3)
+                            .ok_or_else(|| bad("vectors must have 3 numbers"))?;
+                        v.push([n[0], n[1], n[2]]);
+                    }
+                    directions = Some(v);
+                }
+                "space origin" => {
+                    let inner = value
+                        .strip_prefix('(')
+                        .and_then(|t| t.strip_suffix(')'))
+                        .ok_or_else(|| bad("must look like (x,y,z)"))?;
+                    let n: Vec<f64> = decode::parse_numbers(inner)
+                        .filter(|n: &Vec<f64>| n.len() == 3 && n.iter().all(|x| x.is_finite()))
+                        .ok_or_else(|| bad("must be 3 finite numbers"))?;
+                    origin = Some([n[0], n[1], n[2]]);
+                }
+                "data file" | "datafile" => {
+                    if value.starts_with("LIST") || value.split_whitespace().count() > 1 {
+                        return Err(ctx.unsupported(format!(
+                            "line {no}: data file {:?}: multi-file data is not supported",
+                            truncate(value)
+                        )));
+                    }
+                    data_file = Some(value.to_string());
+                }
+                "byte skip" | "byteskip" => {
+                    byte_skip = match value {
+                        "-1" => ByteSkip::FromEnd,
+                        v => ByteSkip::Bytes(
+                            v.parse().map_err(|_| bad("must be -1 or a whole number"))?,
+                        ),
+                    };
+                }
+                "line skip" | "lineskip" => {
+                    line_skip = value.parse().map_err(|_| bad("must be a whole number"))?
+                }
+                _ => {} // kinds, space, content, min, max, units, labels, …: not needed for meshing
+            }
+        }
+        let dimension = dimension.ok_or_else(|| ctx.bad("header has no \"dimension\" field"))?;
+        let sizes = sizes.ok_or_else(|| ctx.bad("header has no \"sizes\" field"))?;
+        if sizes.len() != dimension {
+            return Err(ctx.bad(format!(
+                "sizes has {} values but dimension is {dimension}",
+                sizes.len()
+            )));
+        }
+        let dtype = dtype.ok_or_else(|| ctx.bad("header has no \"type\" field"))?;
+        let encoding = encoding.ok_or_else(|| ctx.bad("header has no \"encoding\" field"))?;
+        let big_endian = match endian {
+            Some(e) => e,
+            None if dtype.size() == 1 || encoding == Encoding::Ascii => false,
+            None => {
+                return Err(ctx.bad(format!(
+                    "header has no \"endian\" field, needed for {dtype} samples"
+                )))
+            }
+        };
+        let mut dims = [1u32; 3];
+        dims[..dimension].copy_from_slice(&sizes);
+        let mut spacing = [1.0; 3];
+        let mut direction = None;
+        let mut origin3 = [0.0; 3];
+        if let Some(dirs) = directions {
+            if dirs.len() != dimension {
+                return Err(ctx.bad(format!(
+                    "space directions has {} vectors for {dimension} axes",
+                    dirs.len()
+                )));
+            }
+            let mut axes = [[1.0, 0.0, 0.0], [0.0, 1.0, 0.0], [0.0, 0.0, 1.0]];
+            axes[..dimension].copy_from_slice(&dirs);
+            let (s, d) = decode::split_axes(axes).ok_or_else(|| {
+                ctx.bad("space directions: every vector must be finite and non-zero")
+            })?;
+            spacing = s;
+            direction = Some(d);
+        } else if let Some(sp) = spacings {
+            if sp.len() != dimension {
+                return Err(ctx.bad(format!(
+                    "spacings has {} values for {dimension} axes",
+                    sp.len()
+                )));
+            }
+            for (a, &s) in sp.iter().enumerate() {
+                if s.is_finite() && s != 0.0 {
+                    spacing[a] = s.abs();
+                }
+            }
+        }
+        if let Some(o) = origin {
+            origin3 = o;
+        }
+        Ok(Header {
+            dims,
+            dtype,
+            encoding,
+            big_endian,
+            spacing,
+            origin: origin3,
+            direction,
+            data_file,
+            byte_skip,
+            line_skip,
+        })
+    }
+}
+
+fn parse_type(s: &str) -> Option<DType> {
+    Some(match s {
+        "signed char" | "int8" | "int8_t" => DType::I8,
+        "uchar" | "unsigned char" | "uint8" | "uint8_t" => DType::U8,
+        "short" | "short int" | "signed short" | "signed short int" | "int16" | "int16_t" => {
+            DType::I16
+        }
+        "ushort" | "unsigned short" | "unsigned short int" | "uint16" | "uint16_t" => DType::U16,
+        "int" | "signed int" | "int32" | "int32_t" => DType::I32,
+        "uint" | "unsigned int" | "uint32" | "uint32_t" => DType::U32,
+        "float" => DType::F32,
+        "double" => DType::F64,
+        _ => return None,
+    })
+}
+
+fn truncate(s: &str) -> String {
+    s.chars().take(60).collect()
+}

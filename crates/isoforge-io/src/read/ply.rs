@@ -1,0 +1,321 @@
+//! PLY (ASCII and binary, either endianness): `vertex` x, y, z and a `face` index list; other
+//! elements and properties are skipped; polygons become triangle fans.
+
+use std::path::Path;
+
+use isoforge::mesh::Mesh;
+
+use super::decode;
+use super::mesh_text::{check_mesh_size, coord, push_fan};
+use crate::error::{Ctx, Result};
+use crate::limits::Limits;
+
+#[derive(Debug, Clone, Copy, PartialEq)]
+enum Ty {
+    I8,
+    U8,
+    I16,
+    U16,
+    I32,
+    U32,
+    F32,
+    F64,
+}
+
+impl Ty {
+    fn parse(s: &str) -> Option<Ty> {
+        Some(match s {
+            "char" | "int8" => Ty::I8,
+            "uchar" | "uint8" => Ty::U8,
+            "short" | "int16" => Ty::I16,
+            "ushort" | "uint16" => Ty::U16,
+            "int" | "int32" => Ty::I32,
+            "uint" | "uint32" => Ty::U32,
+            "float" | "float32" => Ty::F32,
+            "double" | "float64" => Ty::F64,
+            _ => return None,
+        })
+    }
+    fn size(self) -> usize {
+        match self {
+            Ty::I8 | Ty::U8 => 1,
+            Ty::I16 | Ty::U16 => 2,
+            Ty::I32 | Ty::U32 | Ty::F32 => 4,
+            Ty::F64 => 8,
+        }
+    }
+}
+
+#[derive(Debug, Clone)]
+enum Prop {
+    Scalar(Ty, String),
+    List(Ty, Ty, String),
+}
+
+#[derive(Debug, Clone)]
+struct Element {
+    name: String,
+    count: u64,
+    props: Vec<Prop>,
+}
+
+#[derive(Debug, Clone, Copy, PartialEq)]
+enum Format {
+    Ascii,
+    Binary { big: bool },
+}
+
+/// Reads a PLY mesh.
+///
+/// # Errors
+/// A [`crate::Error`] naming the header line, element, property or index at fault.
+pub fn read_ply(path: &Path, limits: &Limits) -> Result<Mesh> {
+    let ctx = Ctx::new(path, "PLY");
+    let bytes = decode::read_file(ctx, path, limits.max_bytes)?;
+    // Header: text up to and including "end_header\n".
+    let marker = b"end_header";
+    let end = bytes
+        .windows(marker.len())
+        .take(1 << 20)
+        .position(|w| w == marker)
+        .ok_or_else(|| ctx.bad("no end_header line"))?;
+    let body_start = bytes[end..]
+        .iter()
+        .position(|&b| b == b'\n')
+        .map_or(bytes.len(), |p| end + p + 1);
+    let header = std::str::from_utf8(&bytes[..end]).map_err(|_| ctx.bad("header is not text"))?;
+    let mut lines = decode::numbered_lines(header);
+    if lines.next().map(|(_, l)| l.trim()) != Some("ply") {
+        return Err(ctx.bad("line 1: missing the \"ply\" magic"));
+    }
+    let mut format = None;
+    let mut elements: Vec<Element> = Vec::new();
+    for (no, line) in lines {
+        let toks: Vec<&str> = line.split_whitespace().collect();
+        let bad = |why: &str| {
+            ctx.bad(format!(
+                "line {no}: {:?}: {why}",
+                line.chars().take(60).collect::<String>()
+            ))
+        };
+        match toks.first().copied() {
+            None | Some("comment") | Some("obj_info") => {}
+            Some("format") => {
+                format = Some(match toks.get(1).copied() {
+                    Some("ascii") => Format::Ascii,
+                    Some("binary_little_endian") => Format::Binary { big: false },
+                    Some("binary_big_endian") => Format::Binary { big: true },
+                    _ => {
+                        return Err(bad(
+                            "format must be ascii, binary_little_endian or binary_big_endian",
+                        ))
+                    }
+                });
+            }
+            Some("element") => {
+                let (Some(name), Some(count)) =
+                    (toks.get(1), toks.get(2).and_then(|c| c.parse::<u64>().ok()))
+                else {
+                    return Err(bad("expected \"element NAME COUNT\""));
+                };
+                elements.push(Element {
+                    name: name.to_string(),
+                    count,
+                    props: Vec::new(),
+                });
+            }
+            Some("property") => {
+                let el = elements
+                    .last_mut()
+                    .ok_or_else(|| bad("property before any element"))?;
+                let prop = if toks.get(1) == Some(&"list") {
+                    match (toks.get(2).and_then(|t| Ty::parse(t)), toks.get(3).and_then(|t| Ty::parse(t)), toks.get(4)) {
+                        (Some(c), Some(i), Some(n)) if !matches!(c, Ty::F32 | Ty::F64) => Prop::List(c, i, n.to_string()),
+                        _ => return Err(bad("expected \"property list COUNT_TYPE INDEX_TYPE NAME\" with an integer count type")),
+                    }
+                } else {
+                    match (toks.get(1).and_then(|t| Ty::parse(t)), toks.get(2)) {
+                        (Some(t), Some(n)) => Prop::Scalar(t, n.to_string()),
+                        _ => return Err(bad("unknown property type")),
+                    }
+                };
+                el.props.push(prop);
+            }
+            Some(_) => return Err(bad("unknown header keyword")),
+        }
+    }
+    let format = format.ok_or_else(|| ctx.bad("header has no format line"))?;
+    let count = |name: &str| {
+        elements
+            .iter()
+            .find(|e| e.name == name)
+            .map_or(0, |e| e.count)
+    };
+    let (nv, nf) = (count("vertex"), count("face"));
+    check_mesh_size(ctx, nv, nf, limits)?;
+    let body = &bytes[body_start.min(bytes.len())..];
+    // Each binary instance needs at least its fixed-size bytes: catches absurd counts before allocating.
+    if let Format::Binary { .. } = format {
+        let min: u64 = elements
+            .iter()
+            .map(|e| {
+                e.count.saturating_mul(
+                    e.props
+                        .iter()
+                        .map(|p| match p {
+                            Prop::Scalar(t, _) => t.size() as u64,
+                            Prop::List(c, _, _) => c.size() as u64,
+                        })
+                        .sum(),
+                )
+            })
+            .fold(0u64, |a, b| a.saturating_add(b));
+        if min > body.len() as u64 {
+            return Err(ctx.bad(format!(
+                "body has {} bytes, the header's elements need at least {min} (truncated file?)",
+                body.len()
+            )));
+        }
+    }
+    let mut src = Source {
+        ctx,
+        format,
+        body,
+        pos: 0,
+    };
+    let mut mesh = Mesh::default();
+    mesh.positions.reserve(nv as usize);
+    mesh.triangles.reserve(nf as usize);
+    let mut poly: Vec<u32> = Vec::new();
+    for el in &elements {
+        let xyz: Vec<Option<usize>> = ["x", "y", "z"]
+            .iter()
+            .map(|n| {
+                el.props
+                    .iter()
+                    .position(|p| matches!(p, Prop::Scalar(_, m) if m == n))
+            })
+            .collect();
+        if el.name == "vertex" && xyz.iter().any(|p| p.is_none()) {
+            return Err(ctx.bad("element vertex lacks an x, y or z property"));
+        }
+        for idx in 0..el.count {
+            let mut p = [0.0f64; 3];
+            for (pi, prop) in el.props.iter().enumerate() {
+                match prop {
+                    Prop::Scalar(t, _) => {
+                        let v = src.scalar(*t, || format!("{} {idx}", el.name))?;
+                        if el.name == "vertex" {
+                            if let Some(a) = xyz.iter().position(|&x| x == Some(pi)) {
+                                p[a] = v;
+                            }
+                        }
+                    }
+                    Prop::List(c, it, name) => {
+                        let n = src.scalar(*c, || format!("{} {idx} list length", el.name))?;
+                        if !(n >= 0.0 && n <= 1e6) {
+                            return Err(
+                                ctx.bad(format!("{} {idx}: list length {n} is not valid", el.name))
+                            );
+                        }
+                        let is_faces = el.name == "face"
+                            && (name == "vertex_indices" || name == "vertex_index");
+                        poly.clear();
+                        for _ in 0..n as usize {
+                            let v = src.scalar(*it, || format!("{} {idx} index", el.name))?;
+                            if is_faces {
+                                if !(v >= 0.0 && v < nv as f64) || v.fract() != 0.0 {
+                                    return Err(ctx.bad(format!(
+                                        "face {idx}: vertex index {v} is outside 0..{nv}"
+                                    )));
+                                }
+                                poly.push(v as u32);
+                            }
+                        }
+                        if is_faces {
+                            if poly.len() < 3 {
+                                return Err(ctx.bad(format!(
+                                    "face {idx} has {} vertices, at least 3 are needed",
+                                    poly.len()
+                                )));
+                            }
+                            push_fan(&mut mesh, &poly);
+                        }
+                    }
+                }
+            }
+            if el.name == "vertex" {
+                let what = || format!("vertex {idx}");
+                mesh.positions.push([
+                    coord(ctx, p[0], what)?,
+                    coord(ctx, p[1], what)?,
+                    coord(ctx, p[2], what)?,
+                ]);
+            }
+        }
+    }
+    Ok(mesh)
+}
+
+struct Source<'a> {
+    ctx: Ctx<'a>,
+    format: Format,
+    body: &'a [u8],
+    pos: usize,
+}
+
+impl Source<'_> {
+    fn scalar(&mut self, t: Ty, what: impl Fn() -> String) -> Result<f64> {
+        match self.format {
+            Format::Binary { big } => {
+                let n = t.size();
+                let b = self.body.get(self.pos..self.pos + n).ok_or_else(|| {
+                    self.ctx.bad(format!(
+                        "{}: data ends at byte {} (truncated file?)",
+                        what(),
+                        self.pos
+                    ))
+                })?;
+                self.pos += n;
+                let mut a = [0u8; 8];
+                a[..n].copy_from_slice(b);
+                if big {
+                    a[..n].reverse();
+                }
+                Ok(match t {
+                    Ty::I8 => a[0] as i8 as f64,
+                    Ty::U8 => a[0] as f64,
+                    Ty::I16 => i16::from_le_bytes([a[0], a[1]]) as f64,
+                    Ty::U16 => u16::from_le_bytes([a[0], a[1]]) as f64,
+                    Ty::I32 => i32::from_le_bytes([a[0], a[1], a[2], a[3]]) as f64,
+                    Ty::U32 => u32::from_le_bytes([a[0], a[1], a[2], a[3]]) as f64,
+                    Ty::F32 => f32::from_le_bytes([a[0], a[1], a[2], a[3]]) as f64,
+                    Ty::F64 => f64::from_le_bytes(a),
+                })
+            }
+            Format::Ascii => {
+                let rest = &self.body[self.pos..];
+                let start = rest
+                    .iter()
+                    .position(|b| !b.is_ascii_whitespace())
+                    .ok_or_else(|| {
+                        self.ctx
+                            .bad(format!("{}: data ends early (truncated file?)", what()))
+                    })?;
+                let len = rest[start..]
+                    .iter()
+                    .position(|b| b.is_ascii_whitespace())
+                    .unwrap_or(rest.len() - start);
+                let tok = std::str::from_utf8(&rest[start..start + len]).unwrap_or("");
+                self.pos += start + len;
+                tok.parse::<f64>().map_err(|_| {
+                    self.ctx.bad(format!(
+                        "{}: {:?} is not a number",
+                        what(),
+                        tok.chars().take(30).collect::<String>()
+                    ))
+                })
+            }
+        }
+    }
+}

@@ -1,0 +1,69 @@
+//! Raw sample files: no header, geometry from the caller (`--dims`, `--dtype`, …).
+
+use std::path::Path;
+
+use isoforge::grid::{AnyGrid, DType};
+
+use super::decode::{self, Compression};
+use crate::error::{Ctx, Result};
+use crate::limits::Limits;
+
+/// How to interpret a raw file.
+#[derive(Debug, Clone, PartialEq)]
+pub struct RawSpec {
+    /// Points per axis, x fastest.
+    pub dims: [u32; 3],
+    /// Sample type.
+    pub dtype: DType,
+    /// Byte order of multi-byte samples.
+    pub big_endian: bool,
+    /// Bytes to skip before the samples.
+    pub header_bytes: u64,
+    /// Spacing (default 1: index units).
+    pub spacing: [f64; 3],
+    /// Origin (default 0).
+    pub origin: [f64; 3],
+}
+
+impl RawSpec {
+    /// Little-endian, no header, unit spacing at the origin.
+    pub fn new(dims: [u32; 3], dtype: DType) -> Self {
+        RawSpec {
+            dims,
+            dtype,
+            big_endian: false,
+            header_bytes: 0,
+            spacing: [1.0; 3],
+            origin: [0.0; 3],
+        }
+    }
+}
+
+/// Reads a raw file; its size must be exactly `header_bytes` + the samples.
+///
+/// # Errors
+/// [`Error::Read`](crate::Error::Read) when the size does not match or a sample is not finite;
+/// [`Error::Limit`](crate::Error::Limit) when the dims exceed `limits`.
+pub fn read_raw(path: &Path, spec: &RawSpec, limits: &Limits) -> Result<AnyGrid> {
+    let ctx = Ctx::new(path, "raw");
+    let lattice = decode::lattice(ctx, spec.dims, spec.spacing, spec.origin, None)?;
+    let need = decode::sample_bytes(ctx, spec.dims, spec.dtype, limits)?;
+    let len = std::fs::metadata(path).map_err(|e| ctx.io(e))?.len();
+    let expected = spec.header_bytes.saturating_add(need as u64);
+    if len != expected {
+        let [x, y, z] = spec.dims;
+        return Err(ctx.bad(format!(
+            "file has {len} bytes, but {x}x{y}x{z} {} samples after a {}-byte header need {expected} (check --dims, --dtype and --header-bytes)",
+            spec.dtype, spec.header_bytes
+        )));
+    }
+    let bytes = decode::read_file(ctx, path, expected)?;
+    let body = decode::take_data(
+        ctx,
+        &bytes[spec.header_bytes as usize..],
+        Compression::None,
+        need,
+        "sample data",
+    )?;
+    decode::decode(ctx, lattice, spec.dtype, spec.big_endian, &body)
+}

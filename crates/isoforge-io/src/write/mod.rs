@@ -1,0 +1,11 @@
+//! Mesh writers: PLY (binary or ASCII), OBJ, binary STL, OFF. All go through
+//! [`write_atomic`](crate::write_atomic): a failed write leaves no file.
+
+#[cfg(feature = "obj")]
+pub mod obj;
+#[cfg(feature = "off")]
+pub mod off;
+#[cfg(feature = "ply")]
+pub mod ply;
+#[cfg(feature = "stl")]
+pub mod stl;

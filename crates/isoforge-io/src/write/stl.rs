@@ -1,0 +1,42 @@
+//! Binary STL writer (facet normals from the triangle's winding).
+
+use std::io::{self, Write};
+
+use isoforge::mesh::Mesh;
+
+/// Writes `mesh` as binary STL.
+pub fn write_stl(w: &mut dyn Write, mesh: &Mesh) -> io::Result<()> {
+    let n = u32::try_from(mesh.triangles.len())
+        .map_err(|_| io::Error::other("more triangles than binary STL can count"))?;
+    let mut header = [0u8; 80];
+    let tag = format!("isoforge {} binary STL", env!("CARGO_PKG_VERSION"));
+    header[..tag.len()].copy_from_slice(tag.as_bytes());
+    w.write_all(&header)?;
+    w.write_all(&n.to_le_bytes())?;
+    let mut buf = Vec::with_capacity(50 * 1024);
+    for t in &mesh.triangles {
+        let [a, b, c] = t.map(|v| mesh.positions[v as usize]);
+        let u = [b[0] - a[0], b[1] - a[1], b[2] - a[2]];
+        let v = [c[0] - a[0], c[1] - a[1], c[2] - a[2]];
+        let mut nrm = [
+            u[1] * v[2] - u[2] * v[1],
+            u[2] * v[0] - u[0] * v[2],
+            u[0] * v[1] - u[1] * v[0],
+        ];
+        let len = (nrm[0] * nrm[0] + nrm[1] * nrm[1] + nrm[2] * nrm[2]).sqrt();
+        if len > 0.0 {
+            nrm = nrm.map(|x| x / len);
+        }
+        for p in [nrm, a, b, c] {
+            for x in p {
+                buf.extend_from_slice(&x.to_le_bytes());
+            }
+        }
+        buf.extend_from_slice(&[0, 0]);
+        if buf.len() >= 50 * 1000 {
+            w.write_all(&buf)?;
+            buf.clear();
+        }
+    }
+    w.write_all(&buf)
+}
