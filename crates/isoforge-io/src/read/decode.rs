@@ -77,13 +77,19 @@ pub(crate) fn take_data<'a>(
         }
         Compression::Gzip | Compression::Zlib => {
             let mut out = Vec::with_capacity(expected);
-            let reader: Box<dyn Read> = match compression {
+            let mut reader: Box<dyn Read> = match compression {
                 Compression::Gzip => Box::new(flate2::read::MultiGzDecoder::new(data)),
                 _ => Box::new(flate2::read::ZlibDecoder::new(data)),
             };
-            let got = reader.take(expected as u64).read_to_end(&mut out);
+            let got = reader.by_ref().take(expected as u64).read_to_end(&mut out);
+            // One more read makes the decoder reach the stream's end and verify its checksum,
+            // so a file cut inside the trailer is reported too.
+            let tail = reader.read(&mut [0u8; 1]);
             match got {
-                Ok(n) if n == expected => Ok(Cow::Owned(out)),
+                Ok(n) if n == expected => match tail {
+                    Ok(_) => Ok(Cow::Owned(out)),
+                    Err(e) => Err(ctx.bad(format!("{what}: the compressed stream is cut or corrupt after its {expected} bytes: {e}"))),
+                },
                 Ok(n) => Err(short(n)),
                 Err(e) => Err(ctx.bad(format!(
                     "{what}: corrupt {} stream after {} bytes: {e}",

@@ -141,14 +141,15 @@ impl Header {
     fn parse(ctx: Ctx, head: &[u8]) -> Result<Header> {
         debug_assert!(head.len() >= HEADER_SIZE);
         let le = i32::from_le_bytes([head[0], head[1], head[2], head[3]]);
-        let big =
-            match le {
-                348 => false,
-                _ if i32::from_be_bytes([head[0], head[1], head[2], head[3]]) == 348 => true,
-                _ => return Err(ctx.bad(format!(
+        let big = match le {
+            348 => false,
+            _ if i32::from_be_bytes([head[0], head[1], head[2], head[3]]) == 348 => true,
+            _ => {
+                return Err(ctx.bad(format!(
                     "sizeof_hdr is {le}, not 348: not a NIfTI-1 file (NIfTI-2 is not supported)"
-                ))),
-            };
+                )))
+            }
+        };
         let b = Bytes { b: head, big };
         let magic = &head[344..348];
         let magic_pair = match magic {

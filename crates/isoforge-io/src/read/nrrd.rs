@@ -234,15 +234,16 @@ impl Header {
                     })?);
                 }
                 "encoding" => {
-                    encoding =
-                        Some(match value.to_ascii_lowercase().as_str() {
-                            "raw" => Encoding::Raw,
-                            "gzip" | "gz" => Encoding::Gzip,
-                            "ascii" | "text" | "txt" => Encoding::Ascii,
-                            other => return Err(ctx.unsupported(format!(
+                    encoding = Some(match value.to_ascii_lowercase().as_str() {
+                        "raw" => Encoding::Raw,
+                        "gzip" | "gz" => Encoding::Gzip,
+                        "ascii" | "text" | "txt" => Encoding::Ascii,
+                        other => {
+                            return Err(ctx.unsupported(format!(
                                 "line {no}: encoding {other:?} is not supported (raw, gzip, ascii)"
-                            ))),
-                        });
+                            )))
+                        }
+                    });
                 }
                 "endian" => {
                     endian = Some(match value {

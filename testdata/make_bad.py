@@ -1,0 +1,122 @@
+#!/usr/bin/env python3
+"""Writes the must-fail corpus testdata/bad/: every file here must make its reader return an
+error (crates/isoforge-io/tests/bad_input.rs). Each name says what is wrong. Standard library only."""
+import gzip
+import os
+import struct
+
+HERE = os.path.join(os.path.dirname(os.path.abspath(__file__)), "bad")
+
+
+def w(name, data):
+    with open(os.path.join(HERE, name), "wb") as f:
+        f.write(data if isinstance(data, bytes) else data.encode())
+
+
+def nrrd(fields, body=b""):
+    return ("NRRD0004\n" + "".join(f"{k}: {v}\n" for k, v in fields) + "\n").encode() + body
+
+
+BASE = [("type", "uint8"), ("dimension", "3"), ("sizes", "4 4 4"), ("encoding", "raw")]
+
+
+def nifti(dims=(4, 4, 4), datatype=2, bitpix=8, sizeof=348, magic=b"n+1\0", vox=352.0, data=None):
+    h = bytearray(348)
+    struct.pack_into("<i", h, 0, sizeof)
+    dim = [3, *dims, 1, 1, 1, 1][:8]
+    if len(dims) > 3:
+        dim = [len(dims), *dims] + [1] * (7 - len(dims))
+    struct.pack_into("<8h", h, 40, *dim)
+    struct.pack_into("<hh", h, 70, datatype, bitpix)
+    struct.pack_into("<8f", h, 76, 1, 1, 1, 1, 1, 1, 1, 1)
+    struct.pack_into("<f", h, 108, vox)
+    h[344:348] = magic
+    n = 1
+    for d in dims:
+        n *= max(d, 0)
+    body = data if data is not None else bytes(n * max(bitpix // 8, 1))
+    return bytes(h) + b"\0\0\0\0" + body
+
+
+def main():
+    os.makedirs(HERE, exist_ok=True)
+    # NRRD
+    w("nrrd_bad_magic.nrrd", b"NRRX0004\n" + nrrd(BASE, bytes(64))[9:])
+    w("nrrd_negative_size.nrrd", nrrd([("type", "uint8"), ("dimension", "3"), ("sizes", "512 512 -3"), ("encoding", "raw")], bytes(64)))
+    w("nrrd_unknown_type.nrrd", nrrd([("type", "complex128"), ("dimension", "3"), ("sizes", "4 4 4"), ("encoding", "raw")], bytes(64)))
+    w("nrrd_truncated_raw.nrrd", nrrd(BASE, bytes(10)))
+    w("nrrd_truncated_gzip.nrrd", nrrd(BASE[:3] + [("encoding", "gzip")], gzip.compress(bytes(64))[:20]))
+    w("nrrd_corrupt_gzip.nrrd", nrrd(BASE[:3] + [("encoding", "gzip")], b"\x1f\x8b\x08\x00garbagegarbagegarbage"))
+    w("nrrd_huge_sizes.nrrd", nrrd([("type", "float"), ("dimension", "3"), ("sizes", "100000 100000 100000"), ("encoding", "raw"), ("endian", "little")]))
+    w("nrrd_overflow_sizes.nrrd", nrrd([("type", "double"), ("dimension", "3"), ("sizes", "4294967295 4294967295 4294967295"), ("encoding", "raw"), ("endian", "little")]))
+    w("nrrd_nan.nrrd", nrrd([("type", "float"), ("dimension", "3"), ("sizes", "2 2 2"), ("encoding", "raw"), ("endian", "little")],
+                            struct.pack("<8f", 0, 1, 2, float("nan"), 4, 5, 6, 7)))
+    w("nrrd_inf.nrrd", nrrd([("type", "double"), ("dimension", "3"), ("sizes", "2 2 2"), ("encoding", "raw"), ("endian", "little")],
+                            struct.pack("<8d", 0, 1, 2, 3, 4, 5, 6, float("inf"))))
+    w("nrrd_missing_endian.nrrd", nrrd([("type", "short"), ("dimension", "3"), ("sizes", "2 2 2"), ("encoding", "raw")], bytes(16)))
+    w("nrrd_dimension_4.nrrd", nrrd([("type", "uint8"), ("dimension", "4"), ("sizes", "2 2 2 2"), ("encoding", "raw")], bytes(16)))
+    w("nrrd_bzip2.nrrd", nrrd(BASE[:3] + [("encoding", "bzip2")], bytes(64)))
+    w("nrrd_missing_data_file.nhdr", nrrd(BASE + [("data file", "does_not_exist.raw")]))
+    w("nrrd_bad_space_directions.nrrd", nrrd(BASE + [("space directions", "(1,0,0) (0,1) (0,0,1)")], bytes(64)))
+    w("nrrd_zero_direction.nrrd", nrrd(BASE + [("space directions", "(1,0,0) (0,0,0) (0,0,1)")], bytes(64)))
+    w("nrrd_sheared.nrrd", nrrd(BASE + [("space directions", "(1,0,0) (1,1,0) (0,0,1)")], bytes(64)))
+    w("nrrd_no_sizes.nrrd", nrrd([("type", "uint8"), ("dimension", "3"), ("encoding", "raw")], bytes(64)))
+    w("nrrd_sizes_mismatch.nrrd", nrrd([("type", "uint8"), ("dimension", "3"), ("sizes", "4 4"), ("encoding", "raw")], bytes(64)))
+    w("nrrd_bad_ascii.nrrd", nrrd(BASE[:3] + [("encoding", "ascii")], b"1 2 3 x 5"))
+    w("nrrd_short_ascii.nrrd", nrrd(BASE[:3] + [("encoding", "ascii")], b"1 2 3"))
+    w("nrrd_not_text.nrrd", b"NRRD0004\n\xff\xfe\xfd: \x80\n\n")
+    w("nrrd_empty.nrrd", b"")
+    # NIfTI-1
+    w("nifti_short.nii", bytes(100))
+    w("nifti_bad_sizeof.nii", nifti(sizeof=540))
+    w("nifti_bad_magic.nii", nifti(magic=b"xyz\0"))
+    w("nifti_complex_datatype.nii", nifti(datatype=32, bitpix=64))
+    w("nifti_bitpix_mismatch.nii", nifti(datatype=4, bitpix=8))
+    w("nifti_negative_dim.nii", nifti(dims=(4, -4, 4)))
+    w("nifti_time_series.nii", nifti(dims=(4, 4, 4, 5)))
+    w("nifti_truncated_data.nii", nifti(data=bytes(10)))
+    w("nifti_huge.nii", nifti(dims=(32767, 32767, 32767), datatype=64, bitpix=64, data=b""))
+    w("nifti_vox_offset_past_end.nii", nifti(vox=1e9))
+    z = gzip.compress(nifti())
+    w("nifti_truncated.nii.gz", z[: len(z) - 9])  # cut inside the CRC trailer
+    w("nifti_truncated_header.nii.gz", z[:20])
+    w("nifti_nan.nii", nifti(dims=(2, 2, 2), datatype=16, bitpix=32, data=struct.pack("<8f", 0, 1, float("nan"), 3, 4, 5, 6, 7)))
+    # MetaImage
+    mha = "ObjectType = Image\nNDims = 3\nDimSize = 4 4 4\nElementType = MET_UCHAR\n"
+    w("mha_no_data_file.mha", mha)
+    w("mha_unknown_type.mha", mha.replace("MET_UCHAR", "MET_ULONG_LONG") + "ElementDataFile = LOCAL\n" + "\0" * 512)
+    w("mha_truncated.mha", mha + "ElementDataFile = LOCAL\n" + "\0" * 10)
+    w("mha_channels.mha", mha + "ElementNumberOfChannels = 3\nElementDataFile = LOCAL\n" + "\0" * 192)
+    w("mha_bad_dimsize.mha", mha.replace("4 4 4", "4 four 4") + "ElementDataFile = LOCAL\n" + "\0" * 64)
+    w("mha_corrupt_zlib.mha", mha + "CompressedData = True\nElementDataFile = LOCAL\n" + "xxxxxxxx")
+    w("mha_missing_external.mhd", mha + "ElementDataFile = nowhere.raw\n")
+    w("mha_bad_spacing.mha", mha + "ElementSpacing = 1 0 1\nElementDataFile = LOCAL\n" + "\0" * 64)
+    w("mha_no_equals.mha", "ObjectType Image\n")
+    # Meshes
+    w("ply_bad_magic.ply", "plx\nformat ascii 1.0\nend_header\n")
+    w("ply_no_end_header.ply", "ply\nformat ascii 1.0\nelement vertex 3\n")
+    w("ply_index_out_of_range.ply", "ply\nformat ascii 1.0\nelement vertex 3\nproperty float x\nproperty float y\nproperty float z\n"
+      "element face 1\nproperty list uchar int vertex_indices\nend_header\n0 0 0\n1 0 0\n0 1 0\n3 0 1 7\n")
+    w("ply_truncated_binary.ply", b"ply\nformat binary_little_endian 1.0\nelement vertex 3\nproperty float x\nproperty float y\nproperty float z\n"
+      b"element face 1\nproperty list uchar int vertex_indices\nend_header\n" + bytes(20))
+    w("ply_huge_count.ply", "ply\nformat binary_little_endian 1.0\nelement vertex 4000000000\nproperty float x\nproperty float y\nproperty float z\nend_header\n")
+    w("ply_missing_z.ply", "ply\nformat ascii 1.0\nelement vertex 1\nproperty float x\nproperty float y\nend_header\n0 0\n")
+    w("ply_nan_vertex.ply", "ply\nformat ascii 1.0\nelement vertex 1\nproperty float x\nproperty float y\nproperty float z\nend_header\n0 nan 0\n")
+    w("ply_two_vertex_face.ply", "ply\nformat ascii 1.0\nelement vertex 3\nproperty float x\nproperty float y\nproperty float z\n"
+      "element face 1\nproperty list uchar int vertex_indices\nend_header\n0 0 0\n1 0 0\n0 1 0\n2 0 1\n")
+    w("obj_index_zero.obj", "v 0 0 0\nv 1 0 0\nv 0 1 0\nf 0 1 2\n")
+    w("obj_index_past_end.obj", "v 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 4\n")
+    w("obj_bad_number.obj", "v 0 zero 0\n")
+    w("obj_two_vertex_face.obj", "v 0 0 0\nv 1 0 0\nf 1 2\n")
+    w("stl_short.stl", bytes(40))
+    w("stl_count_mismatch.stl", bytes(80) + struct.pack("<I", 5) + bytes(100))
+    w("stl_ascii_truncated.stl", "solid x\nfacet normal 0 0 1\nouter loop\nvertex 0 0 0\nvertex 1 0 0\n")
+    w("off_bad_magic.off", "OFX\n3 1 0\n")
+    w("off_counts_too_large.off", "OFF\n999999999 999999999 0\n0 0 0\n")
+    w("off_bad_index.off", "OFF\n3 1 0\n0 0 0\n1 0 0\n0 1 0\n3 0 1 3\n")
+    w("off_truncated.off", "OFF\n3 1 0\n0 0 0\n1 0 0\n")
+
+
+if __name__ == "__main__":
+    main()
+    print(len(os.listdir(HERE)), "files")
