@@ -46,8 +46,8 @@ impl RawSpec {
 /// [`Error::Limit`](crate::Error::Limit) when the dims exceed `limits`.
 pub fn read_raw(path: &Path, spec: &RawSpec, limits: &Limits) -> Result<AnyGrid> {
     let ctx = Ctx::new(path, "raw");
-    let lattice = decode::lattice(ctx, spec.dims, spec.spacing, spec.origin, None)?;
     let need = decode::sample_bytes(ctx, spec.dims, spec.dtype, limits)?;
+    let lattice = decode::lattice(ctx, spec.dims, spec.spacing, spec.origin, None)?;
     let len = std::fs::metadata(path).map_err(|e| ctx.io(e))?.len();
     let expected = spec.header_bytes.saturating_add(need as u64);
     if len != expected {

@@ -46,10 +46,15 @@ impl Lattice {
                 dims[0], dims[1], dims[2]
             )));
         }
-        let n = (dims[0] as u64)
+        let Some(n) = (dims[0] as u64)
             .checked_mul(dims[1] as u64)
             .and_then(|n| n.checked_mul(dims[2] as u64))
-            .unwrap_or(u64::MAX);
+        else {
+            return Err(Error::InvalidInput(format!(
+                "lattice dims {}x{}x{}: the point count overflows 64 bits",
+                dims[0], dims[1], dims[2]
+            )));
+        };
         if n > Self::MAX_POINTS {
             return Err(Error::Limit {
                 what: "lattice points",
