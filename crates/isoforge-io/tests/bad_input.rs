@@ -113,7 +113,7 @@ fn every_prefix_of_a_valid_file_errors_or_reads() {
 fn config() -> Config {
     Config {
         cases: 400,
-        rng_seed: RngSeed::Fixed(0xbad_1e),
+        rng_seed: RngSeed::Fixed(0x000b_ad1e),
         failure_persistence: None,
         ..Config::default()
     }

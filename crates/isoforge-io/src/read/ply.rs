@@ -213,7 +213,7 @@ pub fn read_ply(path: &Path, limits: &Limits) -> Result<Mesh> {
                     }
                     Prop::List(c, it, name) => {
                         let n = src.scalar(*c, || format!("{} {idx} list length", el.name))?;
-                        if !(n >= 0.0 && n <= 1e6) {
+                        if !(0.0..=1e6).contains(&n) {
                             return Err(
                                 ctx.bad(format!("{} {idx}: list length {n} is not valid", el.name))
                             );

@@ -457,7 +457,7 @@ pub fn check_with(mesh: &Mesh, opts: &CheckOptions) -> MeshReport {
             k.genus = Some((2 - k.euler) / 2);
         }
     }
-    comps.sort_by(|a, b| b.triangles.cmp(&a.triangles));
+    comps.sort_by_key(|c| std::cmp::Reverse(c.triangles));
     let used_count = used.iter().filter(|&&u| u).count();
     MeshReport {
         vertices: nv,

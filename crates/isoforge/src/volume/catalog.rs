@@ -152,7 +152,7 @@ pub fn parse(spec: &str) -> Result<Builtin> {
             .map_or(default, |p| p.1)
     };
     let n = get("n", DEFAULT_POINTS as f64);
-    if !(n >= 2.0 && n <= 4096.0 && n.fract() == 0.0) {
+    if !((2.0..=4096.0).contains(&n) && n.fract() == 0.0) {
         return Err(Error::InvalidInput(format!(
             "field:{spec}: n={n} must be a whole number from 2 to 4096"
         )));
