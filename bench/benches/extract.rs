@@ -12,32 +12,18 @@ use isoforge::volume::{GridVolume, Iso};
 fn sample(n: u32, f: impl Fn(f32, f32, f32) -> f32) -> DenseGrid<f32> {
     let l = Lattice::spanning([n; 3], [-1.0; 3], [1.0; 3]).unwrap();
     let s = 2.0 / (n - 1) as f32;
-    DenseGrid::from_fn(l, |[i, j, k]| {
-        f(
-            -1.0 + i as f32 * s,
-            -1.0 + j as f32 * s,
-            -1.0 + k as f32 * s,
-        )
-    })
+    DenseGrid::from_fn(l, |[i, j, k]| f(-1.0 + i as f32 * s, -1.0 + j as f32 * s, -1.0 + k as f32 * s))
 }
 
 fn fields(n: u32) -> Vec<(&'static str, DenseGrid<f32>, f64)> {
     let tau = std::f32::consts::TAU;
     vec![
-        (
-            "sphere",
-            sample(n, |x, y, z| (x * x + y * y + z * z).sqrt() - 0.7),
-            0.0,
-        ),
+        ("sphere", sample(n, |x, y, z| (x * x + y * y + z * z).sqrt() - 0.7), 0.0),
         // 8 periods across the cube, like volumes.py.
         (
             "gyroid",
             sample(n, |x, y, z| {
-                let (x, y, z) = (
-                    x * 4.0 * tau / 2.0,
-                    y * 4.0 * tau / 2.0,
-                    z * 4.0 * tau / 2.0,
-                );
+                let (x, y, z) = (x * 4.0 * tau / 2.0, y * 4.0 * tau / 2.0, z * 4.0 * tau / 2.0);
                 x.sin() * y.cos() + y.sin() * z.cos() + z.sin() * x.cos()
             }),
             0.0,
@@ -45,15 +31,9 @@ fn fields(n: u32) -> Vec<(&'static str, DenseGrid<f32>, f64)> {
         (
             "metaballs",
             sample(n, |x, y, z| {
-                let c = [
-                    (-0.3f32, 0.0f32, 0.0f32, 1.0f32),
-                    (0.35, 0.2, 0.0, 0.8),
-                    (0.0, -0.3, 0.3, 0.6),
-                ];
+                let c = [(-0.3f32, 0.0f32, 0.0f32, 1.0f32), (0.35, 0.2, 0.0, 0.8), (0.0, -0.3, 0.3, 0.6)];
                 -c.iter()
-                    .map(|&(a, b, d, q)| {
-                        q / ((x - a).powi(2) + (y - b).powi(2) + (z - d).powi(2) + 1e-6)
-                    })
+                    .map(|&(a, b, d, q)| q / ((x - a).powi(2) + (y - b).powi(2) + (z - d).powi(2) + 1e-6))
                     .sum::<f32>()
             }),
             -12.0,
@@ -66,19 +46,10 @@ fn bench(c: &mut Criterion) {
     g.sample_size(10);
     for n in [128u32, 256] {
         for (name, grid, iso) in fields(n) {
-            for (label, normals) in [
-                ("normals", Normals::Gradient),
-                ("no-normals", Normals::None),
-            ] {
-                let opts = Options {
-                    normals,
-                    ..Default::default()
-                };
+            for (label, normals) in [("normals", Normals::Gradient), ("no-normals", Normals::None)] {
+                let opts = Options { normals, ..Default::default() };
                 let vol = GridVolume::new(&grid);
-                let tris = extract(&vol, Iso::below(iso), &opts)
-                    .unwrap()
-                    .mesh
-                    .num_triangles();
+                let tris = extract(&vol, Iso::below(iso), &opts).unwrap().mesh.num_triangles();
                 g.throughput(Throughput::Elements(u64::from(n).pow(3)));
                 g.bench_with_input(
                     BenchmarkId::new(format!("{name}-{n}-{label}"), format!("{tris}tris")),

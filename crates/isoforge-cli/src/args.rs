@@ -24,13 +24,20 @@ pub enum Command {
     Demo(DemoArgs),
 }
 
-/// Where the volume comes from.
+/// Where the volume comes from (`extract -i INPUT`).
 #[derive(Debug, ClapArgs)]
 pub struct InputArgs {
     /// Volume file (.nrrd .nhdr .nii .nii.gz .mha .mhd, or raw with --dims/--dtype) or a
     /// built-in field such as `field:gyroid?n=128` (fields: sphere torus box gyroid metaballs lines height).
     #[arg(short = 'i', long = "input", value_name = "INPUT")]
     pub input: String,
+    #[command(flatten)]
+    pub layout: LayoutArgs,
+}
+
+/// How to read the input: the layout of raw files, and the allocation limit.
+#[derive(Debug, Clone, ClapArgs)]
+pub struct LayoutArgs {
     /// Raw input: points per axis, x fastest.
     #[arg(long, value_name = "X,Y,Z")]
     pub dims: Option<String>,
@@ -92,20 +99,8 @@ pub struct InfoArgs {
     /// Volume file or built-in field (as for `extract -i`).
     #[arg(value_name = "INPUT")]
     pub input: String,
-    #[arg(long, value_name = "X,Y,Z")]
-    pub dims: Option<String>,
-    #[arg(long, value_name = "TYPE")]
-    pub dtype: Option<String>,
-    #[arg(long, value_name = "little|big")]
-    pub endian: Option<String>,
-    #[arg(long, value_name = "N")]
-    pub header_bytes: Option<u64>,
-    #[arg(long, value_name = "SX,SY,SZ")]
-    pub spacing: Option<String>,
-    #[arg(long, value_name = "OX,OY,OZ")]
-    pub origin: Option<String>,
-    #[arg(long, value_name = "BYTES")]
-    pub max_bytes: Option<String>,
+    #[command(flatten)]
+    pub layout: LayoutArgs,
     /// Print JSON instead of text.
     #[arg(long)]
     pub json: bool,
@@ -145,15 +140,6 @@ pub struct DemoArgs {
 impl InfoArgs {
     /// The input options in the shape `extract` uses.
     pub fn input_args(&self) -> InputArgs {
-        InputArgs {
-            input: self.input.clone(),
-            dims: self.dims.clone(),
-            dtype: self.dtype.clone(),
-            endian: self.endian.clone(),
-            header_bytes: self.header_bytes,
-            spacing: self.spacing.clone(),
-            origin: self.origin.clone(),
-            max_bytes: self.max_bytes.clone(),
-        }
+        InputArgs { input: self.input.clone(), layout: self.layout.clone() }
     }
 }

@@ -56,18 +56,9 @@ pub struct DemoConfig {
 fn triplet<T: std::str::FromStr>(flag: &str, s: &str) -> Result<[T; 3]> {
     let v: Vec<T> = s
         .split(',')
-        .map(|t| {
-            t.trim()
-                .parse::<T>()
-                .map_err(|_| anyhow!("--{flag} {s:?}: {t:?} is not a valid number"))
-        })
+        .map(|t| t.trim().parse::<T>().map_err(|_| anyhow!("--{flag} {s:?}: {t:?} is not a valid number")))
         .collect::<Result<_>>()?;
-    v.try_into().map_err(|v: Vec<T>| {
-        anyhow!(
-            "--{flag} {s:?}: needs 3 comma-separated values, got {}",
-            v.len()
-        )
-    })
+    v.try_into().map_err(|v: Vec<T>| anyhow!("--{flag} {s:?}: needs 3 comma-separated values, got {}", v.len()))
 }
 
 fn bytes(s: &str) -> Result<u64> {
@@ -87,12 +78,8 @@ fn bytes(s: &str) -> Result<u64> {
         }
         None => (t, 1),
     };
-    let n: u64 = num
-        .trim()
-        .parse()
-        .map_err(|_| anyhow!("--max-bytes {s:?}: not a whole number of bytes"))?;
-    n.checked_mul(mult)
-        .ok_or_else(|| anyhow!("--max-bytes {s:?}: too large"))
+    let n: u64 = num.trim().parse().map_err(|_| anyhow!("--max-bytes {s:?}: not a whole number of bytes"))?;
+    n.checked_mul(mult).ok_or_else(|| anyhow!("--max-bytes {s:?}: too large"))
 }
 
 fn limits(max_bytes: Option<&str>) -> Result<Limits> {
@@ -103,28 +90,19 @@ fn limits(max_bytes: Option<&str>) -> Result<Limits> {
 }
 
 impl InputConfig {
-    pub fn from_args(a: &InputArgs) -> Result<Self> {
+    pub fn from_args(args: &InputArgs) -> Result<Self> {
+        let a = &args.layout;
         let limits = limits(a.max_bytes.as_deref())?;
-        if let Some(spec) = a.input.strip_prefix("field:") {
+        if let Some(spec) = args.input.strip_prefix("field:") {
             if a.dims.is_some() || a.dtype.is_some() {
-                bail!(
-                    "--dims/--dtype describe raw files; {} is a built-in field",
-                    a.input
-                );
+                bail!("--dims/--dtype describe raw files; {} is a built-in field", args.input);
             }
-            return Ok(InputConfig {
-                source: Source::Field(catalog::parse(spec)?),
-                limits,
-            });
+            return Ok(InputConfig { source: Source::Field(catalog::parse(spec)?), limits });
         }
-        let path = PathBuf::from(&a.input);
+        let path = PathBuf::from(&args.input);
         let raw = match (&a.dims, &a.dtype) {
             (None, None) => {
-                if a.endian.is_some()
-                    || a.header_bytes.is_some()
-                    || a.spacing.is_some()
-                    || a.origin.is_some()
-                {
+                if a.endian.is_some() || a.header_bytes.is_some() || a.spacing.is_some() || a.origin.is_some() {
                     bail!("--endian, --header-bytes, --spacing and --origin describe raw files; pass --dims and --dtype too");
                 }
                 None
@@ -134,9 +112,8 @@ impl InputConfig {
                 if dims.contains(&0) {
                     bail!("--dims {d:?}: every dimension must be at least 1");
                 }
-                let dtype = DType::parse(t).ok_or_else(|| {
-                    anyhow!("--dtype {t:?}: unknown sample type (u8 i8 u16 i16 u32 i32 f32 f64)")
-                })?;
+                let dtype = DType::parse(t)
+                    .ok_or_else(|| anyhow!("--dtype {t:?}: unknown sample type (u8 i8 u16 i16 u32 i32 f32 f64)"))?;
                 let mut spec = RawSpec::new(dims, dtype);
                 spec.big_endian = match a.endian.as_deref() {
                     None | Some("little") => false,
@@ -154,27 +131,24 @@ impl InputConfig {
             }
             _ => bail!("raw input needs both --dims and --dtype"),
         };
-        Ok(InputConfig {
-            source: Source::File { path, raw },
-            limits,
-        })
+        Ok(InputConfig { source: Source::File { path, raw }, limits })
     }
 }
 
 fn guarantees(list: &[String]) -> Result<Vec<Guarantee>> {
     list.iter()
         .filter(|s| !s.is_empty())
-        .map(|s| Guarantee::parse(s).ok_or_else(|| anyhow!("--require {s:?}: unknown guarantee (closed, manifold, oriented, watertight, no-degenerate)")))
+        .map(|s| {
+            Guarantee::parse(s).ok_or_else(|| {
+                anyhow!("--require {s:?}: unknown guarantee (closed, manifold, oriented, watertight, no-degenerate)")
+            })
+        })
         .collect()
 }
 
 pub fn output_format(path: &std::path::Path, ascii: bool) -> Result<MeshFormat> {
-    let f = MeshFormat::from_path(path).with_context(|| {
-        format!(
-            "{}: unknown output format (use .ply, .obj, .stl or .off)",
-            path.display()
-        )
-    })?;
+    let f = MeshFormat::from_path(path)
+        .with_context(|| format!("{}: unknown output format (use .ply, .obj, .stl or .off)", path.display()))?;
     Ok(match (f, ascii) {
         (MeshFormat::Ply, true) => MeshFormat::PlyAscii,
         (_, true) => bail!("--ascii applies to PLY output only"),
@@ -188,10 +162,7 @@ impl ExtractConfig {
         let format = output_format(&a.output, a.ascii)?;
         let iso = match &a.iso {
             Some(s) => {
-                let v: f64 = s
-                    .trim()
-                    .parse()
-                    .map_err(|_| anyhow!("--iso {s:?}: not a number"))?;
+                let v: f64 = s.trim().parse().map_err(|_| anyhow!("--iso {s:?}: not a number"))?;
                 if !v.is_finite() {
                     bail!("--iso {s:?}: must be a finite number");
                 }
@@ -200,10 +171,7 @@ impl ExtractConfig {
             None => None,
         };
         if iso.is_none() && matches!(input.source, Source::File { .. }) {
-            bail!(
-                "--iso is required for volume files (see `isoforge info {}` for a suggestion)",
-                a.input.input
-            );
+            bail!("--iso is required for volume files (see `isoforge info {}` for a suggestion)", a.input.input);
         }
         let inside = match a.inside.as_deref() {
             None => None,
@@ -213,11 +181,7 @@ impl ExtractConfig {
         };
         let method = Method::parse(&a.method).ok_or_else(|| {
             let names: Vec<&str> = Method::ALL.iter().map(|m| m.name()).collect();
-            anyhow!(
-                "--method {:?}: unknown method (available: {})",
-                a.method,
-                names.join(", ")
-            )
+            anyhow!("--method {:?}: unknown method (available: {})", a.method, names.join(", "))
         })?;
         let normals = match a.normals.as_str() {
             "gradient" => Normals::Gradient,
@@ -261,11 +225,7 @@ impl DemoConfig {
             bail!("--n {}: must be from 2 to 1024", a.n);
         }
         output_format(&a.output, false)?;
-        Ok(DemoConfig {
-            output: a.output.clone(),
-            n: a.n,
-            json: a.json,
-        })
+        Ok(DemoConfig { output: a.output.clone(), n: a.n, json: a.json })
     }
 }
 

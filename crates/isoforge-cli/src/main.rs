@@ -28,9 +28,7 @@ fn main() -> ExitCode {
     };
     let result = match &args.command {
         Command::Extract(a) => config::ExtractConfig::from_args(a).and_then(|c| run::extract(&c)),
-        Command::Info(a) => {
-            config::InputConfig::from_args(&a.input_args()).and_then(|c| run::info(&c, a.json))
-        }
+        Command::Info(a) => config::InputConfig::from_args(&a.input_args()).and_then(|c| run::info(&c, a.json)),
         Command::Check(a) => config::CheckConfig::from_args(a).and_then(|c| run::check(&c)),
         Command::Demo(a) => config::DemoConfig::from_args(a).and_then(|c| run::demo(&c)),
     };
@@ -40,8 +38,7 @@ fn main() -> ExitCode {
         Ok(Outcome::CheckFailed) => ExitCode::from(1),
         Err(e) => {
             if e.chain().any(|c| {
-                c.downcast_ref::<std::io::Error>()
-                    .is_some_and(|io| io.kind() == std::io::ErrorKind::BrokenPipe)
+                c.downcast_ref::<std::io::Error>().is_some_and(|io| io.kind() == std::io::ErrorKind::BrokenPipe)
             }) {
                 return ExitCode::SUCCESS;
             }

@@ -20,18 +20,11 @@ pub struct Bar {
 impl Bar {
     pub fn new(message: &'static str) -> Self {
         let bar = ProgressBar::with_draw_target(Some(0), ProgressDrawTarget::hidden());
-        if let Ok(style) =
-            ProgressStyle::with_template("{msg} [{bar:40}] {percent}% ({elapsed}, eta {eta})")
-        {
+        if let Ok(style) = ProgressStyle::with_template("{msg} [{bar:40}] {percent}% ({elapsed}, eta {eta})") {
             bar.set_style(style.progress_chars("=> "));
         }
         bar.set_message(message);
-        Bar {
-            bar,
-            start: Instant::now(),
-            shown: AtomicBool::new(false),
-            enabled: std::io::stderr().is_terminal(),
-        }
+        Bar { bar, start: Instant::now(), shown: AtomicBool::new(false), enabled: std::io::stderr().is_terminal() }
     }
 
     pub fn finish(&self) {

@@ -59,10 +59,7 @@ pub fn mesh_text(r: &MeshReport) -> String {
         s.push_str(&l);
         s.push('\n');
     };
-    line(format!(
-        "mesh:        {} vertices, {} triangles, {} edges",
-        r.vertices, r.triangles, r.edges
-    ));
+    line(format!("mesh:        {} vertices, {} triangles, {} edges", r.vertices, r.triangles, r.edges));
     line(format!(
         "closed: {}   manifold: {}   oriented: {}",
         yes(r.is_closed()),
@@ -70,16 +67,8 @@ pub fn mesh_text(r: &MeshReport) -> String {
         yes(r.is_oriented())
     ));
     let genus = r.genus().map_or("-".to_string(), |g| g.to_string());
-    line(format!(
-        "components:  {}   euler characteristic: {}   genus: {}",
-        r.components.len(),
-        r.euler,
-        genus
-    ));
-    line(format!(
-        "area:        {:.6}   enclosed volume: {:.6}",
-        r.area, r.volume
-    ));
+    line(format!("components:  {}   euler characteristic: {}   genus: {}", r.components.len(), r.euler, genus));
+    line(format!("area:        {:.6}   enclosed volume: {:.6}", r.area, r.volume));
     if !r.bounds.is_empty() {
         let (a, b) = (r.bounds.min, r.bounds.max);
         line(format!(
@@ -113,17 +102,9 @@ pub fn mesh_text(r: &MeshReport) -> String {
         }
     }
     if r.duplicate_triangles.count > 0 {
-        let ex: Vec<String> = r
-            .duplicate_triangles
-            .examples
-            .iter()
-            .map(|p| format!("triangles {} and {}", p[0], p[1]))
-            .collect();
-        line(format!(
-            "duplicate triangles: {} (e.g. {})",
-            r.duplicate_triangles.count,
-            ex.join(", ")
-        ));
+        let ex: Vec<String> =
+            r.duplicate_triangles.examples.iter().map(|p| format!("triangles {} and {}", p[0], p[1])).collect();
+        line(format!("duplicate triangles: {} (e.g. {})", r.duplicate_triangles.count, ex.join(", ")));
     }
     s
 }

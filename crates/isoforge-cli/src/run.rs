@@ -32,17 +32,10 @@ pub enum Loaded {
 pub fn load(input: &InputConfig) -> Result<Loaded> {
     match &input.source {
         Source::Field(b) => Ok(Loaded::Field(b.clone())),
-        Source::File {
-            path,
-            raw: Some(spec),
-        } => Ok(Loaded::Grid(isoforge_io::read::raw::read_raw(
-            path,
-            spec,
-            &input.limits,
-        )?)),
-        Source::File { path, raw: None } => {
-            Ok(Loaded::Grid(isoforge_io::read_volume(path, &input.limits)?))
+        Source::File { path, raw: Some(spec) } => {
+            Ok(Loaded::Grid(isoforge_io::read::raw::read_raw(path, spec, &input.limits)?))
         }
+        Source::File { path, raw: None } => Ok(Loaded::Grid(isoforge_io::read_volume(path, &input.limits)?)),
     }
 }
 
@@ -54,11 +47,17 @@ fn input_name(input: &InputConfig) -> String {
 }
 
 fn failed(report: &MeshReport, require: &[Guarantee]) -> Vec<&'static str> {
-    require
-        .iter()
-        .filter(|g| !report.holds(**g))
-        .map(|g| g.name())
-        .collect()
+    require.iter().filter(|g| !report.holds(**g)).map(|g| g.name()).collect()
+}
+
+/// Success when every required guarantee holds; otherwise names the failures on stderr.
+fn verdict(mesh: &Path, report: &MeshReport, require: &[Guarantee]) -> Outcome {
+    let bad = failed(report, require);
+    if bad.is_empty() {
+        return Outcome::Success;
+    }
+    eprintln!("{}: required but failed: {}", mesh.display(), bad.join(", "));
+    Outcome::CheckFailed
 }
 
 pub fn extract(c: &ExtractConfig) -> Result<Outcome> {
@@ -68,14 +67,9 @@ pub fn extract(c: &ExtractConfig) -> Result<Outcome> {
         Loaded::Field(b) => b.iso,
         Loaded::Grid(_) => Iso::below(0.0),
     };
-    let iso = Iso {
-        value: c.iso.unwrap_or(default_iso.value),
-        inside: c.inside.unwrap_or(default_iso.inside),
-    };
+    let iso = Iso { value: c.iso.unwrap_or(default_iso.value), inside: c.inside.unwrap_or(default_iso.inside) };
     if let Loaded::Grid(g) = &loaded {
-        let r = g
-            .value_range()
-            .ok_or_else(|| anyhow!("{name}: the volume has no samples"))?;
+        let r = g.value_range().ok_or_else(|| anyhow!("{name}: the volume has no samples"))?;
         if iso.value < r.min || iso.value > r.max {
             bail!(
                 "{name}: iso {} is outside the value range [{}, {}] (see `isoforge info {name}`)",
@@ -95,24 +89,17 @@ pub fn extract(c: &ExtractConfig) -> Result<Outcome> {
     bar.finish();
     let s = out.stats;
     if s.cells > 0 && (s.cells_outside == s.cells || s.cells_inside == s.cells) {
-        let side = if s.cells_outside == s.cells {
-            "outside"
-        } else {
-            "inside"
-        };
+        let side = if s.cells_outside == s.cells { "outside" } else { "inside" };
         bail!(
             "{name}: iso {} gives no surface: every lattice point is {side} (inside is {} iso)",
             iso.value,
-            if iso.inside == Inside::Below {
-                "below"
-            } else {
-                "above"
-            }
+            if iso.inside == Inside::Below { "below" } else { "above" }
         );
     }
     isoforge_io::write_mesh(&c.output, &out.mesh, c.format)?;
     if let Some(t) = &c.time_json {
-        let body = json!({ "seconds": seconds, "vertices": out.mesh.num_vertices(), "triangles": out.mesh.num_triangles() });
+        let body =
+            json!({ "seconds": seconds, "vertices": out.mesh.num_vertices(), "triangles": out.mesh.num_triangles() });
         isoforge_io::write_atomic(t, |w| w.write_all(body.to_string().as_bytes()))?;
     }
     eprintln!(
@@ -129,17 +116,7 @@ pub fn extract(c: &ExtractConfig) -> Result<Outcome> {
     }
     let rep = topo::check(&out.mesh);
     print!("{}", report::mesh_text(&rep));
-    let bad = failed(&rep, &c.require);
-    if bad.is_empty() {
-        Ok(Outcome::Success)
-    } else {
-        eprintln!(
-            "{}: required but failed: {}",
-            c.output.display(),
-            bad.join(", ")
-        );
-        Ok(Outcome::CheckFailed)
-    }
+    Ok(verdict(&c.output, &rep, &c.require))
 }
 
 pub fn info(input: &InputConfig, json_out: bool) -> Result<Outcome> {
@@ -164,19 +141,14 @@ pub fn info(input: &InputConfig, json_out: bool) -> Result<Outcome> {
         Loaded::Grid(g) => Histogram::of(g, 256),
         Loaded::Field(b) => {
             v["default_iso"] = json!(b.iso.value);
-            v["inside"] = json!(if b.iso.inside == Inside::Below {
-                "below"
-            } else {
-                "above"
-            });
+            v["inside"] = json!(if b.iso.inside == Inside::Below { "below" } else { "above" });
             None
         }
     };
     if let Some(h) = &hist {
         v["value_range"] = json!([h.min, h.max]);
         v["mean"] = json!(h.mean);
-        v["percentiles"] =
-            json!({ "p1": h.quantile(0.01), "p50": h.quantile(0.5), "p99": h.quantile(0.99) });
+        v["percentiles"] = json!({ "p1": h.quantile(0.01), "p50": h.quantile(0.5), "p99": h.quantile(0.99) });
         v["suggested_iso_otsu"] = json!(h.otsu());
     }
     if json_out {
@@ -187,66 +159,31 @@ pub fn info(input: &InputConfig, json_out: bool) -> Result<Outcome> {
     let s = lattice.spacing();
     let o = lattice.origin();
     println!("input:       {name}");
-    println!(
-        "dims:        {} x {} x {} ({} points), {kind}",
-        d[0],
-        d[1],
-        d[2],
-        lattice.num_points()
-    );
+    println!("dims:        {} x {} x {} ({} points), {kind}", d[0], d[1], d[2], lattice.num_points());
     println!("spacing:     {} {} {}", s[0], s[1], s[2]);
     println!("origin:      {} {} {}", o[0], o[1], o[2]);
     if lattice.direction() != IDENTITY {
-        println!(
-            "direction:   {:?}{}",
-            lattice.direction(),
-            if lattice.is_mirrored() {
-                " (mirrored)"
-            } else {
-                ""
-            }
-        );
+        println!("direction:   {:?}{}", lattice.direction(), if lattice.is_mirrored() { " (mirrored)" } else { "" });
     }
-    println!(
-        "world:       ({:.4}, {:.4}, {:.4}) to ({:.4}, {:.4}, {:.4})",
-        lo[0], lo[1], lo[2], hi[0], hi[1], hi[2]
-    );
+    println!("world:       ({:.4}, {:.4}, {:.4}) to ({:.4}, {:.4}, {:.4})", lo[0], lo[1], lo[2], hi[0], hi[1], hi[2]);
     if let Loaded::Field(b) = &loaded {
         println!(
             "default iso: {} (inside {})",
             b.iso.value,
-            if b.iso.inside == Inside::Below {
-                "below"
-            } else {
-                "above"
-            }
+            if b.iso.inside == Inside::Below { "below" } else { "above" }
         );
     }
     if let Some(h) = &hist {
         println!("values:      {} to {}, mean {:.4}", h.min, h.max, h.mean);
-        println!(
-            "percentiles: 1% {:.4}   50% {:.4}   99% {:.4}",
-            h.quantile(0.01),
-            h.quantile(0.5),
-            h.quantile(0.99)
-        );
+        println!("percentiles: 1% {:.4}   50% {:.4}   99% {:.4}", h.quantile(0.01), h.quantile(0.5), h.quantile(0.99));
         println!("suggested iso (Otsu): {:.4}", h.otsu());
         println!("histogram (16 bins, log scale):");
         let coarse: Vec<u64> = h.counts.chunks(16).map(|c| c.iter().sum()).collect();
         let max = coarse.iter().copied().max().unwrap_or(1).max(1) as f64;
         let w = (h.max - h.min) / coarse.len() as f64;
         for (b, &c) in coarse.iter().enumerate() {
-            let bar = if c == 0 {
-                0
-            } else {
-                (1.0 + 39.0 * (c as f64).ln() / max.ln().max(1e-9)).round() as usize
-            };
-            println!(
-                "  {:>12.4} {:>12} {}",
-                h.min + b as f64 * w,
-                c,
-                "#".repeat(bar)
-            );
+            let bar = if c == 0 { 0 } else { (1.0 + 39.0 * (c as f64).ln() / max.ln().max(1e-9)).round() as usize };
+            println!("  {:>12.4} {:>12} {}", h.min + b as f64 * w, c, "#".repeat(bar));
         }
     }
     Ok(Outcome::Success)
@@ -254,13 +191,7 @@ pub fn info(input: &InputConfig, json_out: bool) -> Result<Outcome> {
 
 pub fn check(c: &CheckConfig) -> Result<Outcome> {
     let mesh = isoforge_io::read_mesh(&c.mesh, &c.limits)?;
-    let rep = topo::check_with(
-        &mesh,
-        &CheckOptions {
-            max_examples: c.examples,
-            lattice: None,
-        },
-    );
+    let rep = topo::check_with(&mesh, &CheckOptions { max_examples: c.examples, lattice: None });
     if c.json {
         let mut v = report::mesh_json(&rep);
         v["file"] = json!(c.mesh.display().to_string());
@@ -270,17 +201,7 @@ pub fn check(c: &CheckConfig) -> Result<Outcome> {
         println!("file:        {}", c.mesh.display());
         print!("{}", report::mesh_text(&rep));
     }
-    let bad = failed(&rep, &c.require);
-    if bad.is_empty() {
-        Ok(Outcome::Success)
-    } else {
-        eprintln!(
-            "{}: required but failed: {}",
-            c.mesh.display(),
-            bad.join(", ")
-        );
-        Ok(Outcome::CheckFailed)
-    }
+    Ok(verdict(&c.mesh, &rep, &c.require))
 }
 
 pub fn demo(c: &DemoConfig) -> Result<Outcome> {
@@ -289,8 +210,7 @@ pub fn demo(c: &DemoConfig) -> Result<Outcome> {
     let out = pipeline::extract_builtin(&b, b.iso, &Default::default(), None)?;
     let seconds = start.elapsed().as_secs_f64();
     let format = crate::config::output_format(&c.output, false)?;
-    isoforge_io::write_mesh(&c.output, &out.mesh, format)
-        .with_context(|| "writing the demo mesh")?;
+    isoforge_io::write_mesh(&c.output, &out.mesh, format).with_context(|| "writing the demo mesh")?;
     let rep = topo::check(&out.mesh);
     if c.json {
         let mut v = report::mesh_json(&rep);
@@ -298,18 +218,13 @@ pub fn demo(c: &DemoConfig) -> Result<Outcome> {
         v["seconds"] = json!(seconds);
         println!("{}", serde_json::to_string_pretty(&v)?);
     } else {
-        println!("isoforge demo: the classic three-metaball field (charges 0.5, 1, 1.5; iso 48) on a {0}x{0}x{0} lattice", c.n);
+        println!(
+            "isoforge demo: the classic three-metaball field (charges 0.5, 1, 1.5; iso 48) on a {0}x{0}x{0} lattice",
+            c.n
+        );
         println!("method:      marching cubes, extraction {:.3} s", seconds);
-        println!("output:      {}", display(&c.output));
+        println!("output:      {}", c.output.display());
         print!("{}", report::mesh_text(&rep));
     }
-    Ok(if rep.is_watertight() {
-        Outcome::Success
-    } else {
-        Outcome::CheckFailed
-    })
-}
-
-fn display(p: &Path) -> String {
-    p.display().to_string()
+    Ok(if rep.is_watertight() { Outcome::Success } else { Outcome::CheckFailed })
 }

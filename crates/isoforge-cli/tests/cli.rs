@@ -5,10 +5,7 @@ use std::path::{Path, PathBuf};
 use std::process::{Command, Output};
 
 fn isoforge(args: &[&str]) -> Output {
-    Command::new(env!("CARGO_BIN_EXE_isoforge"))
-        .args(args)
-        .output()
-        .expect("run isoforge")
+    Command::new(env!("CARGO_BIN_EXE_isoforge")).args(args).output().expect("run isoforge")
 }
 
 fn stderr(o: &Output) -> String {
@@ -28,15 +25,8 @@ fn fails(args: &[&str], needle: &str, out: &Path) {
     let o = isoforge(args);
     let err = stderr(&o);
     assert_eq!(o.status.code(), Some(2), "{args:?}: {err}");
-    assert!(
-        err.contains(needle),
-        "{args:?}: expected {needle:?} in {err:?}"
-    );
-    assert_eq!(
-        err.trim_end().lines().count(),
-        1,
-        "{args:?}: error is not one line: {err}"
-    );
+    assert!(err.contains(needle), "{args:?}: expected {needle:?} in {err:?}");
+    assert_eq!(err.trim_end().lines().count(), 1, "{args:?}: error is not one line: {err}");
     assert!(!out.exists(), "{args:?}: left {} behind", out.display());
     let leftovers: Vec<_> = std::fs::read_dir(out.parent().unwrap())
         .unwrap()
@@ -53,38 +43,24 @@ fn demo_writes_a_watertight_mesh() {
     let o = isoforge(&["demo", "-o", p(&out)]);
     assert_eq!(o.status.code(), Some(0), "{}", stderr(&o));
     let text = String::from_utf8_lossy(&o.stdout);
-    assert!(
-        text.contains("closed: yes   manifold: yes   oriented: yes"),
-        "{text}"
-    );
+    assert!(text.contains("closed: yes   manifold: yes   oriented: yes"), "{text}");
     assert!(out.exists());
     let c = isoforge(&["check", p(&out), "--require", "watertight,no-degenerate"]);
-    assert_eq!(
-        c.status.code(),
-        Some(0),
-        "{}",
-        String::from_utf8_lossy(&c.stdout)
-    );
+    assert_eq!(c.status.code(), Some(0), "{}", String::from_utf8_lossy(&c.stdout));
 }
 
 #[test]
 fn peer_contract_raw_f32_with_time_json() {
     // The exact command line of bench/peers: raw f32, voxel-index units, timing JSON.
     let dir = tempfile::tempdir().unwrap();
-    let (raw, out, t) = (
-        dir.path().join("v.raw"),
-        dir.path().join("o.ply"),
-        dir.path().join("t.json"),
-    );
+    let (raw, out, t) = (dir.path().join("v.raw"), dir.path().join("o.ply"), dir.path().join("t.json"));
     let n = 12u32;
     let mut bytes = Vec::new();
     for k in 0..n {
         for j in 0..n {
             for i in 0..n {
                 let d = [i, j, k].map(|x| x as f32 - 5.5);
-                bytes.extend_from_slice(
-                    &((d[0] * d[0] + d[1] * d[1] + d[2] * d[2]).sqrt() - 4.0).to_le_bytes(),
-                );
+                bytes.extend_from_slice(&((d[0] * d[0] + d[1] * d[1] + d[2] * d[2]).sqrt() - 4.0).to_le_bytes());
             }
         }
     }
@@ -119,10 +95,7 @@ fn peer_contract_raw_f32_with_time_json() {
     assert_eq!(c.status.code(), Some(0));
     let r: serde_json::Value = serde_json::from_slice(&c.stdout).unwrap();
     for a in 0..3 {
-        assert!(
-            r["bounds"]["min"][a].as_f64().unwrap() > 1.0
-                && r["bounds"]["max"][a].as_f64().unwrap() < 10.0
-        );
+        assert!(r["bounds"]["min"][a].as_f64().unwrap() > 1.0 && r["bounds"]["max"][a].as_f64().unwrap() < 10.0);
     }
     assert_eq!(r["genus"], 0);
 }
@@ -131,10 +104,7 @@ fn peer_contract_raw_f32_with_time_json() {
 fn isoforge_io_read(path: &Path) -> (usize, usize) {
     let c = isoforge(&["check", p(path), "--json"]);
     let r: serde_json::Value = serde_json::from_slice(&c.stdout).unwrap();
-    (
-        r["vertices"].as_u64().unwrap() as usize,
-        r["triangles"].as_u64().unwrap() as usize,
-    )
+    (r["vertices"].as_u64().unwrap() as usize, r["triangles"].as_u64().unwrap() as usize)
 }
 
 #[test]
@@ -143,120 +113,32 @@ fn bad_input_is_one_line_exit_2_and_no_output() {
     let out = dir.path().join("out.ply");
     let bad = testdata().join("bad");
     let o = p(&out);
+    fails(&["extract", "-i", "/nonexistent/vol.nrrd", "--iso", "1", "-o", o], "/nonexistent/vol.nrrd", &out);
     fails(
-        &[
-            "extract",
-            "-i",
-            "/nonexistent/vol.nrrd",
-            "--iso",
-            "1",
-            "-o",
-            o,
-        ],
-        "/nonexistent/vol.nrrd",
-        &out,
-    );
-    fails(
-        &[
-            "extract",
-            "-i",
-            p(&bad.join("nrrd_truncated_raw.nrrd")),
-            "--iso",
-            "1",
-            "-o",
-            o,
-        ],
+        &["extract", "-i", p(&bad.join("nrrd_truncated_raw.nrrd")), "--iso", "1", "-o", o],
         "nrrd_truncated_raw.nrrd: raw data ends after 10 of the 64 bytes",
         &out,
     );
     fails(
-        &[
-            "extract",
-            "-i",
-            p(&bad.join("nrrd_unknown_type.nrrd")),
-            "--iso",
-            "1",
-            "-o",
-            o,
-        ],
+        &["extract", "-i", p(&bad.join("nrrd_unknown_type.nrrd")), "--iso", "1", "-o", o],
         "type \"complex128\"",
         &out,
     );
-    fails(
-        &[
-            "extract",
-            "-i",
-            p(&bad.join("nrrd_overflow_sizes.nrrd")),
-            "--iso",
-            "1",
-            "-o",
-            o,
-        ],
-        "overflows",
-        &out,
-    );
-    fails(
-        &[
-            "extract",
-            "-i",
-            p(&bad.join("nrrd_nan.nrrd")),
-            "--iso",
-            "1",
-            "-o",
-            o,
-        ],
-        "sample (1, 1, 0) is NaN",
-        &out,
-    );
+    fails(&["extract", "-i", p(&bad.join("nrrd_overflow_sizes.nrrd")), "--iso", "1", "-o", o], "overflows", &out);
+    fails(&["extract", "-i", p(&bad.join("nrrd_nan.nrrd")), "--iso", "1", "-o", o], "sample (1, 1, 0) is NaN", &out);
     let vol = testdata().join("volumes/u8_raw.nrrd");
-    fails(
-        &["extract", "-i", p(&vol), "--iso", "1000", "-o", o],
-        "iso 1000 is outside the value range [0, 22]",
-        &out,
-    );
-    fails(
-        &["extract", "-i", p(&vol), "--iso", "nan", "-o", o],
-        "--iso",
-        &out,
-    );
-    fails(
-        &["extract", "-i", p(&vol), "-o", o],
-        "--iso is required",
-        &out,
-    );
+    fails(&["extract", "-i", p(&vol), "--iso", "1000", "-o", o], "iso 1000 is outside the value range [0, 22]", &out);
+    fails(&["extract", "-i", p(&vol), "--iso", "nan", "-o", o], "--iso", &out);
+    fails(&["extract", "-i", p(&vol), "-o", o], "--iso is required", &out);
     let raw = dir.path().join("x.raw");
     std::fs::write(&raw, [0u8; 64]).unwrap();
     fails(
-        &[
-            "extract",
-            "-i",
-            p(&raw),
-            "--dims",
-            "4,4,4",
-            "--dtype",
-            "q16",
-            "--iso",
-            "1",
-            "-o",
-            o,
-        ],
+        &["extract", "-i", p(&raw), "--dims", "4,4,4", "--dtype", "q16", "--iso", "1", "-o", o],
         "--dtype \"q16\": unknown sample type",
         &out,
     );
     fails(
-        &[
-            "extract",
-            "-i",
-            p(&raw),
-            "--dims",
-            "4,4,5",
-            "--dtype",
-            "u8",
-            "--iso",
-            "1",
-            "-o",
-            o,
-        ],
+        &["extract", "-i", p(&raw), "--dims", "4,4,5", "--dtype", "u8", "--iso", "1", "-o", o],
         "file has 64 bytes",
         &out,
     );
@@ -277,55 +159,23 @@ fn bad_input_is_one_line_exit_2_and_no_output() {
         "overflows",
         &out,
     );
+    fails(&["extract", "-i", "field:sphere", "--iso", "5", "-o", o], "gives no surface", &out);
+    fails(&["extract", "-i", "field:nosuch", "-o", o], "field:nosuch: unknown field", &out);
     fails(
-        &["extract", "-i", "field:sphere", "--iso", "5", "-o", o],
-        "gives no surface",
-        &out,
-    );
-    fails(
-        &["extract", "-i", "field:nosuch", "-o", o],
-        "field:nosuch: unknown field",
-        &out,
-    );
-    fails(
-        &[
-            "extract",
-            "-i",
-            "field:sphere",
-            "-o",
-            p(&dir.path().join("out.xyz")),
-        ],
+        &["extract", "-i", "field:sphere", "-o", p(&dir.path().join("out.xyz"))],
         "unknown output format",
         &dir.path().join("out.xyz"),
     );
-    fails(
-        &["check", p(&bad.join("ply_index_out_of_range.ply"))],
-        "ply_index_out_of_range.ply: face 0",
-        &out,
-    );
+    fails(&["check", p(&bad.join("ply_index_out_of_range.ply"))], "ply_index_out_of_range.ply: face 0", &out);
     // Unwritable output: an error naming it, nothing left.
-    fails(
-        &[
-            "extract",
-            "-i",
-            "field:sphere",
-            "-o",
-            "/nonexistent-dir/out.ply",
-        ],
-        "/nonexistent-dir/out.ply",
-        &out,
-    );
+    fails(&["extract", "-i", "field:sphere", "-o", "/nonexistent-dir/out.ply"], "/nonexistent-dir/out.ply", &out);
 }
 
 #[test]
 fn check_exits_1_when_a_requested_guarantee_fails() {
     let dir = tempfile::tempdir().unwrap();
     let open = dir.path().join("open.off");
-    std::fs::write(
-        &open,
-        "OFF\n4 3 0\n0 0 0\n1 0 0\n0 1 0\n0 0 1\n3 0 2 1\n3 0 1 3\n3 0 3 2\n",
-    )
-    .unwrap();
+    std::fs::write(&open, "OFF\n4 3 0\n0 0 0\n1 0 0\n0 1 0\n0 0 1\n3 0 2 1\n3 0 1 3\n3 0 3 2\n").unwrap();
     let o = isoforge(&["check", p(&open), "--require", "closed"]);
     assert_eq!(o.status.code(), Some(1));
     assert!(String::from_utf8_lossy(&o.stdout).contains("boundary edges: 3"));
@@ -335,11 +185,7 @@ fn check_exits_1_when_a_requested_guarantee_fails() {
 
 #[test]
 fn info_reports_geometry_and_a_suggested_iso() {
-    let o = isoforge(&[
-        "info",
-        p(&testdata().join("volumes/i16_sform_scaled.nii")),
-        "--json",
-    ]);
+    let o = isoforge(&["info", p(&testdata().join("volumes/i16_sform_scaled.nii")), "--json"]);
     assert_eq!(o.status.code(), Some(0), "{}", stderr(&o));
     let v: serde_json::Value = serde_json::from_slice(&o.stdout).unwrap();
     assert_eq!(v["dims"], serde_json::json!([6, 5, 7]));
@@ -362,16 +208,8 @@ fn world_coordinates_follow_the_file_geometry() {
     let r: serde_json::Value = serde_json::from_slice(&c.stdout).unwrap();
     let (lo, hi) = ([26.0, -12.0, 4.0], [30.0, -8.8, 13.0]);
     for a in 0..3 {
-        let (mn, mx) = (
-            r["bounds"]["min"][a].as_f64().unwrap(),
-            r["bounds"]["max"][a].as_f64().unwrap(),
-        );
-        assert!(
-            mn >= lo[a] - 1e-4 && mx <= hi[a] + 1e-4,
-            "axis {a}: [{mn}, {mx}] outside [{}, {}]",
-            lo[a],
-            hi[a]
-        );
+        let (mn, mx) = (r["bounds"]["min"][a].as_f64().unwrap(), r["bounds"]["max"][a].as_f64().unwrap());
+        assert!(mn >= lo[a] - 1e-4 && mx <= hi[a] + 1e-4, "axis {a}: [{mn}, {mx}] outside [{}, {}]", lo[a], hi[a]);
     }
     assert_eq!(r["oriented"], true);
 }
@@ -386,37 +224,19 @@ fn real_volumes_mesh_cleanly() {
         return;
     }
     let dir = tempfile::tempdir().unwrap();
+    // Triangle counts of vtkFlyingEdges3D 9.7.2 at the same iso (bench/peers/real_volumes.py reproduces them).
     for (name, iso, triangles) in [
-        ("vtk_headsq_quarter.nrrd", "500", None),
-        ("volvis_engine_256x256x128.nrrd", "71.2", Some(590_984)),
-        ("emd3197_subtomo_20.nrrd", "3.184", None),
-        ("cthead_8bit_256x256x99.nrrd", "52.3", None),
+        ("vtk_headsq_quarter.nrrd", "500", Some(57_698)),
+        ("volvis_engine_256x256x128.nrrd", "71.22", Some(590_984)),
+        ("emd3197_subtomo_20.nrrd", "3.184", Some(4_332)),
+        ("cthead_8bit_256x256x99.nrrd", "52.29", Some(484_602)),
     ] {
         let out = dir.path().join(format!("{name}.ply"));
-        let o = isoforge(&[
-            "extract",
-            "-i",
-            p(&data.join(name)),
-            "--iso",
-            iso,
-            "-o",
-            p(&out),
-            "--normals",
-            "none",
-        ]);
+        let o = isoforge(&["extract", "-i", p(&data.join(name)), "--iso", iso, "-o", p(&out), "--normals", "none"]);
         assert_eq!(o.status.code(), Some(0), "{name}: {}", stderr(&o));
         let info: serde_json::Value =
-            serde_json::from_slice(&isoforge(&["info", p(&data.join(name)), "--json"]).stdout)
-                .unwrap();
-        let c = isoforge(&[
-            "check",
-            p(&out),
-            "--json",
-            "--examples",
-            "100000",
-            "--require",
-            "manifold,oriented",
-        ]);
+            serde_json::from_slice(&isoforge(&["info", p(&data.join(name)), "--json"]).stdout).unwrap();
+        let c = isoforge(&["check", p(&out), "--json", "--examples", "100000", "--require", "manifold,oriented"]);
         assert_eq!(c.status.code(), Some(0), "{name}");
         let r: serde_json::Value = serde_json::from_slice(&c.stdout).unwrap();
         if let Some(t) = triangles {
@@ -429,16 +249,12 @@ fn real_volumes_mesh_cleanly() {
             assert!(r["bounds"]["max"][a].as_f64().unwrap() <= hi[a].as_f64().unwrap() + 1e-3);
         }
         // Every boundary edge lies on a face of the world box.
-        for e in r["findings"]["boundary_edges"]["examples"]
-            .as_array()
-            .unwrap()
-        {
+        for e in r["findings"]["boundary_edges"]["examples"].as_array().unwrap() {
             let m = &e["midpoint"];
             let on_face = (0..3).any(|a| {
                 let x = m[a].as_f64().unwrap();
                 let tol = 1e-3 * sp[a].as_f64().unwrap();
-                (x - lo[a].as_f64().unwrap()).abs() < tol
-                    || (x - hi[a].as_f64().unwrap()).abs() < tol
+                (x - lo[a].as_f64().unwrap()).abs() < tol || (x - hi[a].as_f64().unwrap()).abs() < tol
             });
             assert!(on_face, "{name}: boundary edge inside the volume: {e}");
         }

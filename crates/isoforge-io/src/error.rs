@@ -65,31 +65,16 @@ impl<'a> Ctx<'a> {
         Ctx { path, format }
     }
     pub fn bad(&self, detail: impl fmt::Display) -> Error {
-        Error::Read {
-            path: self.path.to_path_buf(),
-            format: self.format,
-            detail: detail.to_string(),
-        }
+        Error::Read { path: self.path.to_path_buf(), format: self.format, detail: detail.to_string() }
     }
     pub fn unsupported(&self, detail: impl fmt::Display) -> Error {
-        Error::Unsupported {
-            path: self.path.to_path_buf(),
-            detail: detail.to_string(),
-        }
+        Error::Unsupported { path: self.path.to_path_buf(), detail: detail.to_string() }
     }
     pub fn io(&self, source: std::io::Error) -> Error {
-        Error::Io {
-            path: self.path.to_path_buf(),
-            source,
-        }
+        Error::Io { path: self.path.to_path_buf(), source }
     }
     pub fn limit(&self, what: impl fmt::Display, requested: u64, allowed: u64) -> Error {
-        Error::Limit {
-            path: self.path.to_path_buf(),
-            what: what.to_string(),
-            requested,
-            allowed,
-        }
+        Error::Limit { path: self.path.to_path_buf(), what: what.to_string(), requested, allowed }
     }
     /// Converts a library error about this file's content.
     pub fn lib(&self, e: isoforge::Error) -> Error {

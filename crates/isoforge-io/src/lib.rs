@@ -36,12 +36,7 @@ pub fn read_volume(path: &Path, limits: &Limits) -> Result<AnyGrid> {
             source: std::io::Error::new(std::io::ErrorKind::NotFound, "no such file"),
         });
     }
-    let unsupported = |detail: &str| {
-        Err(Error::Unsupported {
-            path: path.to_path_buf(),
-            detail: detail.to_string(),
-        })
-    };
+    let unsupported = |detail: &str| Err(Error::Unsupported { path: path.to_path_buf(), detail: detail.to_string() });
     match VolumeFormat::from_path(path) {
         #[cfg(feature = "nrrd")]
         Some(VolumeFormat::Nrrd) => read::nrrd::read_nrrd(path, limits),
@@ -52,7 +47,9 @@ pub fn read_volume(path: &Path, limits: &Limits) -> Result<AnyGrid> {
         Some(VolumeFormat::Raw) => unsupported("raw volumes need their layout: pass --dims X,Y,Z and --dtype"),
         #[allow(unreachable_patterns)]
         Some(f) => unsupported(&format!("{} support is not compiled in", f.name())),
-        None => unsupported("unknown volume format (expected .nrrd, .nhdr, .nii, .nii.gz, .mha, .mhd, or .raw with --dims/--dtype)"),
+        None => unsupported(
+            "unknown volume format (expected .nrrd, .nhdr, .nii, .nii.gz, .mha, .mhd, or .raw with --dims/--dtype)",
+        ),
     }
 }
 

@@ -19,8 +19,6 @@ impl Limits {
 
 impl Default for Limits {
     fn default() -> Self {
-        Limits {
-            max_bytes: Self::DEFAULT_MAX_BYTES,
-        }
+        Limits { max_bytes: Self::DEFAULT_MAX_BYTES }
     }
 }

@@ -35,15 +35,10 @@ fn must_fail_corpus_fails_with_a_message_naming_the_file() {
             Ok(()) => panic!("{name}: read without error, but it is in the must-fail corpus"),
             Err(msg) => {
                 assert!(
-                    msg.contains(&name)
-                        || msg.contains("does_not_exist")
-                        || msg.contains("nowhere"),
+                    msg.contains(&name) || msg.contains("does_not_exist") || msg.contains("nowhere"),
                     "{name}: message does not name the file: {msg}"
                 );
-                assert!(
-                    !msg.contains('\n'),
-                    "{name}: message is not one line: {msg}"
-                );
+                assert!(!msg.contains('\n'), "{name}: message is not one line: {msg}");
             }
         }
         n += 1;
@@ -57,8 +52,7 @@ fn messages_name_the_field_and_value() {
     let bad = testdata().join("bad");
     let msg = |f: &str| read_any(&bad.join(f)).unwrap_err();
     assert!(
-        msg("nrrd_negative_size.nrrd")
-            .contains("line 4: sizes \"512 512 -3\": sizes must be positive integers"),
+        msg("nrrd_negative_size.nrrd").contains("line 4: sizes \"512 512 -3\": sizes must be positive integers"),
         "{}",
         msg("nrrd_negative_size.nrrd")
     );
@@ -66,11 +60,7 @@ fn messages_name_the_field_and_value() {
     assert!(msg("nrrd_unknown_type.nrrd").contains("type \"complex128\""));
     assert!(msg("nrrd_huge_sizes.nrrd").contains("over the limit"));
     assert!(msg("nrrd_overflow_sizes.nrrd").contains("overflows"));
-    assert!(
-        msg("nrrd_nan.nrrd").contains("sample (1, 1, 0) is NaN"),
-        "{}",
-        msg("nrrd_nan.nrrd")
-    );
+    assert!(msg("nrrd_nan.nrrd").contains("sample (1, 1, 0) is NaN"), "{}", msg("nrrd_nan.nrrd"));
     assert!(msg("nifti_complex_datatype.nii").contains("datatype 32"));
     assert!(msg("ply_index_out_of_range.ply").contains("face 0: vertex index 7"));
 }
@@ -102,21 +92,13 @@ fn every_prefix_of_a_valid_file_errors_or_reads() {
             std::fs::write(&target, &bytes[..len]).unwrap();
             let _ = read_any(&target); // a panic fails the test
         }
-        assert!(
-            read_any(&target).is_ok(),
-            "{name}: the whole file must read"
-        );
+        assert!(read_any(&target).is_ok(), "{name}: the whole file must read");
     }
     std::fs::remove_dir_all(&dir).unwrap();
 }
 
 fn config() -> Config {
-    Config {
-        cases: 400,
-        rng_seed: RngSeed::Fixed(0x000b_ad1e),
-        failure_persistence: None,
-        ..Config::default()
-    }
+    Config { cases: 400, rng_seed: RngSeed::Fixed(0x000b_ad1e), failure_persistence: None, ..Config::default() }
 }
 
 proptest! {

@@ -13,10 +13,7 @@ pub struct Aabb {
 
 impl Aabb {
     /// The empty box: grows to the first point added.
-    pub const EMPTY: Aabb = Aabb {
-        min: [f64::INFINITY; 3],
-        max: [f64::NEG_INFINITY; 3],
-    };
+    pub const EMPTY: Aabb = Aabb { min: [f64::INFINITY; 3], max: [f64::NEG_INFINITY; 3] };
 
     /// Grows the box to contain `p`.
     #[inline]
@@ -37,11 +34,7 @@ impl Aabb {
         if self.is_empty() {
             return [0.0; 3];
         }
-        [
-            self.max[0] - self.min[0],
-            self.max[1] - self.min[1],
-            self.max[2] - self.min[2],
-        ]
+        [self.max[0] - self.min[0], self.max[1] - self.min[1], self.max[2] - self.min[2]]
     }
 }
 

@@ -85,10 +85,7 @@ pub fn extract_with_progress<V: Volume>(
     progress: Option<&dyn Progress>,
 ) -> Result<Extraction> {
     if !iso.value.is_finite() {
-        return Err(Error::InvalidInput(format!(
-            "iso {}: must be a finite number",
-            iso.value
-        )));
+        return Err(Error::InvalidInput(format!("iso {}: must be a finite number", iso.value)));
     }
     let mut out = MeshBuilder::new(opts.normals == Normals::Gradient);
     let mut walker = SlabWalker::new();
@@ -98,28 +95,15 @@ pub fn extract_with_progress<V: Volume>(
     let stats = match opts.method {
         Method::MarchingCubes => walker.walk(vol, iso, &mut MarchingCubes, &mut out)?,
     };
-    Ok(Extraction {
-        mesh: out.finish()?,
-        stats,
-    })
+    Ok(Extraction { mesh: out.finish()?, stats })
 }
 
 /// Extracts from a grid of any sample type (matched once).
 ///
 /// # Errors
 /// As [`extract`].
-pub fn extract_grid(
-    grid: &AnyGrid,
-    iso: Iso,
-    opts: &Options,
-    progress: Option<&dyn Progress>,
-) -> Result<Extraction> {
-    fn go<S: Sample>(
-        g: &DenseGrid<S>,
-        iso: Iso,
-        opts: &Options,
-        p: Option<&dyn Progress>,
-    ) -> Result<Extraction> {
+pub fn extract_grid(grid: &AnyGrid, iso: Iso, opts: &Options, progress: Option<&dyn Progress>) -> Result<Extraction> {
+    fn go<S: Sample>(g: &DenseGrid<S>, iso: Iso, opts: &Options, p: Option<&dyn Progress>) -> Result<Extraction> {
         extract_with_progress(&GridVolume::new(g), iso, opts, p)
     }
     crate::with_grid!(grid, g => go(g, iso, opts, progress))
@@ -129,12 +113,7 @@ pub fn extract_grid(
 ///
 /// # Errors
 /// As [`extract`].
-pub fn extract_builtin(
-    b: &Builtin,
-    iso: Iso,
-    opts: &Options,
-    progress: Option<&dyn Progress>,
-) -> Result<Extraction> {
+pub fn extract_builtin(b: &Builtin, iso: Iso, opts: &Options, progress: Option<&dyn Progress>) -> Result<Extraction> {
     struct Go<'a> {
         b: &'a Builtin,
         iso: Iso,
@@ -152,10 +131,5 @@ pub fn extract_builtin(
             )
         }
     }
-    b.field.visit(Go {
-        b,
-        iso,
-        opts,
-        progress,
-    })
+    b.field.visit(Go { b, iso, opts, progress })
 }

@@ -39,18 +39,10 @@ fn all_256_cases_embedded_give_closed_oriented_spheres() {
             r.inconsistent_edges.examples
         );
         assert_eq!(r.isolated_vertices.count, 0, "{ctx}");
-        assert_eq!(
-            r.collapsed_triangles.count + r.zero_area_triangles.count + r.duplicate_triangles.count,
-            0,
-            "{ctx}"
-        );
+        assert_eq!(r.collapsed_triangles.count + r.zero_area_triangles.count + r.duplicate_triangles.count, 0, "{ctx}");
         for (n, c) in r.components.iter().enumerate() {
             assert_eq!(c.euler, 2, "{ctx}: component {n} has χ = {}", c.euler);
-            assert!(
-                c.volume > 0.0,
-                "{ctx}: component {n} is inside out (volume {})",
-                c.volume
-            );
+            assert!(c.volume > 0.0, "{ctx}: component {n} is inside out (volume {})", c.volume);
         }
         assert_eq!(mesh.num_vertices(), crossed_edges(&g, 0.0), "{ctx}");
     }
@@ -60,16 +52,10 @@ fn all_256_cases_embedded_give_closed_oriented_spheres() {
 fn single_cell_vertex_counts_follow_the_edge_table() {
     // Alone in a 2³ lattice (open at the lattice faces), each case has one vertex per crossed edge.
     for case in 0..=255u8 {
-        let values = (0..8)
-            .map(|c| if case >> c & 1 == 1 { -1.0 } else { 1.0 })
-            .collect();
+        let values = (0..8).map(|c| if case >> c & 1 == 1 { -1.0 } else { 1.0 }).collect();
         let g = grid([2, 2, 2], values);
         let mesh = mc(&vol(&g), Iso::below(0.0));
-        assert_eq!(
-            mesh.num_vertices(),
-            CASE_EDGES[case as usize].count_ones() as usize,
-            "case {case}"
-        );
+        assert_eq!(mesh.num_vertices(), CASE_EDGES[case as usize].count_ones() as usize, "case {case}");
         let r = topo::check(&mesh);
         assert!(r.is_manifold() && r.is_oriented(), "case {case}");
     }
@@ -93,16 +79,13 @@ fn one_inside_point_is_an_octahedron() {
 fn solid_block_counts() {
     for n in 1..=6u32 {
         let d = n + 2;
-        let g = isoforge::grid::DenseGrid::from_fn(
-            isoforge::grid::Lattice::new([d; 3]).unwrap(),
-            |p| {
-                if p.iter().all(|&x| x >= 1 && x <= n) {
-                    -1.0f32
-                } else {
-                    1.0
-                }
-            },
-        );
+        let g = isoforge::grid::DenseGrid::from_fn(isoforge::grid::Lattice::new([d; 3]).unwrap(), |p| {
+            if p.iter().all(|&x| x >= 1 && x <= n) {
+                -1.0f32
+            } else {
+                1.0
+            }
+        });
         let mesh = mc(&vol(&g), Iso::below(0.0));
         let v = 6 * (n * n) as usize;
         assert_eq!(mesh.num_vertices(), v, "n = {n}");
@@ -120,18 +103,11 @@ fn ties_count_as_outside() {
     let mut values = vec![1.0f32; 27];
     values[13] = 0.0;
     let g = grid([3, 3, 3], values.clone());
-    assert!(
-        mc(&vol(&g), Iso::below(0.0)).is_empty(),
-        "a lone tie point is outside"
-    );
+    assert!(mc(&vol(&g), Iso::below(0.0)).is_empty(), "a lone tie point is outside");
     values[13] = -1.0;
     values[14] = 0.0; // the +x neighbour ties
     let g = grid([3, 3, 3], values);
     let mesh = mc(&vol(&g), Iso::below(0.0));
     assert_eq!(mesh.num_vertices(), 6);
-    assert!(
-        mesh.positions.contains(&[2.0, 1.0, 1.0]),
-        "{:?}",
-        mesh.positions
-    );
+    assert!(mesh.positions.contains(&[2.0, 1.0, 1.0]), "{:?}", mesh.positions);
 }

@@ -29,11 +29,7 @@ fn canonical_text(m: &Mesh) -> String {
         })
         .collect();
     tris.sort();
-    let mut out = format!(
-        "# vertices {} triangles {}\n",
-        m.num_vertices(),
-        m.num_triangles()
-    );
+    let mut out = format!("# vertices {} triangles {}\n", m.num_vertices(), m.num_triangles());
     for t in tris {
         writeln!(out, "{t}").unwrap();
     }
@@ -41,21 +37,16 @@ fn canonical_text(m: &Mesh) -> String {
 }
 
 fn golden(name: &str, mesh: &Mesh) {
-    let path = PathBuf::from(env!("CARGO_MANIFEST_DIR"))
-        .join("../../testdata/golden")
-        .join(format!("{name}.txt"));
+    let path = PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("../../testdata/golden").join(format!("{name}.txt"));
     let actual = canonical_text(mesh);
     if std::env::var_os("ISOFORGE_BLESS").is_some() {
         std::fs::write(&path, &actual).unwrap();
         return;
     }
-    let expected = std::fs::read_to_string(&path)
-        .unwrap_or_else(|e| panic!("{}: {e} (bless to create)", path.display()));
+    let expected =
+        std::fs::read_to_string(&path).unwrap_or_else(|e| panic!("{}: {e} (bless to create)", path.display()));
     if expected != actual {
-        panic!(
-            "golden {name} differs\n--- expected ({})\n{expected}\n--- actual\n{actual}",
-            path.display()
-        );
+        panic!("golden {name} differs\n--- expected ({})\n{expected}\n--- actual\n{actual}", path.display());
     }
 }
 
@@ -63,9 +54,7 @@ fn golden(name: &str, mesh: &Mesh) {
 fn golden_integer_grid_5() {
     // A small u8 volume with a saddle, ties at iso and spacing/origin (world coordinates).
     let l = Lattice::with_geometry([5, 5, 5], [0.5, 1.0, 2.0], [10.0, -1.0, 0.0]).unwrap();
-    let g = DenseGrid::from_fn(l, |[i, j, k]| {
-        ((i * 7 + j * 3 + k * 5 + i * j * k) % 9) as u8
-    });
+    let g = DenseGrid::from_fn(l, |[i, j, k]| ((i * 7 + j * 3 + k * 5 + i * j * k) % 9) as u8);
     let m = common::mc(&isoforge::volume::GridVolume::new(&g), Iso::below(4.0));
     golden("u8_5x5x5_iso4", &m);
 }

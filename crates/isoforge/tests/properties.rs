@@ -14,25 +14,14 @@ use proptest::prelude::*;
 use proptest::test_runner::{Config, RngSeed};
 
 fn config(cases: u32) -> Config {
-    Config {
-        cases,
-        rng_seed: RngSeed::Fixed(0x150f_0e6e),
-        failure_persistence: None,
-        ..Config::default()
-    }
+    Config { cases, rng_seed: RngSeed::Fixed(0x150f_0e6e), failure_persistence: None, ..Config::default() }
 }
 
 /// Random lattices of 2..=7 points per axis with values from a small set (so ties at iso occur).
 fn lattice_values() -> impl Strategy<Value = ([u32; 3], Vec<f32>)> {
     [2u32..=7, 2u32..=7, 2u32..=7].prop_flat_map(|dims| {
         let n = (dims[0] * dims[1] * dims[2]) as usize;
-        (
-            Just(dims),
-            prop::collection::vec(
-                prop::sample::select(vec![-2.0f32, -1.0, -0.5, 0.0, 0.25, 1.0, 3.0]),
-                n,
-            ),
-        )
+        (Just(dims), prop::collection::vec(prop::sample::select(vec![-2.0f32, -1.0, -0.5, 0.0, 0.25, 1.0, 3.0]), n))
     })
 }
 
@@ -53,16 +42,8 @@ fn with_border(dims: [u32; 3], values: &[f32]) -> DenseGrid<f32> {
 fn complement_asymmetric() -> Vec<bool> {
     (0..256)
         .map(|c| {
-            let mut a: Vec<[u8; 3]> = TRI_TABLE[c]
-                .triangles()
-                .iter()
-                .map(|t| canon([t[0], t[2], t[1]]))
-                .collect();
-            let mut b: Vec<[u8; 3]> = TRI_TABLE[255 - c]
-                .triangles()
-                .iter()
-                .map(|&t| canon(t))
-                .collect();
+            let mut a: Vec<[u8; 3]> = TRI_TABLE[c].triangles().iter().map(|t| canon([t[0], t[2], t[1]])).collect();
+            let mut b: Vec<[u8; 3]> = TRI_TABLE[255 - c].triangles().iter().map(|&t| canon(t)).collect();
             a.sort();
             b.sort();
             a != b
@@ -80,8 +61,7 @@ fn has_case_in(g: &DenseGrid<f32>, iso: f32, set: &[bool]) -> bool {
     for k in 0..nz - 1 {
         for j in 0..ny - 1 {
             for i in 0..nx - 1 {
-                let d = isoforge::extract::cube::CORNER_OFFSETS
-                    .map(|o| g.get([i + o[0], j + o[1], k + o[2]]) - iso);
+                let d = isoforge::extract::cube::CORNER_OFFSETS.map(|o| g.get([i + o[0], j + o[1], k + o[2]]) - iso);
                 if set[case_of(&d) as usize] {
                     return true;
                 }
@@ -166,45 +146,19 @@ proptest! {
 fn classification_is_exact_in_wide_types() {
     // 2²⁴ + 1 is not an f32; u32 and f64 classification must still see 16777216 < iso < 16777218.
     let l = Lattice::new([3, 3, 3]).unwrap();
-    let g = DenseGrid::from_fn(l, |p| {
-        if p == [1, 1, 1] {
-            16_777_216u32
-        } else {
-            16_777_218
-        }
-    });
-    let m = mc(
-        &isoforge::volume::GridVolume::new(&g),
-        Iso::below(16_777_217.0),
-    );
-    assert_eq!(
-        m.num_triangles(),
-        8,
-        "octahedron around the one inside point"
-    );
-    let g = DenseGrid::from_fn(Lattice::new([3, 3, 3]).unwrap(), |p| {
-        if p == [1, 1, 1] {
-            0.0f64
-        } else {
-            1.0
-        }
-    });
+    let g = DenseGrid::from_fn(l, |p| if p == [1, 1, 1] { 16_777_216u32 } else { 16_777_218 });
+    let m = mc(&isoforge::volume::GridVolume::new(&g), Iso::below(16_777_217.0));
+    assert_eq!(m.num_triangles(), 8, "octahedron around the one inside point");
+    let g = DenseGrid::from_fn(Lattice::new([3, 3, 3]).unwrap(), |p| if p == [1, 1, 1] { 0.0f64 } else { 1.0 });
     let m = mc(&isoforge::volume::GridVolume::new(&g), Iso::below(1e-300));
-    assert_eq!(
-        m.num_triangles(),
-        8,
-        "0 < 1e-300 is inside even though 1e-300 underflows f32"
-    );
+    assert_eq!(m.num_triangles(), 8, "0 < 1e-300 is inside even though 1e-300 underflows f32");
 }
 
 #[test]
 fn closures_work_with_every_walker() {
     // Archetype: a bare closure field through `Sampled`, the slab and the reference walker.
     let field = |p: Vec3| (p - Vec3::splat(0.5)).length() - 0.3;
-    let v = Sampled::new(
-        field,
-        Lattice::spanning([9; 3], [0.0; 3], [1.0; 3]).unwrap(),
-    );
+    let v = Sampled::new(field, Lattice::spanning([9; 3], [0.0; 3], [1.0; 3]).unwrap());
     let (a, b) = (mc(&v, Iso::below(0.0)), mc_reference(&v, Iso::below(0.0)));
     assert!(!a.is_empty());
     assert_eq!(a.canonical_triangles(), b.canonical_triangles());
@@ -219,18 +173,11 @@ fn sphere_area_and_volume_converge() {
     let mut last = (f64::INFINITY, f64::INFINITY);
     for n in [8u32, 16, 32, 64, 128] {
         let b = isoforge::volume::catalog::parse(&format!("sphere?n={n}")).unwrap();
-        let out =
-            isoforge::pipeline::extract_builtin(&b, b.iso, &Default::default(), None).unwrap();
+        let out = isoforge::pipeline::extract_builtin(&b, b.iso, &Default::default(), None).unwrap();
         let rep = topo::check(&out.mesh);
         assert!(rep.is_watertight() && rep.genus() == Some(0), "n = {n}");
-        let err = (
-            (rep.area - area).abs() / area,
-            (rep.volume - volume).abs() / volume,
-        );
-        assert!(
-            err.0 < last.0 && err.1 < last.1,
-            "n = {n}: errors {err:?} did not shrink from {last:?}"
-        );
+        let err = ((rep.area - area).abs() / area, (rep.volume - volume).abs() / volume);
+        assert!(err.0 < last.0 && err.1 < last.1, "n = {n}: errors {err:?} did not shrink from {last:?}");
         last = err;
     }
     assert!(last.0 < 2e-3 && last.1 < 1e-3, "128³ errors {last:?}");
@@ -245,19 +192,10 @@ fn normals_point_outward_and_are_unit() {
     for t in &m.triangles {
         let [a, b, c] = t.map(|v| Vec3::from_array(m.positions[v as usize]));
         let face = (b - a).cross(c - a);
-        let vn: Vec3 = t
-            .iter()
-            .map(|&v| Vec3::from_array(m.normals[v as usize]))
-            .sum();
-        assert!(
-            face.dot(vn) > 0.0,
-            "triangle {t:?} winds against its vertex normals"
-        );
+        let vn: Vec3 = t.iter().map(|&v| Vec3::from_array(m.normals[v as usize])).sum();
+        assert!(face.dot(vn) > 0.0, "triangle {t:?} winds against its vertex normals");
     }
-    assert!(m
-        .normals
-        .iter()
-        .all(|n| (Vec3::from_array(*n).length() - 1.0).abs() < 1e-4));
+    assert!(m.normals.iter().all(|n| (Vec3::from_array(*n).length() - 1.0).abs() < 1e-4));
 }
 
 #[test]
@@ -265,10 +203,7 @@ fn mirrored_lattices_keep_normals_outward() {
     // The same sphere sampled with i running along −x: the world surface is the same and must
     // still enclose positive volume with normals agreeing with the winding.
     let flip = [[-1.0, 0.0, 0.0], [0.0, 1.0, 0.0], [0.0, 0.0, 1.0]];
-    let l = Lattice::with_geometry([24; 3], [2.0 / 23.0; 3], [1.0, -1.0, -1.0])
-        .unwrap()
-        .with_direction(flip)
-        .unwrap();
+    let l = Lattice::with_geometry([24; 3], [2.0 / 23.0; 3], [1.0, -1.0, -1.0]).unwrap().with_direction(flip).unwrap();
     let v = Sampled::new(|p: Vec3| p.length() - 0.7, l);
     let m = mc(&v, Iso::below(0.0));
     let r = topo::check(&m);
@@ -276,10 +211,7 @@ fn mirrored_lattices_keep_normals_outward() {
     assert!(r.volume > 1.3, "{}", r.volume);
     for t in &m.triangles {
         let [a, b, c] = t.map(|v| Vec3::from_array(m.positions[v as usize]));
-        let n: Vec3 = t
-            .iter()
-            .map(|&v| Vec3::from_array(m.normals[v as usize]))
-            .sum();
+        let n: Vec3 = t.iter().map(|&v| Vec3::from_array(m.normals[v as usize])).sum();
         assert!((b - a).cross(c - a).dot(n) > 0.0);
     }
 }
@@ -307,8 +239,7 @@ fn field_vertices_lie_on_the_true_surface() {
     }
     for (name, _) in NAMES {
         let b = parse(&format!("{name}?n=24")).unwrap();
-        let out =
-            isoforge::pipeline::extract_builtin(&b, b.iso, &Default::default(), None).unwrap();
+        let out = isoforge::pipeline::extract_builtin(&b, b.iso, &Default::default(), None).unwrap();
         let r = topo::check(&out.mesh);
         assert!(!out.mesh.is_empty(), "{name}");
         // Zero-area triangles come only from exact ties (a lattice point with value == iso, where
@@ -327,9 +258,6 @@ fn field_vertices_lie_on_the_true_surface() {
         }
         let spacing = b.lattice.spacing()[0];
         let err = b.field.visit(MaxError(&out.mesh, b.iso.value));
-        assert!(
-            err < 1e-3 * spacing,
-            "{name}: vertex off the surface by {err} (spacing {spacing})"
-        );
+        assert!(err < 1e-3 * spacing, "{name}: vertex off the surface by {err} (spacing {spacing})");
     }
 }

@@ -11,28 +11,16 @@ use crate::error::{Ctx, Result};
 use crate::limits::Limits;
 
 /// Bytes the samples of `dims` × `dtype` take, checked for overflow and against `limits`.
-pub(crate) fn sample_bytes(
-    ctx: Ctx,
-    dims: [u32; 3],
-    dtype: DType,
-    limits: &Limits,
-) -> Result<usize> {
+pub(crate) fn sample_bytes(ctx: Ctx, dims: [u32; 3], dtype: DType, limits: &Limits) -> Result<usize> {
     let n = (dims[0] as u64)
         .checked_mul(dims[1] as u64)
         .and_then(|n| n.checked_mul(dims[2] as u64))
         .and_then(|n| n.checked_mul(dtype.size() as u64));
     let Some(bytes) = n else {
-        return Err(ctx.bad(format!(
-            "dims {}x{}x{} of {dtype}: the size overflows 64 bits",
-            dims[0], dims[1], dims[2]
-        )));
+        return Err(ctx.bad(format!("dims {}x{}x{} of {dtype}: the size overflows 64 bits", dims[0], dims[1], dims[2])));
     };
     if bytes > limits.max_bytes {
-        return Err(ctx.limit(
-            format!("dims {}x{}x{} of {dtype}", dims[0], dims[1], dims[2]),
-            bytes,
-            limits.max_bytes,
-        ));
+        return Err(ctx.limit(format!("dims {}x{}x{} of {dtype}", dims[0], dims[1], dims[2]), bytes, limits.max_bytes));
     }
     usize::try_from(bytes).map_err(|_| ctx.limit("samples", bytes, usize::MAX as u64))
 }
@@ -64,9 +52,7 @@ pub(crate) fn take_data<'a>(
     what: &str,
 ) -> Result<Cow<'a, [u8]>> {
     let short = |got: usize| {
-        ctx.bad(format!(
-            "{what} ends after {got} of the {expected} bytes the header declares (truncated file?)"
-        ))
+        ctx.bad(format!("{what} ends after {got} of the {expected} bytes the header declares (truncated file?)"))
     };
     match compression {
         Compression::None => {
@@ -88,16 +74,14 @@ pub(crate) fn take_data<'a>(
             match got {
                 Ok(n) if n == expected => match tail {
                     Ok(_) => Ok(Cow::Owned(out)),
-                    Err(e) => Err(ctx.bad(format!("{what}: the compressed stream is cut or corrupt after its {expected} bytes: {e}"))),
+                    Err(e) => Err(ctx.bad(format!(
+                        "{what}: the compressed stream is cut or corrupt after its {expected} bytes: {e}"
+                    ))),
                 },
                 Ok(n) => Err(short(n)),
                 Err(e) => Err(ctx.bad(format!(
                     "{what}: corrupt {} stream after {} bytes: {e}",
-                    if compression == Compression::Gzip {
-                        "gzip"
-                    } else {
-                        "zlib"
-                    },
+                    if compression == Compression::Gzip { "gzip" } else { "zlib" },
                     out.len()
                 ))),
             }
@@ -106,22 +90,13 @@ pub(crate) fn take_data<'a>(
 }
 
 /// Decodes exactly `lattice.num_points()` samples of `dtype` and rejects non-finite values.
-pub(crate) fn decode(
-    ctx: Ctx,
-    lattice: Lattice,
-    dtype: DType,
-    big_endian: bool,
-    bytes: &[u8],
-) -> Result<AnyGrid> {
+pub(crate) fn decode(ctx: Ctx, lattice: Lattice, dtype: DType, big_endian: bool, bytes: &[u8]) -> Result<AnyGrid> {
     fn go<S: Sample>(ctx: Ctx, lattice: Lattice, big_endian: bool, bytes: &[u8]) -> Result<AnyGrid>
     where
         AnyGrid: From<DenseGrid<S>>,
     {
         let size = S::DTYPE.size();
-        let data: Vec<S> = bytes
-            .chunks_exact(size)
-            .map(|c| S::from_bytes(c, big_endian))
-            .collect();
+        let data: Vec<S> = bytes.chunks_exact(size).map(|c| S::from_bytes(c, big_endian)).collect();
         let grid = DenseGrid::new(lattice, data).map_err(|e| ctx.lib(e))?;
         if let Some(nf) = grid.first_non_finite() {
             let [i, j, k] = nf.ijk;
@@ -147,25 +122,17 @@ pub(crate) fn decode(
 
 /// Splits `text` into trimmed lines numbered from 1.
 pub(crate) fn numbered_lines(text: &str) -> impl Iterator<Item = (usize, &str)> {
-    text.lines()
-        .enumerate()
-        .map(|(i, l)| (i + 1, l.trim_end_matches('\r')))
+    text.lines().enumerate().map(|(i, l)| (i + 1, l.trim_end_matches('\r')))
 }
 
 /// Parses whitespace- or comma-separated numbers.
 pub(crate) fn parse_numbers<T: std::str::FromStr>(s: &str) -> Option<Vec<T>> {
-    s.split(|c: char| c.is_whitespace() || c == ',')
-        .filter(|t| !t.is_empty())
-        .map(|t| t.parse().ok())
-        .collect()
+    s.split(|c: char| c.is_whitespace() || c == ',').filter(|t| !t.is_empty()).map(|t| t.parse().ok()).collect()
 }
 
 /// A positive whole number that fits `u32`, as a lattice dimension.
 pub(crate) fn parse_dim(s: &str) -> Option<u32> {
-    s.parse::<u64>()
-        .ok()
-        .filter(|&d| d >= 1 && d <= u32::MAX as u64)
-        .map(|d| d as u32)
+    s.parse::<u64>().ok().filter(|&d| d >= 1 && d <= u32::MAX as u64).map(|d| d as u32)
 }
 
 /// Finds `needle` as a whole line ending; returns the offset just past it.
@@ -174,11 +141,7 @@ pub(crate) fn find_header_end(bytes: &[u8], max_header: usize) -> Option<usize> 
     (0..limit).find_map(|i| {
         if bytes[i] == b'\n' && i + 1 < bytes.len() && bytes[i + 1] == b'\n' {
             Some(i + 2)
-        } else if bytes[i] == b'\n'
-            && i + 2 < bytes.len()
-            && bytes[i + 1] == b'\r'
-            && bytes[i + 2] == b'\n'
-        {
+        } else if bytes[i] == b'\n' && i + 2 < bytes.len() && bytes[i + 1] == b'\r' && bytes[i + 2] == b'\n' {
             Some(i + 3)
         } else {
             None
@@ -206,8 +169,7 @@ pub(crate) fn split_axes(axes: [[f64; 3]; 3]) -> Option<([f64; 3], [[f64; 3]; 3]
     let mut spacing = [0.0; 3];
     let mut dir = [[0.0; 3]; 3];
     for a in 0..3 {
-        let len =
-            (axes[a][0] * axes[a][0] + axes[a][1] * axes[a][1] + axes[a][2] * axes[a][2]).sqrt();
+        let len = (axes[a][0] * axes[a][0] + axes[a][1] * axes[a][1] + axes[a][2] * axes[a][2]).sqrt();
         if !(len.is_finite() && len > 0.0) {
             return None;
         }

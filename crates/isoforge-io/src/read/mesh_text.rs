@@ -6,25 +6,12 @@ use crate::error::{Ctx, Result};
 use crate::limits::Limits;
 
 /// Bytes a mesh of `vertices` and `triangles` needs (positions + indices), checked against limits.
-pub(crate) fn check_mesh_size(
-    ctx: Ctx,
-    vertices: u64,
-    triangles: u64,
-    limits: &Limits,
-) -> Result<()> {
-    let bytes = vertices
-        .checked_mul(12)
-        .and_then(|v| triangles.checked_mul(12).and_then(|t| v.checked_add(t)));
+pub(crate) fn check_mesh_size(ctx: Ctx, vertices: u64, triangles: u64, limits: &Limits) -> Result<()> {
+    let bytes = vertices.checked_mul(12).and_then(|v| triangles.checked_mul(12).and_then(|t| v.checked_add(t)));
     match bytes {
         Some(b) if b <= limits.max_bytes => Ok(()),
-        Some(b) => Err(ctx.limit(
-            format!("{vertices} vertices and {triangles} triangles"),
-            b,
-            limits.max_bytes,
-        )),
-        None => Err(ctx.bad(format!(
-            "{vertices} vertices and {triangles} triangles: the size overflows"
-        ))),
+        Some(b) => Err(ctx.limit(format!("{vertices} vertices and {triangles} triangles"), b, limits.max_bytes)),
+        None => Err(ctx.bad(format!("{vertices} vertices and {triangles} triangles: the size overflows"))),
     }
 }
 

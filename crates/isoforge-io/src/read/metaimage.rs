@@ -18,20 +18,13 @@ const MAX_HEADER_BYTES: usize = 1 << 16;
 /// size over `limits`, or a non-finite sample.
 pub fn read_metaimage(path: &Path, limits: &Limits) -> Result<AnyGrid> {
     let ctx = Ctx::new(path, "MetaImage");
-    let file = decode::read_file(
-        ctx,
-        path,
-        limits.max_bytes.saturating_add(MAX_HEADER_BYTES as u64),
-    )?;
+    let file = decode::read_file(ctx, path, limits.max_bytes.saturating_add(MAX_HEADER_BYTES as u64))?;
     let mut h = Header::default();
     let mut offset = 0usize;
     let mut line_no = 0usize;
     let mut data_start = None;
     while offset < file.len() && offset < MAX_HEADER_BYTES {
-        let end = file[offset..]
-            .iter()
-            .position(|&b| b == b'\n')
-            .map_or(file.len(), |p| offset + p);
+        let end = file[offset..].iter().position(|&b| b == b'\n').map_or(file.len(), |p| offset + p);
         line_no += 1;
         let line = std::str::from_utf8(&file[offset..end])
             .map_err(|_| ctx.bad(format!("line {line_no}: header is not text")))?
@@ -40,47 +33,33 @@ pub fn read_metaimage(path: &Path, limits: &Limits) -> Result<AnyGrid> {
         if line.is_empty() {
             continue;
         }
-        let (key, value) = line.split_once('=').ok_or_else(|| {
-            ctx.bad(format!(
-                "line {line_no}: {:?} is not \"Key = Value\"",
-                short(line)
-            ))
-        })?;
+        let (key, value) = line
+            .split_once('=')
+            .ok_or_else(|| ctx.bad(format!("line {line_no}: {:?} is not \"Key = Value\"", short(line))))?;
         let (key, value) = (key.trim(), value.trim());
         if h.set(ctx, line_no, key, value)? {
             data_start = Some(offset);
             break;
         }
     }
-    let data_file = h
-        .data_file
-        .clone()
-        .ok_or_else(|| ctx.bad("header has no ElementDataFile (it must be the last key)"))?;
+    let data_file =
+        h.data_file.clone().ok_or_else(|| ctx.bad("header has no ElementDataFile (it must be the last key)"))?;
     let dims = h.dims.ok_or_else(|| ctx.bad("header has no DimSize"))?;
-    let dtype = h
-        .dtype
-        .ok_or_else(|| ctx.bad("header has no ElementType"))?;
+    let dtype = h.dtype.ok_or_else(|| ctx.bad("header has no ElementType"))?;
     if h.channels != 1 {
-        return Err(ctx.unsupported(format!(
-            "ElementNumberOfChannels = {}: only scalar volumes are supported",
-            h.channels
-        )));
+        return Err(
+            ctx.unsupported(format!("ElementNumberOfChannels = {}: only scalar volumes are supported", h.channels))
+        );
     }
     let need = decode::sample_bytes(ctx, dims, dtype, limits)?;
     let direction = match h.transform {
-        Some(t) => Some(
-            decode::split_axes(t)
-                .ok_or_else(|| ctx.bad("TransformMatrix: an axis is zero or not finite"))?
-                .1,
-        ),
+        Some(t) => {
+            Some(decode::split_axes(t).ok_or_else(|| ctx.bad("TransformMatrix: an axis is zero or not finite"))?.1)
+        }
         None => None,
     };
     let lattice = decode::lattice(ctx, dims, h.spacing, h.origin, direction)?;
-    let compression = if h.compressed {
-        Compression::Zlib
-    } else {
-        Compression::None
-    };
+    let compression = if h.compressed { Compression::Zlib } else { Compression::None };
     let external: PathBuf;
     let loaded;
     let (dctx, data): (Ctx, &[u8]) = if data_file.eq_ignore_ascii_case("LOCAL") {
@@ -88,28 +67,20 @@ pub fn read_metaimage(path: &Path, limits: &Limits) -> Result<AnyGrid> {
         (ctx, &file[start..])
     } else {
         if data_file.starts_with("LIST") || data_file.contains('%') {
-            return Err(ctx.unsupported(format!(
-                "ElementDataFile = {data_file}: multi-file data is not supported"
-            )));
+            return Err(ctx.unsupported(format!("ElementDataFile = {data_file}: multi-file data is not supported")));
         }
         external = path.parent().unwrap_or(Path::new(".")).join(&data_file);
         let dctx = Ctx::new(&external, "MetaImage data");
-        loaded = decode::read_file(
-            dctx,
-            &external,
-            limits
-                .max_bytes
-                .saturating_add(h.header_size.unwrap_or(0) as u64),
-        )?;
+        loaded =
+            decode::read_file(dctx, &external, limits.max_bytes.saturating_add(h.header_size.unwrap_or(0) as u64))?;
         let skip = match h.header_size {
             Some(-1) if !h.compressed => loaded.len().saturating_sub(need),
             Some(n) if n >= 0 => n as usize,
             Some(n) => return Err(ctx.bad(format!("HeaderSize = {n}: must be -1 or a byte count"))),
             None => 0,
         };
-        let rest = loaded
-            .get(skip..)
-            .ok_or_else(|| dctx.bad(format!("HeaderSize {skip} is past the end of the data")))?;
+        let rest =
+            loaded.get(skip..).ok_or_else(|| dctx.bad(format!("HeaderSize {skip} is past the end of the data")))?;
         (dctx, rest)
     };
     let body = decode::take_data(dctx, data, compression, need, "element data")?;
@@ -165,17 +136,15 @@ impl Header {
             "NDims" => {
                 let d: usize = value.parse().map_err(|_| bad("must be 2 or 3"))?;
                 if !(2..=3).contains(&d) {
-                    return Err(ctx.unsupported(format!(
-                        "line {no}: NDims = {d}: only 2D and 3D volumes are supported"
-                    )));
+                    return Err(
+                        ctx.unsupported(format!("line {no}: NDims = {d}: only 2D and 3D volumes are supported"))
+                    );
                 }
                 self.ndims = Some(d);
             }
             "DimSize" => {
                 let v: Option<Vec<u32>> = value.split_whitespace().map(decode::parse_dim).collect();
-                let v = v
-                    .filter(|v| v.len() == n)
-                    .ok_or_else(|| bad(&format!("needs {n} positive integers")))?;
+                let v = v.filter(|v| v.len() == n).ok_or_else(|| bad(&format!("needs {n} positive integers")))?;
                 let mut d = [1; 3];
                 d[..n].copy_from_slice(&v);
                 self.dims = Some(d);
@@ -191,9 +160,9 @@ impl Header {
                     "MET_FLOAT" => DType::F32,
                     "MET_DOUBLE" => DType::F64,
                     other => {
-                        return Err(ctx.unsupported(format!(
-                            "line {no}: ElementType = {other}: unsupported sample type"
-                        )))
+                        return Err(
+                            ctx.unsupported(format!("line {no}: ElementType = {other}: unsupported sample type"))
+                        )
                     }
                 });
             }
@@ -219,19 +188,11 @@ impl Header {
             "ElementByteOrderMSB" | "BinaryDataByteOrderMSB" => {
                 self.big_endian = parse_bool(value).ok_or_else(|| bad("must be True or False"))?
             }
-            "CompressedData" => {
-                self.compressed = parse_bool(value).ok_or_else(|| bad("must be True or False"))?
-            }
-            "ElementNumberOfChannels" => {
-                self.channels = value.parse().map_err(|_| bad("must be a whole number"))?
-            }
-            "HeaderSize" => {
-                self.header_size = Some(value.parse().map_err(|_| bad("must be a whole number"))?)
-            }
+            "CompressedData" => self.compressed = parse_bool(value).ok_or_else(|| bad("must be True or False"))?,
+            "ElementNumberOfChannels" => self.channels = value.parse().map_err(|_| bad("must be a whole number"))?,
+            "HeaderSize" => self.header_size = Some(value.parse().map_err(|_| bad("must be a whole number"))?),
             "ObjectType" if value != "Image" => {
-                return Err(ctx.unsupported(format!(
-                    "line {no}: ObjectType = {value}: only Image is supported"
-                )))
+                return Err(ctx.unsupported(format!("line {no}: ObjectType = {value}: only Image is supported")))
             }
             "ElementDataFile" => {
                 self.data_file = Some(value.to_string());

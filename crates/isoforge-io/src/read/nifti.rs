@@ -28,12 +28,7 @@ pub fn read_nifti(path: &Path, limits: &Limits) -> Result<AnyGrid> {
         decode::take_data(ctx, &file, Compression::Gzip, HEADER_SIZE, "header")?.into_owned()
     } else {
         file.get(..HEADER_SIZE)
-            .ok_or_else(|| {
-                ctx.bad(format!(
-                    "file has {} bytes, a NIfTI-1 header needs {HEADER_SIZE}",
-                    file.len()
-                ))
-            })?
+            .ok_or_else(|| ctx.bad(format!("file has {} bytes, a NIfTI-1 header needs {HEADER_SIZE}", file.len())))?
             .to_vec()
     };
     let h = Header::parse(ctx, &head)?;
@@ -42,25 +37,16 @@ pub fn read_nifti(path: &Path, limits: &Limits) -> Result<AnyGrid> {
     let body = if h.magic_pair {
         let img = path.with_extension("img");
         let ictx = Ctx::new(&img, "NIfTI image");
-        let data = decode::read_file(
-            ictx,
-            &img,
-            limits.max_bytes.saturating_add(h.vox_offset as u64),
-        )?;
-        let rest = data
-            .get(h.vox_offset..)
-            .ok_or_else(|| ictx.bad(format!("vox_offset {} is past the end", h.vox_offset)))?;
+        let data = decode::read_file(ictx, &img, limits.max_bytes.saturating_add(h.vox_offset as u64))?;
+        let rest =
+            data.get(h.vox_offset..).ok_or_else(|| ictx.bad(format!("vox_offset {} is past the end", h.vox_offset)))?;
         decode::take_data(ictx, rest, Compression::None, need, "image data")?.into_owned()
     } else if gz {
         let all = decode::take_data(ctx, &file, Compression::Gzip, h.vox_offset + need, "data")?;
         all[h.vox_offset..].to_vec()
     } else {
         let rest = file.get(h.vox_offset..).ok_or_else(|| {
-            ctx.bad(format!(
-                "vox_offset {} is past the end of the {}-byte file",
-                h.vox_offset,
-                file.len()
-            ))
+            ctx.bad(format!("vox_offset {} is past the end of the {}-byte file", h.vox_offset, file.len()))
         })?;
         decode::take_data(ctx, rest, Compression::None, need, "data")?.into_owned()
     };
@@ -80,20 +66,13 @@ fn scale(ctx: Ctx, grid: AnyGrid, slope: f64, inter: f64) -> Result<AnyGrid> {
     let wide = matches!(grid.dtype(), DType::U32 | DType::I32 | DType::F64);
     let out: AnyGrid = if wide {
         let data = isoforge::with_grid!(&grid, g => to(g, |v| slope * v + inter));
-        DenseGrid::new(lattice, data)
-            .map_err(|e| ctx.lib(e))?
-            .into()
+        DenseGrid::new(lattice, data).map_err(|e| ctx.lib(e))?.into()
     } else {
         let data = isoforge::with_grid!(&grid, g => to(g, |v| (slope * v + inter) as f32));
-        DenseGrid::new(lattice, data)
-            .map_err(|e| ctx.lib(e))?
-            .into()
+        DenseGrid::new(lattice, data).map_err(|e| ctx.lib(e))?.into()
     };
     if let Some(nf) = out.first_non_finite() {
-        return Err(ctx.bad(format!(
-            "scl_slope {slope} / scl_inter {inter} make sample {:?} non-finite",
-            nf.ijk
-        )));
+        return Err(ctx.bad(format!("scl_slope {slope} / scl_inter {inter} make sample {:?} non-finite", nf.ijk)));
     }
     Ok(out)
 }
@@ -145,9 +124,9 @@ impl Header {
             348 => false,
             _ if i32::from_be_bytes([head[0], head[1], head[2], head[3]]) == 348 => true,
             _ => {
-                return Err(ctx.bad(format!(
-                    "sizeof_hdr is {le}, not 348: not a NIfTI-1 file (NIfTI-2 is not supported)"
-                )))
+                return Err(
+                    ctx.bad(format!("sizeof_hdr is {le}, not 348: not a NIfTI-1 file (NIfTI-2 is not supported)"))
+                )
             }
         };
         let b = Bytes { b: head, big };
@@ -156,10 +135,9 @@ impl Header {
             b"n+1\0" => false,
             b"ni1\0" => true,
             _ => {
-                return Err(ctx.bad(format!(
-                    "magic {:?} is neither \"n+1\" nor \"ni1\"",
-                    String::from_utf8_lossy(&magic[..3])
-                )))
+                return Err(
+                    ctx.bad(format!("magic {:?} is neither \"n+1\" nor \"ni1\"", String::from_utf8_lossy(&magic[..3])))
+                )
             }
         };
         let ndim = b.i16(40);
@@ -168,18 +146,17 @@ impl Header {
         }
         let mut dims = [1u32; 3];
         for a in 0..7 {
-            let d = if (a as i16) < ndim {
-                b.i16(42 + 2 * a)
-            } else {
-                1
-            };
+            let d = if (a as i16) < ndim { b.i16(42 + 2 * a) } else { 1 };
             if a < 3 {
                 if d < 1 {
                     return Err(ctx.bad(format!("dim[{}] = {d}: sizes must be positive", a + 1)));
                 }
                 dims[a] = d as u32;
             } else if d > 1 {
-                return Err(ctx.unsupported(format!("dim[{}] = {d}: only single 3D volumes are supported (no time series or vectors)", a + 1)));
+                return Err(ctx.unsupported(format!(
+                    "dim[{}] = {d}: only single 3D volumes are supported (no time series or vectors)",
+                    a + 1
+                )));
             }
         }
         let code = b.i16(70);
@@ -193,35 +170,22 @@ impl Header {
             512 => DType::U16,
             768 => DType::U32,
             other => {
-                return Err(ctx.unsupported(format!(
-                    "datatype {other}: unsupported (u8, i8, u16, i16, u32, i32, f32, f64 are)"
-                )))
+                return Err(ctx
+                    .unsupported(format!("datatype {other}: unsupported (u8, i8, u16, i16, u32, i32, f32, f64 are)")))
             }
         };
         let bitpix = b.i16(72);
         if bitpix as usize != dtype.size() * 8 {
-            return Err(ctx.bad(format!(
-                "bitpix {bitpix} does not match datatype {code} ({dtype})"
-            )));
+            return Err(ctx.bad(format!("bitpix {bitpix} does not match datatype {code} ({dtype})")));
         }
         let pix = |i: usize| b.f32(76 + 4 * i);
         let vox = b.f32(108);
         if !(vox.is_finite() && vox >= 0.0 && vox <= (1u64 << 32) as f64) {
-            return Err(ctx.bad(format!(
-                "vox_offset {vox}: must be a non-negative byte offset"
-            )));
+            return Err(ctx.bad(format!("vox_offset {vox}: must be a non-negative byte offset")));
         }
-        let vox_offset = if magic_pair {
-            vox as usize
-        } else {
-            (vox as usize).max(HEADER_SIZE)
-        };
+        let vox_offset = if magic_pair { vox as usize } else { (vox as usize).max(HEADER_SIZE) };
         let (slope, inter) = (b.f32(112), b.f32(116));
-        let scale = if slope != 0.0
-            && slope.is_finite()
-            && inter.is_finite()
-            && !(slope == 1.0 && inter == 0.0)
-        {
+        let scale = if slope != 0.0 && slope.is_finite() && inter.is_finite() && !(slope == 1.0 && inter == 0.0) {
             Some((slope, inter))
         } else {
             None
@@ -237,59 +201,24 @@ impl Header {
             let (qb, qc, qd) = (b.f32(256), b.f32(260), b.f32(264));
             let qa = (1.0 - (qb * qb + qc * qc + qd * qd)).max(0.0).sqrt();
             let r = [
-                [
-                    qa * qa + qb * qb - qc * qc - qd * qd,
-                    2.0 * (qb * qc - qa * qd),
-                    2.0 * (qb * qd + qa * qc),
-                ],
-                [
-                    2.0 * (qb * qc + qa * qd),
-                    qa * qa + qc * qc - qb * qb - qd * qd,
-                    2.0 * (qc * qd - qa * qb),
-                ],
-                [
-                    2.0 * (qb * qd - qa * qc),
-                    2.0 * (qc * qd + qa * qb),
-                    qa * qa + qd * qd - qc * qc - qb * qb,
-                ],
+                [qa * qa + qb * qb - qc * qc - qd * qd, 2.0 * (qb * qc - qa * qd), 2.0 * (qb * qd + qa * qc)],
+                [2.0 * (qb * qc + qa * qd), qa * qa + qc * qc - qb * qb - qd * qd, 2.0 * (qc * qd - qa * qb)],
+                [2.0 * (qb * qd - qa * qc), 2.0 * (qc * qd + qa * qb), qa * qa + qd * qd - qc * qc - qb * qb],
             ];
             let qfac = if pix(0) < 0.0 { -1.0 } else { 1.0 };
             let s = [pix(1).abs(), pix(2).abs(), pix(3).abs() * qfac];
             let axes = [0, 1, 2].map(|c| [r[0][c] * s[c], r[1][c] * s[c], r[2][c] * s[c]]);
             (axes, [b.f32(268), b.f32(272), b.f32(276)], "qform")
         } else {
-            let s = [1, 2, 3].map(|i| {
-                if pix(i) > 0.0 && pix(i).is_finite() {
-                    pix(i)
-                } else {
-                    1.0
-                }
-            });
-            (
-                [[s[0], 0.0, 0.0], [0.0, s[1], 0.0], [0.0, 0.0, s[2]]],
-                [0.0; 3],
-                "pixdim",
-            )
+            let s = [1, 2, 3].map(|i| if pix(i) > 0.0 && pix(i).is_finite() { pix(i) } else { 1.0 });
+            ([[s[0], 0.0, 0.0], [0.0, s[1], 0.0], [0.0, 0.0, s[2]]], [0.0; 3], "pixdim")
         };
         let (axes, origin, source) = axes_origin;
-        let (spacing, direction) = decode::split_axes(axes).ok_or_else(|| {
-            ctx.bad(format!(
-                "{source}: an axis has zero or non-finite length ({axes:?})"
-            ))
-        })?;
+        let (spacing, direction) = decode::split_axes(axes)
+            .ok_or_else(|| ctx.bad(format!("{source}: an axis has zero or non-finite length ({axes:?})")))?;
         if origin.iter().any(|o| !o.is_finite()) {
             return Err(ctx.bad(format!("{source}: origin {origin:?} is not finite")));
         }
-        Ok(Header {
-            dims,
-            dtype,
-            big_endian: big,
-            spacing,
-            origin,
-            direction,
-            vox_offset,
-            scale,
-            magic_pair,
-        })
+        Ok(Header { dims, dtype, big_endian: big, spacing, origin, direction, vox_offset, scale, magic_pair })
     }
 }

@@ -22,11 +22,7 @@ const MAX_HEADER_BYTES: usize = 1 << 20;
 /// a size over `limits`, or a non-finite sample.
 pub fn read_nrrd(path: &Path, limits: &Limits) -> Result<AnyGrid> {
     let ctx = Ctx::new(path, "NRRD");
-    let bytes = decode::read_file(
-        ctx,
-        path,
-        limits.max_bytes.saturating_add(MAX_HEADER_BYTES as u64),
-    )?;
+    let bytes = decode::read_file(ctx, path, limits.max_bytes.saturating_add(MAX_HEADER_BYTES as u64))?;
     let header_end = header_end(&bytes);
     let header_text = std::str::from_utf8(&bytes[..header_end.min(bytes.len())])
         .map_err(|e| ctx.bad(format!("byte {}: header is not text", e.valid_up_to())))?;
@@ -52,17 +48,12 @@ pub fn read_nrrd(path: &Path, limits: &Limits) -> Result<AnyGrid> {
             let start = match h.byte_skip {
                 ByteSkip::Bytes(n) => n,
                 ByteSkip::FromEnd => raw.len().checked_sub(need).ok_or_else(|| {
-                    data_ctx.bad(format!(
-                        "byte skip -1: the data has {} bytes, fewer than the {need} needed",
-                        raw.len()
-                    ))
+                    data_ctx
+                        .bad(format!("byte skip -1: the data has {} bytes, fewer than the {need} needed", raw.len()))
                 })?,
             };
             let rest = raw.get(start..).ok_or_else(|| {
-                data_ctx.bad(format!(
-                    "byte skip {start} is past the end of the data ({} bytes)",
-                    raw.len()
-                ))
+                data_ctx.bad(format!("byte skip {start} is past the end of the data ({} bytes)", raw.len()))
             })?;
             decode::take_data(data_ctx, rest, Compression::None, need, "raw data")?
         }
@@ -70,9 +61,9 @@ pub fn read_nrrd(path: &Path, limits: &Limits) -> Result<AnyGrid> {
             let ByteSkip::Bytes(start) = h.byte_skip else {
                 return Err(ctx.unsupported("byte skip -1 is only defined for raw encoding"));
             };
-            let rest = raw.get(start..).ok_or_else(|| {
-                data_ctx.bad(format!("byte skip {start} is past the end of the data"))
-            })?;
+            let rest = raw
+                .get(start..)
+                .ok_or_else(|| data_ctx.bad(format!("byte skip {start} is past the end of the data")))?;
             decode::take_data(data_ctx, rest, Compression::Gzip, need, "gzip data")?
         }
     };
@@ -104,24 +95,16 @@ fn skip_lines<'a>(ctx: Ctx, mut data: &'a [u8], n: usize) -> Result<&'a [u8]> {
 }
 
 fn ascii_to_bytes(ctx: Ctx, data: &[u8], dims: [u32; 3], dtype: DType) -> Result<Vec<u8>> {
-    let text = std::str::from_utf8(data)
-        .map_err(|e| ctx.bad(format!("ASCII data: byte {} is not text", e.valid_up_to())))?;
+    let text =
+        std::str::from_utf8(data).map_err(|e| ctx.bad(format!("ASCII data: byte {} is not text", e.valid_up_to())))?;
     let n = dims.iter().map(|&d| d as usize).product::<usize>();
     let mut out = Vec::with_capacity(n * dtype.size());
     let mut count = 0usize;
-    for tok in text
-        .split(|c: char| c.is_whitespace() || c == ',')
-        .filter(|t| !t.is_empty())
-    {
+    for tok in text.split(|c: char| c.is_whitespace() || c == ',').filter(|t| !t.is_empty()) {
         if count == n {
             break;
         }
-        let bad = || {
-            ctx.bad(format!(
-                "ASCII data: value {} {tok:?} is not a {dtype}",
-                count + 1
-            ))
-        };
+        let bad = || ctx.bad(format!("ASCII data: value {} {tok:?} is not a {dtype}", count + 1));
         macro_rules! put {
             ($t:ty) => {{
                 let v: $t = tok.parse().map_err(|_| bad())?;
@@ -141,9 +124,7 @@ fn ascii_to_bytes(ctx: Ctx, data: &[u8], dims: [u32; 3], dtype: DType) -> Result
         count += 1;
     }
     if count < n {
-        return Err(ctx.bad(format!(
-            "ASCII data has {count} values, the header declares {n}"
-        )));
+        return Err(ctx.bad(format!("ASCII data has {count} values, the header declares {n}")));
     }
     Ok(out)
 }
@@ -180,10 +161,7 @@ impl Header {
         match lines.next() {
             Some((_, magic)) if magic.starts_with("NRRD000") => {}
             Some((_, magic)) => {
-                return Err(ctx.bad(format!(
-                    "line 1: {:?} is not an NRRD magic (NRRD0001…NRRD0005)",
-                    truncate(magic)
-                )))
+                return Err(ctx.bad(format!("line 1: {:?} is not an NRRD magic (NRRD0001…NRRD0005)", truncate(magic))))
             }
             None => return Err(ctx.bad("empty file")),
         }
@@ -202,14 +180,10 @@ impl Header {
                 continue; // key/value pairs: free-form metadata
             }
             let Some((field, value)) = line.split_once(": ") else {
-                return Err(ctx.bad(format!(
-                    "line {no}: {:?} is not \"field: value\"",
-                    truncate(line)
-                )));
+                return Err(ctx.bad(format!("line {no}: {:?} is not \"field: value\"", truncate(line))));
             };
             let value = value.trim();
-            let bad =
-                |why: &str| ctx.bad(format!("line {no}: {field} {:?}: {why}", truncate(value)));
+            let bad = |why: &str| ctx.bad(format!("line {no}: {field} {:?}: {why}", truncate(value)));
             match field.to_ascii_lowercase().as_str() {
                 "dimension" => {
                     let d: usize = value.parse().map_err(|_| bad("must be a whole number"))?;
@@ -221,8 +195,7 @@ impl Header {
                     dimension = Some(d);
                 }
                 "sizes" => {
-                    let v: Option<Vec<u32>> =
-                        value.split_whitespace().map(decode::parse_dim).collect();
+                    let v: Option<Vec<u32>> = value.split_whitespace().map(decode::parse_dim).collect();
                     sizes = Some(v.ok_or_else(|| bad("sizes must be positive integers"))?);
                 }
                 "type" => {
@@ -253,8 +226,7 @@ impl Header {
                     });
                 }
                 "spacings" => {
-                    let v: Option<Vec<f64>> =
-                        value.split_whitespace().map(|t| t.parse().ok()).collect();
+                    let v: Option<Vec<f64>> = value.split_whitespace().map(|t| t.parse().ok()).collect();
                     spacings = Some(v.ok_or_else(|| bad("spacings must be numbers"))?);
                 }
                 "space directions" => {
@@ -296,35 +268,24 @@ impl Header {
                 "byte skip" | "byteskip" => {
                     byte_skip = match value {
                         "-1" => ByteSkip::FromEnd,
-                        v => ByteSkip::Bytes(
-                            v.parse().map_err(|_| bad("must be -1 or a whole number"))?,
-                        ),
+                        v => ByteSkip::Bytes(v.parse().map_err(|_| bad("must be -1 or a whole number"))?),
                     };
                 }
-                "line skip" | "lineskip" => {
-                    line_skip = value.parse().map_err(|_| bad("must be a whole number"))?
-                }
+                "line skip" | "lineskip" => line_skip = value.parse().map_err(|_| bad("must be a whole number"))?,
                 _ => {} // kinds, space, content, min, max, units, labels, …: not needed for meshing
             }
         }
         let dimension = dimension.ok_or_else(|| ctx.bad("header has no \"dimension\" field"))?;
         let sizes = sizes.ok_or_else(|| ctx.bad("header has no \"sizes\" field"))?;
         if sizes.len() != dimension {
-            return Err(ctx.bad(format!(
-                "sizes has {} values but dimension is {dimension}",
-                sizes.len()
-            )));
+            return Err(ctx.bad(format!("sizes has {} values but dimension is {dimension}", sizes.len())));
         }
         let dtype = dtype.ok_or_else(|| ctx.bad("header has no \"type\" field"))?;
         let encoding = encoding.ok_or_else(|| ctx.bad("header has no \"encoding\" field"))?;
         let big_endian = match endian {
             Some(e) => e,
             None if dtype.size() == 1 || encoding == Encoding::Ascii => false,
-            None => {
-                return Err(ctx.bad(format!(
-                    "header has no \"endian\" field, needed for {dtype} samples"
-                )))
-            }
+            None => return Err(ctx.bad(format!("header has no \"endian\" field, needed for {dtype} samples"))),
         };
         let mut dims = [1u32; 3];
         dims[..dimension].copy_from_slice(&sizes);
@@ -333,24 +294,17 @@ impl Header {
         let mut origin3 = [0.0; 3];
         if let Some(dirs) = directions {
             if dirs.len() != dimension {
-                return Err(ctx.bad(format!(
-                    "space directions has {} vectors for {dimension} axes",
-                    dirs.len()
-                )));
+                return Err(ctx.bad(format!("space directions has {} vectors for {dimension} axes", dirs.len())));
             }
             let mut axes = [[1.0, 0.0, 0.0], [0.0, 1.0, 0.0], [0.0, 0.0, 1.0]];
             axes[..dimension].copy_from_slice(&dirs);
-            let (s, d) = decode::split_axes(axes).ok_or_else(|| {
-                ctx.bad("space directions: every vector must be finite and non-zero")
-            })?;
+            let (s, d) = decode::split_axes(axes)
+                .ok_or_else(|| ctx.bad("space directions: every vector must be finite and non-zero"))?;
             spacing = s;
             direction = Some(d);
         } else if let Some(sp) = spacings {
             if sp.len() != dimension {
-                return Err(ctx.bad(format!(
-                    "spacings has {} values for {dimension} axes",
-                    sp.len()
-                )));
+                return Err(ctx.bad(format!("spacings has {} values for {dimension} axes", sp.len())));
             }
             for (a, &s) in sp.iter().enumerate() {
                 if s.is_finite() && s != 0.0 {
@@ -380,9 +334,7 @@ fn parse_type(s: &str) -> Option<DType> {
     Some(match s {
         "signed char" | "int8" | "int8_t" => DType::I8,
         "uchar" | "unsigned char" | "uint8" | "uint8_t" => DType::U8,
-        "short" | "short int" | "signed short" | "signed short int" | "int16" | "int16_t" => {
-            DType::I16
-        }
+        "short" | "short int" | "signed short" | "signed short int" | "int16" | "int16_t" => DType::I16,
         "ushort" | "unsigned short" | "unsigned short int" | "uint16" | "uint16_t" => DType::U16,
         "int" | "signed int" | "int32" | "int32_t" => DType::I32,
         "uint" | "unsigned int" | "uint32" | "uint32_t" => DType::U32,

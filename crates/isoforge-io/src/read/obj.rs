@@ -26,12 +26,9 @@ pub fn read_obj(path: &Path, limits: &Limits) -> Result<Mesh> {
             Some("v") => {
                 let mut p = [0.0f32; 3];
                 for (a, slot) in p.iter_mut().enumerate() {
-                    let t = toks
-                        .next()
-                        .ok_or_else(|| ctx.bad(format!("line {no}: vertex needs 3 coordinates")))?;
-                    let v: f64 = t.parse().map_err(|_| {
-                        ctx.bad(format!("line {no}: coordinate {:?} is not a number", t))
-                    })?;
+                    let t = toks.next().ok_or_else(|| ctx.bad(format!("line {no}: vertex needs 3 coordinates")))?;
+                    let v: f64 =
+                        t.parse().map_err(|_| ctx.bad(format!("line {no}: coordinate {:?} is not a number", t)))?;
                     *slot = coord(ctx, v, || format!("line {no}, coordinate {a}"))?;
                 }
                 mesh.positions.push(p);
@@ -41,22 +38,18 @@ pub fn read_obj(path: &Path, limits: &Limits) -> Result<Mesh> {
                 let n = mesh.positions.len() as i64;
                 for t in toks {
                     let first = t.split('/').next().unwrap_or("");
-                    let i: i64 = first.parse().map_err(|_| {
-                        ctx.bad(format!("line {no}: face index {t:?} is not a number"))
-                    })?;
+                    let i: i64 =
+                        first.parse().map_err(|_| ctx.bad(format!("line {no}: face index {t:?} is not a number")))?;
                     let idx = if i > 0 { i - 1 } else { n + i };
                     if i == 0 || idx < 0 || idx >= n {
-                        return Err(ctx.bad(format!(
-                            "line {no}: face index {i} is outside the {n} vertices defined so far"
-                        )));
+                        return Err(
+                            ctx.bad(format!("line {no}: face index {i} is outside the {n} vertices defined so far"))
+                        );
                     }
                     poly.push(idx as u32);
                 }
                 if poly.len() < 3 {
-                    return Err(ctx.bad(format!(
-                        "line {no}: face has {} vertices, at least 3 are needed",
-                        poly.len()
-                    )));
+                    return Err(ctx.bad(format!("line {no}: face has {} vertices, at least 3 are needed", poly.len())));
                 }
                 push_fan(&mut mesh, &poly);
             }

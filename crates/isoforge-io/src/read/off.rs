@@ -22,15 +22,12 @@ pub fn read_off(path: &Path, limits: &Limits) -> Result<Mesh> {
         .filter(|(_, l)| !l.is_empty());
     let (no, first) = lines.next().ok_or_else(|| ctx.bad("empty file"))?;
     let counts_line = match first.strip_prefix("OFF") {
-        Some(rest) if rest.trim().is_empty() => {
-            lines.next().ok_or_else(|| ctx.bad("no counts line"))?
-        }
+        Some(rest) if rest.trim().is_empty() => lines.next().ok_or_else(|| ctx.bad("no counts line"))?,
         Some(rest) => (no, rest.trim()),
         None => {
-            return Err(ctx.bad(format!(
-                "line {no}: {:?} is not the OFF magic",
-                first.chars().take(30).collect::<String>()
-            )))
+            return Err(
+                ctx.bad(format!("line {no}: {:?} is not the OFF magic", first.chars().take(30).collect::<String>()))
+            )
         }
     };
     let counts: Vec<u64> = counts_line
@@ -39,22 +36,19 @@ pub fn read_off(path: &Path, limits: &Limits) -> Result<Mesh> {
         .map(|t| t.parse().ok())
         .collect::<Option<_>>()
         .filter(|c: &Vec<u64>| c.len() >= 2)
-        .ok_or_else(|| {
-            ctx.bad(format!(
-                "line {}: counts must be \"vertices faces edges\"",
-                counts_line.0
-            ))
-        })?;
+        .ok_or_else(|| ctx.bad(format!("line {}: counts must be \"vertices faces edges\"", counts_line.0)))?;
     let (nv, nf) = (counts[0], counts[1]);
     check_mesh_size(ctx, nv, nf, limits)?;
     if nv.saturating_add(nf) > bytes.len() as u64 {
-        return Err(ctx.bad(format!("counts {nv} vertices, {nf} faces exceed what a {}-byte file can hold (truncated file?)", bytes.len())));
+        return Err(ctx.bad(format!(
+            "counts {nv} vertices, {nf} faces exceed what a {}-byte file can hold (truncated file?)",
+            bytes.len()
+        )));
     }
     let mut mesh = Mesh::default();
     for v in 0..nv {
-        let (no, l) = lines
-            .next()
-            .ok_or_else(|| ctx.bad(format!("file ends at vertex {v} of {nv} (truncated file?)")))?;
+        let (no, l) =
+            lines.next().ok_or_else(|| ctx.bad(format!("file ends at vertex {v} of {nv} (truncated file?)")))?;
         let c: Vec<f64> = l
             .split_whitespace()
             .take(3)
@@ -63,36 +57,26 @@ pub fn read_off(path: &Path, limits: &Limits) -> Result<Mesh> {
             .filter(|c: &Vec<f64>| c.len() == 3)
             .ok_or_else(|| ctx.bad(format!("line {no}: vertex {v} needs 3 numbers")))?;
         let what = || format!("line {no}");
-        mesh.positions.push([
-            coord(ctx, c[0], what)?,
-            coord(ctx, c[1], what)?,
-            coord(ctx, c[2], what)?,
-        ]);
+        mesh.positions.push([coord(ctx, c[0], what)?, coord(ctx, c[1], what)?, coord(ctx, c[2], what)?]);
     }
     let mut poly = Vec::new();
     for f in 0..nf {
-        let (no, l) = lines
-            .next()
-            .ok_or_else(|| ctx.bad(format!("file ends at face {f} of {nf} (truncated file?)")))?;
+        let (no, l) =
+            lines.next().ok_or_else(|| ctx.bad(format!("file ends at face {f} of {nf} (truncated file?)")))?;
         let mut toks = l.split_whitespace();
         let n: usize = toks
             .next()
             .and_then(|t| t.parse().ok())
             .filter(|&n| n >= 3)
-            .ok_or_else(|| {
-                ctx.bad(format!(
-                    "line {no}: face {f} must start with a vertex count of at least 3"
-                ))
-            })?;
+            .ok_or_else(|| ctx.bad(format!("line {no}: face {f} must start with a vertex count of at least 3")))?;
         poly.clear();
         for _ in 0..n {
-            let i: u64 = toks.next().and_then(|t| t.parse().ok()).ok_or_else(|| {
-                ctx.bad(format!("line {no}: face {f} has fewer than {n} indices"))
-            })?;
+            let i: u64 = toks
+                .next()
+                .and_then(|t| t.parse().ok())
+                .ok_or_else(|| ctx.bad(format!("line {no}: face {f} has fewer than {n} indices")))?;
             if i >= nv {
-                return Err(ctx.bad(format!(
-                    "line {no}: face {f}: vertex index {i} is outside 0..{nv}"
-                )));
+                return Err(ctx.bad(format!("line {no}: face {f}: vertex index {i} is outside 0..{nv}")));
             }
             poly.push(i as u32);
         }

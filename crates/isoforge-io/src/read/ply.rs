@@ -79,10 +79,7 @@ pub fn read_ply(path: &Path, limits: &Limits) -> Result<Mesh> {
         .take(1 << 20)
         .position(|w| w == marker)
         .ok_or_else(|| ctx.bad("no end_header line"))?;
-    let body_start = bytes[end..]
-        .iter()
-        .position(|&b| b == b'\n')
-        .map_or(bytes.len(), |p| end + p + 1);
+    let body_start = bytes[end..].iter().position(|&b| b == b'\n').map_or(bytes.len(), |p| end + p + 1);
     let header = std::str::from_utf8(&bytes[..end]).map_err(|_| ctx.bad("header is not text"))?;
     let mut lines = decode::numbered_lines(header);
     if lines.next().map(|(_, l)| l.trim()) != Some("ply") {
@@ -92,12 +89,7 @@ pub fn read_ply(path: &Path, limits: &Limits) -> Result<Mesh> {
     let mut elements: Vec<Element> = Vec::new();
     for (no, line) in lines {
         let toks: Vec<&str> = line.split_whitespace().collect();
-        let bad = |why: &str| {
-            ctx.bad(format!(
-                "line {no}: {:?}: {why}",
-                line.chars().take(60).collect::<String>()
-            ))
-        };
+        let bad = |why: &str| ctx.bad(format!("line {no}: {:?}: {why}", line.chars().take(60).collect::<String>()));
         match toks.first().copied() {
             None | Some("comment") | Some("obj_info") => {}
             Some("format") => {
@@ -105,33 +97,28 @@ pub fn read_ply(path: &Path, limits: &Limits) -> Result<Mesh> {
                     Some("ascii") => Format::Ascii,
                     Some("binary_little_endian") => Format::Binary { big: false },
                     Some("binary_big_endian") => Format::Binary { big: true },
-                    _ => {
-                        return Err(bad(
-                            "format must be ascii, binary_little_endian or binary_big_endian",
-                        ))
-                    }
+                    _ => return Err(bad("format must be ascii, binary_little_endian or binary_big_endian")),
                 });
             }
             Some("element") => {
-                let (Some(name), Some(count)) =
-                    (toks.get(1), toks.get(2).and_then(|c| c.parse::<u64>().ok()))
-                else {
+                let (Some(name), Some(count)) = (toks.get(1), toks.get(2).and_then(|c| c.parse::<u64>().ok())) else {
                     return Err(bad("expected \"element NAME COUNT\""));
                 };
-                elements.push(Element {
-                    name: name.to_string(),
-                    count,
-                    props: Vec::new(),
-                });
+                elements.push(Element { name: name.to_string(), count, props: Vec::new() });
             }
             Some("property") => {
-                let el = elements
-                    .last_mut()
-                    .ok_or_else(|| bad("property before any element"))?;
+                let el = elements.last_mut().ok_or_else(|| bad("property before any element"))?;
                 let prop = if toks.get(1) == Some(&"list") {
-                    match (toks.get(2).and_then(|t| Ty::parse(t)), toks.get(3).and_then(|t| Ty::parse(t)), toks.get(4)) {
-                        (Some(c), Some(i), Some(n)) if !matches!(c, Ty::F32 | Ty::F64) => Prop::List(c, i, n.to_string()),
-                        _ => return Err(bad("expected \"property list COUNT_TYPE INDEX_TYPE NAME\" with an integer count type")),
+                    match (toks.get(2).and_then(|t| Ty::parse(t)), toks.get(3).and_then(|t| Ty::parse(t)), toks.get(4))
+                    {
+                        (Some(c), Some(i), Some(n)) if !matches!(c, Ty::F32 | Ty::F64) => {
+                            Prop::List(c, i, n.to_string())
+                        }
+                        _ => {
+                            return Err(bad(
+                                "expected \"property list COUNT_TYPE INDEX_TYPE NAME\" with an integer count type",
+                            ))
+                        }
                     }
                 } else {
                     match (toks.get(1).and_then(|t| Ty::parse(t)), toks.get(2)) {
@@ -145,12 +132,7 @@ pub fn read_ply(path: &Path, limits: &Limits) -> Result<Mesh> {
         }
     }
     let format = format.ok_or_else(|| ctx.bad("header has no format line"))?;
-    let count = |name: &str| {
-        elements
-            .iter()
-            .find(|e| e.name == name)
-            .map_or(0, |e| e.count)
-    };
+    let count = |name: &str| elements.iter().find(|e| e.name == name).map_or(0, |e| e.count);
     let (nv, nf) = (count("vertex"), count("face"));
     check_mesh_size(ctx, nv, nf, limits)?;
     let body = &bytes[body_start.min(bytes.len())..];
@@ -177,12 +159,7 @@ pub fn read_ply(path: &Path, limits: &Limits) -> Result<Mesh> {
             )));
         }
     }
-    let mut src = Source {
-        ctx,
-        format,
-        body,
-        pos: 0,
-    };
+    let mut src = Source { ctx, format, body, pos: 0 };
     let mut mesh = Mesh::default();
     mesh.positions.reserve(nv as usize);
     mesh.triangles.reserve(nf as usize);
@@ -190,11 +167,7 @@ pub fn read_ply(path: &Path, limits: &Limits) -> Result<Mesh> {
     for el in &elements {
         let xyz: Vec<Option<usize>> = ["x", "y", "z"]
             .iter()
-            .map(|n| {
-                el.props
-                    .iter()
-                    .position(|p| matches!(p, Prop::Scalar(_, m) if m == n))
-            })
+            .map(|n| el.props.iter().position(|p| matches!(p, Prop::Scalar(_, m) if m == n)))
             .collect();
         if el.name == "vertex" && xyz.iter().any(|p| p.is_none()) {
             return Err(ctx.bad("element vertex lacks an x, y or z property"));
@@ -214,30 +187,24 @@ pub fn read_ply(path: &Path, limits: &Limits) -> Result<Mesh> {
                     Prop::List(c, it, name) => {
                         let n = src.scalar(*c, || format!("{} {idx} list length", el.name))?;
                         if !(0.0..=1e6).contains(&n) {
-                            return Err(
-                                ctx.bad(format!("{} {idx}: list length {n} is not valid", el.name))
-                            );
+                            return Err(ctx.bad(format!("{} {idx}: list length {n} is not valid", el.name)));
                         }
-                        let is_faces = el.name == "face"
-                            && (name == "vertex_indices" || name == "vertex_index");
+                        let is_faces = el.name == "face" && (name == "vertex_indices" || name == "vertex_index");
                         poly.clear();
                         for _ in 0..n as usize {
                             let v = src.scalar(*it, || format!("{} {idx} index", el.name))?;
                             if is_faces {
                                 if !(v >= 0.0 && v < nv as f64) || v.fract() != 0.0 {
-                                    return Err(ctx.bad(format!(
-                                        "face {idx}: vertex index {v} is outside 0..{nv}"
-                                    )));
+                                    return Err(ctx.bad(format!("face {idx}: vertex index {v} is outside 0..{nv}")));
                                 }
                                 poly.push(v as u32);
                             }
                         }
                         if is_faces {
                             if poly.len() < 3 {
-                                return Err(ctx.bad(format!(
-                                    "face {idx} has {} vertices, at least 3 are needed",
-                                    poly.len()
-                                )));
+                                return Err(
+                                    ctx.bad(format!("face {idx} has {} vertices, at least 3 are needed", poly.len()))
+                                );
                             }
                             push_fan(&mut mesh, &poly);
                         }
@@ -246,11 +213,7 @@ pub fn read_ply(path: &Path, limits: &Limits) -> Result<Mesh> {
             }
             if el.name == "vertex" {
                 let what = || format!("vertex {idx}");
-                mesh.positions.push([
-                    coord(ctx, p[0], what)?,
-                    coord(ctx, p[1], what)?,
-                    coord(ctx, p[2], what)?,
-                ]);
+                mesh.positions.push([coord(ctx, p[0], what)?, coord(ctx, p[1], what)?, coord(ctx, p[2], what)?]);
             }
         }
     }
@@ -270,11 +233,7 @@ impl Source<'_> {
             Format::Binary { big } => {
                 let n = t.size();
                 let b = self.body.get(self.pos..self.pos + n).ok_or_else(|| {
-                    self.ctx.bad(format!(
-                        "{}: data ends at byte {} (truncated file?)",
-                        what(),
-                        self.pos
-                    ))
+                    self.ctx.bad(format!("{}: data ends at byte {} (truncated file?)", what(), self.pos))
                 })?;
                 self.pos += n;
                 let mut a = [0u8; 8];
@@ -298,22 +257,12 @@ impl Source<'_> {
                 let start = rest
                     .iter()
                     .position(|b| !b.is_ascii_whitespace())
-                    .ok_or_else(|| {
-                        self.ctx
-                            .bad(format!("{}: data ends early (truncated file?)", what()))
-                    })?;
-                let len = rest[start..]
-                    .iter()
-                    .position(|b| b.is_ascii_whitespace())
-                    .unwrap_or(rest.len() - start);
+                    .ok_or_else(|| self.ctx.bad(format!("{}: data ends early (truncated file?)", what())))?;
+                let len = rest[start..].iter().position(|b| b.is_ascii_whitespace()).unwrap_or(rest.len() - start);
                 let tok = std::str::from_utf8(&rest[start..start + len]).unwrap_or("");
                 self.pos += start + len;
                 tok.parse::<f64>().map_err(|_| {
-                    self.ctx.bad(format!(
-                        "{}: {:?} is not a number",
-                        what(),
-                        tok.chars().take(30).collect::<String>()
-                    ))
+                    self.ctx.bad(format!("{}: {:?} is not a number", what(), tok.chars().take(30).collect::<String>()))
                 })
             }
         }

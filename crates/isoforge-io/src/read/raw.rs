@@ -28,14 +28,7 @@ pub struct RawSpec {
 impl RawSpec {
     /// Little-endian, no header, unit spacing at the origin.
     pub fn new(dims: [u32; 3], dtype: DType) -> Self {
-        RawSpec {
-            dims,
-            dtype,
-            big_endian: false,
-            header_bytes: 0,
-            spacing: [1.0; 3],
-            origin: [0.0; 3],
-        }
+        RawSpec { dims, dtype, big_endian: false, header_bytes: 0, spacing: [1.0; 3], origin: [0.0; 3] }
     }
 }
 
@@ -58,12 +51,6 @@ pub fn read_raw(path: &Path, spec: &RawSpec, limits: &Limits) -> Result<AnyGrid>
         )));
     }
     let bytes = decode::read_file(ctx, path, expected)?;
-    let body = decode::take_data(
-        ctx,
-        &bytes[spec.header_bytes as usize..],
-        Compression::None,
-        need,
-        "sample data",
-    )?;
+    let body = decode::take_data(ctx, &bytes[spec.header_bytes as usize..], Compression::None, need, "sample data")?;
     decode::decode(ctx, lattice, spec.dtype, spec.big_endian, &body)
 }

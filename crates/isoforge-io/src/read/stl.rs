@@ -18,9 +18,7 @@ use crate::limits::Limits;
 pub fn read_stl(path: &Path, limits: &Limits) -> Result<Mesh> {
     let ctx = Ctx::new(path, "STL");
     let bytes = decode::read_file(ctx, path, limits.max_bytes)?;
-    let binary_count = bytes
-        .get(80..84)
-        .map(|c| u32::from_le_bytes([c[0], c[1], c[2], c[3]]) as u64);
+    let binary_count = bytes.get(80..84).map(|c| u32::from_le_bytes([c[0], c[1], c[2], c[3]]) as u64);
     let mut w = Welder::default();
     match binary_count {
         Some(n) if 84 + 50 * n == bytes.len() as u64 => {
@@ -48,28 +46,19 @@ pub fn read_stl(path: &Path, limits: &Limits) -> Result<Mesh> {
                 match toks.next() {
                     Some("vertex") => {
                         let v: Vec<f64> = toks
-                            .map(|t| {
-                                t.parse().map_err(|_| {
-                                    ctx.bad(format!("line {no}: {t:?} is not a number"))
-                                })
-                            })
+                            .map(|t| t.parse().map_err(|_| ctx.bad(format!("line {no}: {t:?} is not a number"))))
                             .collect::<Result<_>>()?;
                         if v.len() != 3 {
                             return Err(ctx.bad(format!("line {no}: vertex needs 3 coordinates")));
                         }
                         let what = || format!("line {no}");
-                        corner.push(w.id([
-                            coord(ctx, v[0], what)?,
-                            coord(ctx, v[1], what)?,
-                            coord(ctx, v[2], what)?,
-                        ]));
+                        corner.push(w.id([coord(ctx, v[0], what)?, coord(ctx, v[1], what)?, coord(ctx, v[2], what)?]));
                     }
                     Some("endloop") => {
                         if corner.len() != 3 {
-                            return Err(ctx.bad(format!(
-                                "line {no}: facet has {} vertices, STL facets have 3",
-                                corner.len()
-                            )));
+                            return Err(
+                                ctx.bad(format!("line {no}: facet has {} vertices, STL facets have 3", corner.len()))
+                            );
                         }
                         w.mesh.triangles.push([corner[0], corner[1], corner[2]]);
                         corner.clear();
@@ -82,14 +71,13 @@ pub fn read_stl(path: &Path, limits: &Limits) -> Result<Mesh> {
             }
         }
         Some(n) => {
-            return Err(ctx.bad(format!("binary header declares {n} triangles ({} bytes) but the file has {} bytes, and it is not ASCII STL", 84 + 50 * n, bytes.len())));
-        }
-        None => {
             return Err(ctx.bad(format!(
-                "{} bytes: too short for binary STL and not ASCII STL",
+                "binary header declares {n} triangles ({} bytes) but the file has {} bytes, and it is not ASCII STL",
+                84 + 50 * n,
                 bytes.len()
-            )))
+            )));
         }
+        None => return Err(ctx.bad(format!("{} bytes: too short for binary STL and not ASCII STL", bytes.len()))),
     }
     Ok(w.mesh)
 }

@@ -6,12 +6,7 @@ use isoforge::mesh::Mesh;
 
 /// Writes `mesh` as OFF.
 pub fn write_off(w: &mut dyn Write, mesh: &Mesh) -> io::Result<()> {
-    writeln!(
-        w,
-        "OFF\n{} {} 0",
-        mesh.positions.len(),
-        mesh.triangles.len()
-    )?;
+    writeln!(w, "OFF\n{} {} 0", mesh.positions.len(), mesh.triangles.len())?;
     for p in &mesh.positions {
         writeln!(w, "{} {} {}", p[0], p[1], p[2])?;
     }

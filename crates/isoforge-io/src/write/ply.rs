@@ -7,21 +7,13 @@ use isoforge::mesh::Mesh;
 /// Writes `mesh` as PLY.
 pub fn write_ply(w: &mut dyn Write, mesh: &Mesh, ascii: bool) -> io::Result<()> {
     let normals = !mesh.normals.is_empty();
-    let format = if ascii {
-        "ascii"
-    } else {
-        "binary_little_endian"
-    };
+    let format = if ascii { "ascii" } else { "binary_little_endian" };
     write!(w, "ply\nformat {format} 1.0\ncomment isoforge {}\nelement vertex {}\nproperty float x\nproperty float y\nproperty float z\n",
         env!("CARGO_PKG_VERSION"), mesh.positions.len())?;
     if normals {
         w.write_all(b"property float nx\nproperty float ny\nproperty float nz\n")?;
     }
-    write!(
-        w,
-        "element face {}\nproperty list uchar int vertex_indices\nend_header\n",
-        mesh.triangles.len()
-    )?;
+    write!(w, "element face {}\nproperty list uchar int vertex_indices\nend_header\n", mesh.triangles.len())?;
     if ascii {
         for (i, p) in mesh.positions.iter().enumerate() {
             write!(w, "{} {} {}", p[0], p[1], p[2])?;

@@ -123,31 +123,20 @@ impl EdgeKey {
     #[inline]
     pub fn of_cell(cell: [u32; 3], e: CubeEdge) -> Self {
         let o = e.origin_offset();
-        EdgeKey {
-            origin: [cell[0] + o[0], cell[1] + o[1], cell[2] + o[2]],
-            axis: e.axis(),
-        }
+        EdgeKey { origin: [cell[0] + o[0], cell[1] + o[1], cell[2] + o[2]], axis: e.axis() }
     }
 
     /// The edge's upper point.
     #[inline]
     pub fn end(&self) -> [u32; 3] {
         let u = self.axis.unit();
-        [
-            self.origin[0] + u[0],
-            self.origin[1] + u[1],
-            self.origin[2] + u[2],
-        ]
+        [self.origin[0] + u[0], self.origin[1] + u[1], self.origin[2] + u[2]]
     }
 
     /// The index-space point at parameter `t` from `origin` (0) to `end` (1).
     #[inline]
     pub fn point_at(&self, t: f64) -> [f64; 3] {
-        let mut p = [
-            self.origin[0] as f64,
-            self.origin[1] as f64,
-            self.origin[2] as f64,
-        ];
+        let mut p = [self.origin[0] as f64, self.origin[1] as f64, self.origin[2] as f64];
         p[self.axis.index()] += t;
         p
     }

@@ -96,10 +96,7 @@ impl<S: Sample> DenseGrid<S> {
     /// The first sample that is NaN or infinite, if any.
     pub fn first_non_finite(&self) -> Option<NonFinite> {
         let lin = self.data.iter().position(|v| !v.is_finite())?;
-        Some(NonFinite {
-            ijk: self.lattice.ijk(lin),
-            value: self.data[lin].to_f64(),
-        })
+        Some(NonFinite { ijk: self.lattice.ijk(lin), value: self.data[lin].to_f64() })
     }
 
     /// Smallest and largest sample (NaN samples are skipped; `None` when all are NaN).

@@ -22,21 +22,12 @@ impl Histogram {
         let (mut sum, mut n) = (0.0f64, 0u64);
         let width = (range.max - range.min) / bins as f64;
         for v in grid.values_f64() {
-            let b = if width > 0.0 {
-                (((v - range.min) / width) as usize).min(bins - 1)
-            } else {
-                0
-            };
+            let b = if width > 0.0 { (((v - range.min) / width) as usize).min(bins - 1) } else { 0 };
             counts[b] += 1;
             sum += v;
             n += 1;
         }
-        Some(Histogram {
-            min: range.min,
-            max: range.max,
-            mean: sum / n.max(1) as f64,
-            counts,
-        })
+        Some(Histogram { min: range.min, max: range.max, mean: sum / n.max(1) as f64, counts })
     }
 
     /// Width of one bin.
@@ -63,12 +54,7 @@ impl Histogram {
     pub fn otsu(&self) -> f64 {
         let total: f64 = self.counts.iter().sum::<u64>() as f64;
         let centers: Vec<f64> = (0..self.counts.len()).map(|b| b as f64 + 0.5).collect();
-        let sum_all: f64 = self
-            .counts
-            .iter()
-            .zip(&centers)
-            .map(|(&c, &x)| c as f64 * x)
-            .sum();
+        let sum_all: f64 = self.counts.iter().zip(&centers).map(|(&c, &x)| c as f64 * x).sum();
         let (mut w0, mut sum0, mut best, mut best_t) = (0.0, 0.0, -1.0, 0usize);
         for t in 0..self.counts.len().saturating_sub(1) {
             w0 += self.counts[t] as f64;

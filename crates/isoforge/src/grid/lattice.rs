@@ -46,38 +46,22 @@ impl Lattice {
                 dims[0], dims[1], dims[2]
             )));
         }
-        let Some(n) = (dims[0] as u64)
-            .checked_mul(dims[1] as u64)
-            .and_then(|n| n.checked_mul(dims[2] as u64))
-        else {
+        let Some(n) = (dims[0] as u64).checked_mul(dims[1] as u64).and_then(|n| n.checked_mul(dims[2] as u64)) else {
             return Err(Error::InvalidInput(format!(
                 "lattice dims {}x{}x{}: the point count overflows 64 bits",
                 dims[0], dims[1], dims[2]
             )));
         };
         if n > Self::MAX_POINTS {
-            return Err(Error::Limit {
-                what: "lattice points",
-                requested: n,
-                allowed: Self::MAX_POINTS,
-            });
+            return Err(Error::Limit { what: "lattice points", requested: n, allowed: Self::MAX_POINTS });
         }
         if let Some(s) = spacing.iter().find(|s| !(s.is_finite() && **s > 0.0)) {
-            return Err(Error::InvalidInput(format!(
-                "lattice spacing {s}: must be finite and positive"
-            )));
+            return Err(Error::InvalidInput(format!("lattice spacing {s}: must be finite and positive")));
         }
         if let Some(o) = origin.iter().find(|o| !o.is_finite()) {
-            return Err(Error::InvalidInput(format!(
-                "lattice origin {o}: must be finite"
-            )));
+            return Err(Error::InvalidInput(format!("lattice origin {o}: must be finite")));
         }
-        Ok(Lattice {
-            dims,
-            spacing,
-            origin,
-            direction: IDENTITY,
-        })
+        Ok(Lattice { dims, spacing, origin, direction: IDENTITY })
     }
 
     /// A copy with the world direction of each index axis (`direction[a]` for axis `a`).
@@ -166,8 +150,7 @@ impl Lattice {
     /// Linear index of point `ijk` (x fastest).
     #[inline]
     pub fn linear(&self, ijk: [u32; 3]) -> usize {
-        (ijk[2] as usize * self.dims[1] as usize + ijk[1] as usize) * self.dims[0] as usize
-            + ijk[0] as usize
+        (ijk[2] as usize * self.dims[1] as usize + ijk[1] as usize) * self.dims[0] as usize + ijk[0] as usize
     }
 
     /// The point of linear index `lin`.
@@ -175,11 +158,7 @@ impl Lattice {
     pub fn ijk(&self, lin: usize) -> [u32; 3] {
         let nx = self.dims[0] as usize;
         let ny = self.dims[1] as usize;
-        [
-            (lin % nx) as u32,
-            ((lin / nx) % ny) as u32,
-            (lin / (nx * ny)) as u32,
-        ]
+        [(lin % nx) as u32, ((lin / nx) % ny) as u32, (lin / (nx * ny)) as u32]
     }
 
     /// World position of a (fractional) index-space point.
@@ -198,14 +177,9 @@ impl Lattice {
     /// Index-space position of a world point.
     #[inline]
     pub fn to_index(&self, p: [f64; 3]) -> [f64; 3] {
-        let d = [
-            p[0] - self.origin[0],
-            p[1] - self.origin[1],
-            p[2] - self.origin[2],
-        ];
+        let d = [p[0] - self.origin[0], p[1] - self.origin[1], p[2] - self.origin[2]];
         let dir = &self.direction;
-        [0, 1, 2]
-            .map(|a| (dir[a][0] * d[0] + dir[a][1] * d[1] + dir[a][2] * d[2]) / self.spacing[a])
+        [0, 1, 2].map(|a| (dir[a][0] * d[0] + dir[a][1] * d[1] + dir[a][2] * d[2]) / self.spacing[a])
     }
 
     /// Converts an index-space gradient (per unit index step) to a world-space gradient.
@@ -226,13 +200,7 @@ impl Lattice {
     pub fn world_bounds(&self) -> ([f64; 3], [f64; 3]) {
         let (mut lo, mut hi) = ([f64::INFINITY; 3], [f64::NEG_INFINITY; 3]);
         for c in 0..8u32 {
-            let p = [0, 1, 2].map(|a| {
-                if c >> a & 1 == 1 {
-                    self.dims[a] as f64 - 1.0
-                } else {
-                    0.0
-                }
-            });
+            let p = [0, 1, 2].map(|a| if c >> a & 1 == 1 { self.dims[a] as f64 - 1.0 } else { 0.0 });
             let w = self.to_world(p);
             for a in 0..3 {
                 lo[a] = lo[a].min(w[a]);
@@ -272,10 +240,7 @@ mod tests {
     #[test]
     fn rejects_bad_geometry() {
         assert!(Lattice::new([0, 4, 4]).is_err());
-        assert!(matches!(
-            Lattice::new([u32::MAX, u32::MAX, 2]),
-            Err(Error::Limit { .. })
-        ));
+        assert!(matches!(Lattice::new([1 << 20, 1 << 20, 2]), Err(Error::Limit { .. })));
         assert!(Lattice::with_geometry([2, 2, 2], [1.0, 0.0, 1.0], [0.0; 3]).is_err());
         assert!(Lattice::with_geometry([2, 2, 2], [1.0; 3], [f64::NAN, 0.0, 0.0]).is_err());
     }
@@ -292,19 +257,14 @@ mod tests {
     fn directions_rotate_and_mirror() {
         // i along −x, j along +y, k along +z: a mirror (LPS vs RAS style flip).
         let flip = [[-1.0, 0.0, 0.0], [0.0, 1.0, 0.0], [0.0, 0.0, 1.0]];
-        let l = Lattice::with_geometry([3, 3, 3], [2.0, 1.0, 1.0], [5.0, 0.0, 0.0])
-            .unwrap()
-            .with_direction(flip)
-            .unwrap();
+        let l =
+            Lattice::with_geometry([3, 3, 3], [2.0, 1.0, 1.0], [5.0, 0.0, 0.0]).unwrap().with_direction(flip).unwrap();
         assert!(l.is_mirrored());
         assert_eq!(l.to_world([1.0, 1.0, 0.0]), [3.0, 1.0, 0.0]);
         assert_eq!(l.to_index([3.0, 1.0, 0.0]), [1.0, 1.0, 0.0]);
         assert_eq!(l.world_bounds(), ([1.0, 0.0, 0.0], [5.0, 2.0, 2.0]));
         assert_eq!(l.gradient_to_world([2.0, 0.0, 0.0]), [-1.0, 0.0, 0.0]);
         let shear = [[1.0, 0.0, 0.0], [0.5, 1.0, 0.0], [0.0, 0.0, 1.0]];
-        assert!(Lattice::new([2, 2, 2])
-            .unwrap()
-            .with_direction(shear)
-            .is_err());
+        assert!(Lattice::new([2, 2, 2]).unwrap().with_direction(shear).is_err());
     }
 }

@@ -77,15 +77,8 @@ impl Mesh {
             )));
         }
         let n = self.positions.len();
-        if let Some((i, t)) = self
-            .triangles
-            .iter()
-            .enumerate()
-            .find(|(_, t)| t.iter().any(|&v| v as usize >= n))
-        {
-            return Err(Error::InvalidInput(format!(
-                "triangle {i} {t:?} refers to a vertex beyond the {n} vertices"
-            )));
+        if let Some((i, t)) = self.triangles.iter().enumerate().find(|(_, t)| t.iter().any(|&v| v as usize >= n)) {
+            return Err(Error::InvalidInput(format!("triangle {i} {t:?} refers to a vertex beyond the {n} vertices")));
         }
         Ok(())
     }
@@ -126,23 +119,13 @@ impl MeshBuilder {
 
     /// A builder that stores normals when `with_normals` is true.
     pub fn new(with_normals: bool) -> Self {
-        MeshBuilder {
-            mesh: Mesh::default(),
-            with_normals,
-            reverse_winding: false,
-            overflow: false,
-        }
+        MeshBuilder { mesh: Mesh::default(), with_normals, reverse_winding: false, overflow: false }
     }
 
     /// A builder that reuses `mesh`'s buffers (cleared).
     pub fn reuse(mut mesh: Mesh, with_normals: bool) -> Self {
         mesh.clear();
-        MeshBuilder {
-            mesh,
-            with_normals,
-            reverse_winding: false,
-            overflow: false,
-        }
+        MeshBuilder { mesh, with_normals, reverse_winding: false, overflow: false }
     }
 
     /// True when normals are stored.
@@ -175,11 +158,7 @@ impl MeshBuilder {
     /// Adds a triangle.
     #[inline]
     pub fn push_triangle(&mut self, t: [VertexId; 3]) {
-        let t = if self.reverse_winding {
-            [t[0].0, t[2].0, t[1].0]
-        } else {
-            [t[0].0, t[1].0, t[2].0]
-        };
+        let t = if self.reverse_winding { [t[0].0, t[2].0, t[1].0] } else { [t[0].0, t[1].0, t[2].0] };
         self.mesh.triangles.push(t);
     }
 

@@ -15,10 +15,7 @@ pub struct CheckOptions {
 
 impl Default for CheckOptions {
     fn default() -> Self {
-        CheckOptions {
-            max_examples: 10,
-            lattice: None,
-        }
+        CheckOptions { max_examples: 10, lattice: None }
     }
 }
 
@@ -33,10 +30,7 @@ pub struct Findings<T> {
 
 impl<T> Default for Findings<T> {
     fn default() -> Self {
-        Findings {
-            count: 0,
-            examples: Vec::new(),
-        }
+        Findings { count: 0, examples: Vec::new() }
     }
 }
 
@@ -204,10 +198,7 @@ impl MeshReport {
             Guarantee::Oriented => self.is_oriented(),
             Guarantee::Watertight => self.is_watertight(),
             Guarantee::NoDegenerate => {
-                self.collapsed_triangles.count
-                    + self.zero_area_triangles.count
-                    + self.duplicate_triangles.count
-                    == 0
+                self.collapsed_triangles.count + self.zero_area_triangles.count + self.duplicate_triangles.count == 0
             }
         }
     }
@@ -259,11 +250,7 @@ pub fn check_with(mesh: &Mesh, opts: &CheckOptions) -> MeshReport {
         }
     }
     // Volume relative to the box centre keeps the f64 sums well conditioned.
-    let c = if bounds.is_empty() {
-        [0.0; 3]
-    } else {
-        [0, 1, 2].map(|a| 0.5 * (bounds.min[a] + bounds.max[a]))
-    };
+    let c = if bounds.is_empty() { [0.0; 3] } else { [0, 1, 2].map(|a| 0.5 * (bounds.min[a] + bounds.max[a])) };
     let p64 = |v: u32| {
         let p = pos(v);
         [p[0] as f64 - c[0], p[1] as f64 - c[1], p[2] as f64 - c[2]]
@@ -302,11 +289,7 @@ pub fn check_with(mesh: &Mesh, opts: &CheckOptions) -> MeshReport {
         let (a, b, d) = (p64(t[0]), p64(t[1]), p64(t[2]));
         let u = [b[0] - a[0], b[1] - a[1], b[2] - a[2]];
         let w = [d[0] - a[0], d[1] - a[1], d[2] - a[2]];
-        let n = [
-            u[1] * w[2] - u[2] * w[1],
-            u[2] * w[0] - u[0] * w[2],
-            u[0] * w[1] - u[1] * w[0],
-        ];
+        let n = [u[1] * w[2] - u[2] * w[1], u[2] * w[0] - u[0] * w[2], u[0] * w[1] - u[1] * w[0]];
         let area2 = (n[0] * n[0] + n[1] * n[1] + n[2] * n[2]).sqrt();
         if area2 == 0.0 {
             zero_area.push(ti, max);
@@ -343,18 +326,10 @@ pub fn check_with(mesh: &Mesh, opts: &CheckOptions) -> MeshReport {
             let p = l.to_index(midpoint.map(|x| x as f64));
             p.map(|x| x.floor() as i64)
         });
-        EdgeFinding {
-            edge: [a, b],
-            faces,
-            midpoint,
-            cell,
-        }
+        EdgeFinding { edge: [a, b], faces, midpoint, cell }
     };
-    let (mut boundary, mut non_manifold, mut inconsistent) = (
-        Findings::default(),
-        Findings::default(),
-        Findings::default(),
-    );
+    let (mut boundary, mut non_manifold, mut inconsistent) =
+        (Findings::default(), Findings::default(), Findings::default());
     let mut nedges = 0usize;
     let mut i = 0;
     while i < edges.len() {
@@ -449,8 +424,7 @@ pub fn check_with(mesh: &Mesh, opts: &CheckOptions) -> MeshReport {
         }
     }
 
-    let vertex_manifold_ok =
-        non_manifold_vertices.count == 0 && non_manifold.count == 0 && inconsistent.count == 0;
+    let vertex_manifold_ok = non_manifold_vertices.count == 0 && non_manifold.count == 0 && inconsistent.count == 0;
     for k in &mut comps {
         k.euler = k.vertices as i64 - k.edges as i64 + k.triangles as i64;
         if k.closed && vertex_manifold_ok && k.euler % 2 == 0 {
@@ -485,9 +459,7 @@ struct UnionFind {
 
 impl UnionFind {
     fn new(n: usize) -> Self {
-        UnionFind {
-            parent: (0..n as u32).collect(),
-        }
+        UnionFind { parent: (0..n as u32).collect() }
     }
     fn find(&mut self, mut x: u32) -> u32 {
         while self.parent[x as usize] != x {
@@ -513,12 +485,7 @@ mod tests {
 
     fn tetra() -> Mesh {
         Mesh {
-            positions: vec![
-                [0.0, 0.0, 0.0],
-                [1.0, 0.0, 0.0],
-                [0.0, 1.0, 0.0],
-                [0.0, 0.0, 1.0],
-            ],
+            positions: vec![[0.0, 0.0, 0.0], [1.0, 0.0, 0.0], [0.0, 1.0, 0.0], [0.0, 0.0, 1.0]],
             normals: vec![],
             triangles: vec![[0, 2, 1], [0, 1, 3], [0, 3, 2], [1, 2, 3]],
         }
@@ -556,10 +523,8 @@ mod tests {
 
         // Two tetrahedra sharing only a vertex: a non-manifold vertex.
         let mut m = tetra();
-        m.positions
-            .extend([[-1.0, 0.0, 0.0], [0.0, -1.0, 0.0], [0.0, 0.0, -1.0]]);
-        m.triangles
-            .extend([[0, 4, 5], [0, 5, 6], [0, 6, 4], [4, 6, 5]]);
+        m.positions.extend([[-1.0, 0.0, 0.0], [0.0, -1.0, 0.0], [0.0, 0.0, -1.0]]);
+        m.triangles.extend([[0, 4, 5], [0, 5, 6], [0, 6, 4], [4, 6, 5]]);
         let r = check(&m);
         assert_eq!(r.non_manifold_vertices.examples, vec![0]);
         assert!(r.is_edge_manifold() && !r.is_manifold());
@@ -577,13 +542,7 @@ mod tests {
         let mut m = tetra();
         m.triangles.pop();
         let l = Lattice::with_geometry([4, 4, 4], [0.5; 3], [0.0; 3]).unwrap();
-        let r = check_with(
-            &m,
-            &CheckOptions {
-                max_examples: 10,
-                lattice: Some(l),
-            },
-        );
+        let r = check_with(&m, &CheckOptions { max_examples: 10, lattice: Some(l) });
         let f = &r.boundary_edges.examples[0];
         assert!(f.cell.is_some());
         assert!(f.to_string().contains("in cell"), "{f}");

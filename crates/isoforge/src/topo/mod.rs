@@ -4,6 +4,4 @@
 
 mod check;
 
-pub use check::{
-    check, check_with, CheckOptions, ComponentReport, EdgeFinding, Findings, Guarantee, MeshReport,
-};
+pub use check::{check, check_with, CheckOptions, ComponentReport, EdgeFinding, Findings, Guarantee, MeshReport};

@@ -21,30 +21,12 @@ use crate::math::Vec3;
 
 /// Names and one-line descriptions of the built-in fields.
 pub const NAMES: [(&str, &str); 7] = [
-    (
-        "sphere",
-        "signed distance to a sphere of radius r (0.7) in [-1,1]^3",
-    ),
-    (
-        "torus",
-        "signed distance to a torus R (0.6), r (0.25) around z in [-1,1]^3",
-    ),
-    (
-        "box",
-        "signed distance to a cube of half size h (0.6) in [-1,1]^3",
-    ),
-    (
-        "gyroid",
-        "gyroid with `periods` (2) periods across [-1,1]^3",
-    ),
-    (
-        "metaballs",
-        "classic demo: charges around three moving points at time t (0.5), iso 48",
-    ),
-    (
-        "lines",
-        "classic demo: charges around three moving lines at time t (0.5), iso 48",
-    ),
+    ("sphere", "signed distance to a sphere of radius r (0.7) in [-1,1]^3"),
+    ("torus", "signed distance to a torus R (0.6), r (0.25) around z in [-1,1]^3"),
+    ("box", "signed distance to a cube of half size h (0.6) in [-1,1]^3"),
+    ("gyroid", "gyroid with `periods` (2) periods across [-1,1]^3"),
+    ("metaballs", "classic demo: charges around three moving points at time t (0.5), iso 48"),
+    ("lines", "classic demo: charges around three moving lines at time t (0.5), iso 48"),
     ("height", "classic demo: radial height field, iso 48"),
 ];
 
@@ -109,17 +91,12 @@ pub fn parse(spec: &str) -> Result<Builtin> {
     let (name, query) = spec.split_once('?').unwrap_or((spec, ""));
     let mut params: Vec<(&str, f64)> = Vec::new();
     for kv in query.split('&').filter(|s| !s.is_empty()) {
-        let (k, v) = kv.split_once('=').ok_or_else(|| {
-            Error::InvalidInput(format!("field:{spec}: parameter {kv:?} must be key=value"))
-        })?;
-        let v: f64 = v
-            .parse()
-            .ok()
-            .filter(|v: &f64| v.is_finite())
-            .ok_or_else(|| {
-                Error::InvalidInput(format!(
-                    "field:{spec}: parameter {k}={v:?} is not a finite number"
-                ))
+        let (k, v) = kv
+            .split_once('=')
+            .ok_or_else(|| Error::InvalidInput(format!("field:{spec}: parameter {kv:?} must be key=value")))?;
+        let v: f64 =
+            v.parse().ok().filter(|v: &f64| v.is_finite()).ok_or_else(|| {
+                Error::InvalidInput(format!("field:{spec}: parameter {k}={v:?} is not a finite number"))
             })?;
         params.push((k, v));
     }
@@ -132,10 +109,7 @@ pub fn parse(spec: &str) -> Result<Builtin> {
         "height" => &["n"],
         _ => {
             let names: Vec<&str> = NAMES.iter().map(|(n, _)| *n).collect();
-            return Err(Error::InvalidInput(format!(
-                "field:{name}: unknown field (known: {})",
-                names.join(", ")
-            )));
+            return Err(Error::InvalidInput(format!("field:{name}: unknown field (known: {})", names.join(", "))));
         }
     };
     if let Some((k, _)) = params.iter().find(|(k, _)| !allowed.contains(k)) {
@@ -144,18 +118,10 @@ pub fn parse(spec: &str) -> Result<Builtin> {
             allowed.join(", ")
         )));
     }
-    let get = |k: &str, default: f64| {
-        params
-            .iter()
-            .rev()
-            .find(|(p, _)| *p == k)
-            .map_or(default, |p| p.1)
-    };
+    let get = |k: &str, default: f64| params.iter().rev().find(|(p, _)| *p == k).map_or(default, |p| p.1);
     let n = get("n", DEFAULT_POINTS as f64);
     if !((2.0..=4096.0).contains(&n) && n.fract() == 0.0) {
-        return Err(Error::InvalidInput(format!(
-            "field:{spec}: n={n} must be a whole number from 2 to 4096"
-        )));
+        return Err(Error::InvalidInput(format!("field:{spec}: n={n} must be a whole number from 2 to 4096")));
     }
     let n = n as u32;
     let positive = |k: &str, default: f64| -> Result<f32> {
@@ -163,9 +129,7 @@ pub fn parse(spec: &str) -> Result<Builtin> {
         if v > 0.0 {
             Ok(v as f32)
         } else {
-            Err(Error::InvalidInput(format!(
-                "field:{spec}: {k}={v} must be positive"
-            )))
+            Err(Error::InvalidInput(format!("field:{spec}: {k}={v} must be positive")))
         }
     };
     let centered = |dims| Lattice::spanning(dims, [-1.0; 3], [1.0; 3]);
@@ -174,10 +138,7 @@ pub fn parse(spec: &str) -> Result<Builtin> {
     let below0 = Iso::below(0.0);
     Ok(match name {
         "sphere" => Builtin {
-            field: BuiltinField::Sphere(Sphere {
-                center: Vec3::ZERO,
-                radius: positive("r", 0.7)?,
-            }),
+            field: BuiltinField::Sphere(Sphere { center: Vec3::ZERO, radius: positive("r", 0.7)? }),
             lattice: centered(dims)?,
             iso: below0,
         },
@@ -191,32 +152,23 @@ pub fn parse(spec: &str) -> Result<Builtin> {
             iso: below0,
         },
         "box" => Builtin {
-            field: BuiltinField::Cuboid(Cuboid {
-                center: Vec3::ZERO,
-                half: Vec3::splat(positive("h", 0.6)?),
-            }),
+            field: BuiltinField::Cuboid(Cuboid { center: Vec3::ZERO, half: Vec3::splat(positive("h", 0.6)?) }),
             lattice: centered(dims)?,
             iso: below0,
         },
         "gyroid" => Builtin {
             // `periods` full periods across the 2-unit domain.
-            field: BuiltinField::Gyroid(Gyroid {
-                frequency: std::f32::consts::PI * positive("periods", 2.0)?,
-            }),
+            field: BuiltinField::Gyroid(Gyroid { frequency: std::f32::consts::PI * positive("periods", 2.0)? }),
             lattice: centered(dims)?,
             iso: below0,
         },
         "metaballs" => Builtin {
-            field: BuiltinField::ChargePoints(ChargePoints::at_time(
-                get("t", DEFAULT_TIME as f64) as f32
-            )),
+            field: BuiltinField::ChargePoints(ChargePoints::at_time(get("t", DEFAULT_TIME as f64) as f32)),
             lattice: unit(dims)?,
             iso: Iso::above(CLASSIC_ISO),
         },
         "lines" => Builtin {
-            field: BuiltinField::ChargeLines(ChargeLines::at_time(
-                get("t", DEFAULT_TIME as f64) as f32
-            )),
+            field: BuiltinField::ChargeLines(ChargeLines::at_time(get("t", DEFAULT_TIME as f64) as f32)),
             lattice: unit(dims)?,
             iso: Iso::above(CLASSIC_ISO),
         },
@@ -244,15 +196,7 @@ mod tests {
 
     #[test]
     fn rejects_bad_specs() {
-        for bad in [
-            "nope",
-            "sphere?n=1",
-            "sphere?n=2.5",
-            "sphere?r=-1",
-            "sphere?q=1",
-            "sphere?n",
-            "sphere?n=nan",
-        ] {
+        for bad in ["nope", "sphere?n=1", "sphere?n=2.5", "sphere?r=-1", "sphere?q=1", "sphere?n", "sphere?n=nan"] {
             let e = parse(bad).unwrap_err().to_string();
             assert!(e.contains("field:"), "{bad}: {e}");
         }

@@ -14,11 +14,7 @@ pub const CLASSIC_ISO: f64 = 48.0;
 /// along x, y and z by the factor `1 + sin t`.
 pub fn sources_at(t: f32) -> [Vec3; 3] {
     let f = 1.0 + t.sin();
-    [
-        Vec3::new(0.5 * f, 0.5, 0.5),
-        Vec3::new(0.5, 0.5 * f, 0.5),
-        Vec3::new(0.5, 0.5, 0.5 * f),
-    ]
+    [Vec3::new(0.5 * f, 0.5, 0.5), Vec3::new(0.5, 0.5 * f, 0.5), Vec3::new(0.5, 0.5, 0.5 * f)]
 }
 
 /// Charges around three points: `Σ qᵢ / |p − sᵢ|²` (the demo's metaballs).
@@ -33,21 +29,14 @@ pub struct ChargePoints {
 impl ChargePoints {
     /// The demo's charges (0.5, 1, 1.5) at animation time `t`.
     pub fn at_time(t: f32) -> Self {
-        ChargePoints {
-            sources: sources_at(t),
-            charges: [0.5, 1.0, 1.5],
-        }
+        ChargePoints { sources: sources_at(t), charges: [0.5, 1.0, 1.5] }
     }
 }
 
 impl Field for ChargePoints {
     #[inline]
     fn value(&self, p: Vec3) -> f32 {
-        self.sources
-            .iter()
-            .zip(self.charges)
-            .map(|(s, q)| q / (p - *s).length_squared())
-            .sum()
+        self.sources.iter().zip(self.charges).map(|(s, q)| q / (p - *s).length_squared()).sum()
     }
     fn gradient(&self, p: Vec3) -> Vec3 {
         // d/dp q / r² = −2 q (p − s) / r⁴
@@ -75,10 +64,7 @@ pub struct ChargeLines {
 impl ChargeLines {
     /// The demo's charges (0.5, 0.75, 1) at animation time `t`.
     pub fn at_time(t: f32) -> Self {
-        ChargeLines {
-            sources: sources_at(t),
-            charges: [0.5, 0.75, 1.0],
-        }
+        ChargeLines { sources: sources_at(t), charges: [0.5, 0.75, 1.0] }
     }
 }
 
@@ -102,9 +88,7 @@ pub struct HeightField {
 
 impl Default for HeightField {
     fn default() -> Self {
-        HeightField {
-            height: CLASSIC_ISO as f32,
-        }
+        HeightField { height: CLASSIC_ISO as f32 }
     }
 }
 

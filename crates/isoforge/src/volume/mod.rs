@@ -44,18 +44,12 @@ pub struct Iso {
 impl Iso {
     /// Inside ⇔ value < `iso`.
     pub fn below(iso: f64) -> Self {
-        Iso {
-            value: iso,
-            inside: Inside::Below,
-        }
+        Iso { value: iso, inside: Inside::Below }
     }
 
     /// Inside ⇔ value > `iso`.
     pub fn above(iso: f64) -> Self {
-        Iso {
-            value: iso,
-            inside: Inside::Above,
-        }
+        Iso { value: iso, inside: Inside::Above }
     }
 
     /// The value offset so that inside ⇔ result < 0 and ties give 0 (outside).

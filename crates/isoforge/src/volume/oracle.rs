@@ -28,10 +28,7 @@ pub struct Bisection {
 
 impl Default for Bisection {
     fn default() -> Self {
-        Bisection {
-            tolerance: 1e-5,
-            max_iterations: 24,
-        }
+        Bisection { tolerance: 1e-5, max_iterations: 24 }
     }
 }
 
@@ -66,10 +63,7 @@ pub struct Illinois {
 
 impl Default for Illinois {
     fn default() -> Self {
-        Illinois {
-            tolerance: 1e-5,
-            max_iterations: 16,
-        }
+        Illinois { tolerance: 1e-5, max_iterations: 16 }
     }
 }
 

@@ -15,22 +15,14 @@ pub struct Sampled<F, O = Illinois> {
 impl<F: Field> Sampled<F> {
     /// Samples `field` on `lattice` with the default oracle ([`Illinois`]).
     pub fn new(field: F, lattice: Lattice) -> Self {
-        Sampled {
-            field,
-            lattice,
-            oracle: Illinois::default(),
-        }
+        Sampled { field, lattice, oracle: Illinois::default() }
     }
 }
 
 impl<F: Field, O: Oracle> Sampled<F, O> {
     /// Samples `field` on `lattice`, finding crossings with `oracle`.
     pub fn with_oracle(field: F, lattice: Lattice, oracle: O) -> Self {
-        Sampled {
-            field,
-            lattice,
-            oracle,
-        }
+        Sampled { field, lattice, oracle }
     }
 
     /// The field.

@@ -84,31 +84,21 @@ pub struct Hermite {
 /// Computes the crossing on `key` (offset values `d0` at its origin, `d1` at its end) and, when
 /// `normals` is set, its outward normal. Shared by every walker so all agree bit for bit.
 #[inline]
-pub fn hermite<V: Volume + ?Sized>(
-    vol: &V,
-    key: EdgeKey,
-    d0: f32,
-    d1: f32,
-    iso: Iso,
-    normals: bool,
-) -> Hermite {
+pub fn hermite<V: Volume + ?Sized>(vol: &V, key: EdgeKey, d0: f32, d1: f32, iso: Iso, normals: bool) -> Hermite {
     let s = iso.sign();
     let t = vol.crossing(key, d0, d1, iso);
     let w = vol.lattice().to_world(key.point_at(t as f64));
     let point = [w[0] as f32, w[1] as f32, w[2] as f32];
     if !normals {
-        return Hermite {
-            point,
-            normal: [0.0; 3],
-        };
+        return Hermite { point, normal: [0.0; 3] };
     }
     let g = vol.gradient(key, t) * s;
     let n = g.normalize_or_zero();
     let normal = if n == glam::Vec3::ZERO {
-        // Flat field: fall back to the edge direction, pointing to its outside end.
-        let mut n = [0.0; 3];
-        n[key.axis.index()] = if d0 < 0.0 { 1.0 } else { -1.0 };
-        n
+        // Flat field: fall back to the edge's world direction, pointing to its outside end.
+        let dir = vol.lattice().direction()[key.axis.index()];
+        let sign = if d0 < 0.0 { 1.0 } else { -1.0 };
+        dir.map(|x| (x * sign) as f32)
     } else {
         n.to_array()
     };

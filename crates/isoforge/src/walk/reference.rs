@@ -35,8 +35,7 @@ impl Walker for ReferenceWalker {
         for k in 0..nz - 1 {
             for j in 0..ny - 1 {
                 for i in 0..nx - 1 {
-                    let (mut s0, mut s1) =
-                        (vec![0.0; lattice.slab_len()], vec![0.0; lattice.slab_len()]);
+                    let (mut s0, mut s1) = (vec![0.0; lattice.slab_len()], vec![0.0; lattice.slab_len()]);
                     vol.fill_slab(k, iso, &mut s0);
                     vol.fill_slab(k + 1, iso, &mut s1);
                     let d = CORNER_OFFSETS.map(|o| {
@@ -66,9 +65,7 @@ impl Walker for ReferenceWalker {
             }
         }
         match mismatch {
-            Some(key) => Err(Error::Internal(format!(
-                "crossing on {key:?} is not reproducible"
-            ))),
+            Some(key) => Err(Error::Internal(format!("crossing on {key:?} is not reproducible"))),
             None => Ok(stats),
         }
     }
@@ -98,14 +95,7 @@ impl<V: Volume> Cell for RefCell<'_, V> {
     fn edge_vertex(&mut self, e: CubeEdge) -> VertexId {
         let [c0, c1] = e.corners();
         let key = EdgeKey::of_cell(self.ijk, e);
-        let h = hermite(
-            self.vol,
-            key,
-            self.d[c0 as usize],
-            self.d[c1 as usize],
-            self.iso,
-            self.out.wants_normals(),
-        );
+        let h = hermite(self.vol, key, self.d[c0 as usize], self.d[c1 as usize], self.iso, self.out.wants_normals());
         if let Some(&(id, p)) = self.ids.get(&key) {
             if p.map(f32::to_bits) != h.point.map(f32::to_bits) {
                 *self.mismatch = Some(key);

@@ -56,12 +56,7 @@ impl Walker for SlabWalker<'_> {
             buf.clear();
             buf.resize(n, 0.0);
         }
-        for ids in self
-            .x_ids
-            .iter_mut()
-            .chain(self.y_ids.iter_mut())
-            .chain(std::iter::once(&mut self.z_ids))
-        {
+        for ids in self.x_ids.iter_mut().chain(self.y_ids.iter_mut()).chain(std::iter::once(&mut self.z_ids)) {
             ids.clear();
             ids.resize(n, VertexId::NONE);
         }
@@ -80,16 +75,7 @@ impl Walker for SlabWalker<'_> {
                 let (b0, b1) = (&self.below[r0..r0 + nxu], &self.below[r1..r1 + nxu]);
                 let (a0, a1) = (&self.above[r0..r0 + nxu], &self.above[r1..r1 + nxu]);
                 for i in 0..nxu - 1 {
-                    let d = [
-                        b0[i],
-                        b0[i + 1],
-                        b1[i],
-                        b1[i + 1],
-                        a0[i],
-                        a0[i + 1],
-                        a1[i],
-                        a1[i + 1],
-                    ];
+                    let d = [b0[i], b0[i + 1], b1[i], b1[i + 1], a0[i], a0[i + 1], a1[i], a1[i + 1]];
                     let case = case_of(&d);
                     stats.cells += 1;
                     match case {
@@ -170,14 +156,7 @@ impl<V: Volume> Cell for SlabCell<'_, V> {
         }
         let [c0, c1] = e.corners();
         let key = EdgeKey::of_cell(self.ijk, e);
-        let h = hermite(
-            self.vol,
-            key,
-            self.d[c0 as usize],
-            self.d[c1 as usize],
-            self.iso,
-            self.normals,
-        );
+        let h = hermite(self.vol, key, self.d[c0 as usize], self.d[c1 as usize], self.iso, self.normals);
         let id = self.out.push_vertex(h.point, h.normal);
         *slot = id;
         id

@@ -10,9 +10,7 @@ use isoforge::walk::{ReferenceWalker, SlabWalker, WalkStats, Walker};
 /// Extracts with marching cubes through the given walker.
 pub fn mc_with<W: Walker, V: Volume>(walker: &mut W, vol: &V, iso: Iso) -> (Mesh, WalkStats) {
     let mut out = MeshBuilder::new(true);
-    let stats = walker
-        .walk(vol, iso, &mut MarchingCubes, &mut out)
-        .expect("walk");
+    let stats = walker.walk(vol, iso, &mut MarchingCubes, &mut out).expect("walk");
     (out.finish().expect("finish"), stats)
 }
 

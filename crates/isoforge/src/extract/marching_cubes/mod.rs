@@ -16,6 +16,9 @@ use crate::walk::Cell;
 /// lattice, and open only along the lattice's faces otherwise. Every vertex lies on a distinct
 /// lattice edge, so the vertex count equals the number of crossed edges.
 ///
+/// **Ambiguous faces** (two inside corners on a diagonal) join the inside corners, the same
+/// choice as VTK's tables for inside = below iso, so triangle counts equal `vtkFlyingEdges3D`'s.
+///
 /// **Limits**: ambiguous faces and cell interiors are not decided by the trilinear interpolant,
 /// so components and genus can differ from it (MC33 fixes this); a corner value exactly at iso
 /// puts vertices of several edges at that corner, so zero-area triangles can appear (they are kept:
@@ -27,11 +30,7 @@ impl Extractor for MarchingCubes {
     #[inline]
     fn process<C: Cell>(&mut self, cell: &mut C) {
         for [a, b, c] in TRI_TABLE[cell.case() as usize].iter() {
-            let t = [
-                cell.edge_vertex(a),
-                cell.edge_vertex(b),
-                cell.edge_vertex(c),
-            ];
+            let t = [cell.edge_vertex(a), cell.edge_vertex(b), cell.edge_vertex(c)];
             cell.push_triangle(t);
         }
     }
@@ -72,18 +71,46 @@ mod tests {
         // Same triangle count per case as the source, and the renumbering is a bijection on cases.
         let mut seen = [false; 256];
         for case in 0..256 {
-            let sc = source_case(case);
+            let sc = source_case(255 - case);
             assert!(!seen[sc]);
             seen[sc] = true;
             let src_len = SOURCE_TRI_TABLE[sc].iter().take_while(|&&e| e >= 0).count() / 3;
             assert_eq!(TRI_TABLE[case].triangles().len(), src_len, "case {case}");
         }
-        // Corner 3 of the source sits at (0, 1, 0) = our corner 2; its case-8 triangle crosses
+        // Corner 3 of the source sits at (0, 1, 0) = our corner 2; the triangle around it crosses
         // the edges from (0,1,0) to its three neighbours: ours 1 (x), 4 (y), 10 (z).
         let t = TRI_TABLE[1 << 2].triangles();
         let mut edges = t[0].to_vec();
         edges.sort();
         assert_eq!(edges, vec![1, 4, 10]);
+    }
+
+    /// Two inside corners diagonal on a face (everything else outside) are joined across the
+    /// ambiguous face: one band, not two caps. This is VTK's choice for `value < iso` inside (its
+    /// tables cut between corners at or above iso); see the module docs.
+    #[test]
+    fn ambiguous_faces_join_inside_corners() {
+        use crate::grid::{DenseGrid, Lattice};
+        use crate::volume::{GridVolume, Iso};
+        let g = DenseGrid::from_fn(Lattice::new([2, 2, 2]).unwrap(), |p| {
+            if p == [0, 0, 0] || p == [1, 1, 0] {
+                -1.0f32
+            } else {
+                1.0
+            }
+        });
+        let m = crate::pipeline::extract(&GridVolume::new(&g), Iso::below(0.0), &Default::default()).unwrap().mesh;
+        assert_eq!(crate::topo::check(&m).components.len(), 1);
+        // The complement: the two outside corners are cut apart, each capped by its own piece.
+        let g = DenseGrid::from_fn(Lattice::new([2, 2, 2]).unwrap(), |p| {
+            if p == [0, 0, 0] || p == [1, 1, 0] {
+                1.0f32
+            } else {
+                -1.0
+            }
+        });
+        let m = crate::pipeline::extract(&GridVolume::new(&g), Iso::below(0.0), &Default::default()).unwrap().mesh;
+        assert_eq!(crate::topo::check(&m).components.len(), 2);
     }
 
     #[test]
@@ -94,17 +121,10 @@ mod tests {
             let [a, b, d] = t.map(mid);
             let u = [b[0] - a[0], b[1] - a[1], b[2] - a[2]];
             let v = [d[0] - a[0], d[1] - a[1], d[2] - a[2]];
-            let n = [
-                u[1] * v[2] - u[2] * v[1],
-                u[2] * v[0] - u[0] * v[2],
-                u[0] * v[1] - u[1] * v[0],
-            ];
+            let n = [u[1] * v[2] - u[2] * v[1], u[2] * v[0] - u[0] * v[2], u[0] * v[1] - u[1] * v[0]];
             let p = CORNER_OFFSETS[c].map(|x| x as f64);
             let away = [a[0] - p[0], a[1] - p[1], a[2] - p[2]];
-            assert!(
-                n[0] * away[0] + n[1] * away[1] + n[2] * away[2] > 0.0,
-                "corner {c}"
-            );
+            assert!(n[0] * away[0] + n[1] * away[1] + n[2] * away[2] > 0.0, "corner {c}");
         }
     }
 }

@@ -3,39 +3,24 @@
 //! The source is the `triTable` of the Bourke article as printed in the Bloyd demo (design document
 //! `004` of `shared/seeds`), itself the Lorensen & Cline table [Lorensen87]. It uses another
 //! numbering (corners counter-clockwise around the bottom face, then the top face; edges around the
-//! bottom, around the top, then the verticals) and winds triangles so that the right-hand normal
-//! points towards the inside corners. [`TRI_TABLE`] renumbers cases and edges through corner
-//! positions and reverses each triangle, so its normals point from inside to outside.
+//! bottom, around the top, then the verticals) and sets case bits for corners *below* iso.
+//!
+//! [`TRI_TABLE`] renumbers cases and edges through corner positions, and reads the source row of
+//! the **complemented** case: the source then sees our outside corners as its "below" ones, which
+//! (1) makes its winding (right-hand normal towards its set corners) point outward for us, and
+//! (2) resolves ambiguous faces by joining our inside corners — exactly the choice of VTK's
+//! marching-cubes tables, whose bits are the corners at or above iso. Tested: the same triangle
+//! counts as `vtkFlyingEdges3D` on every real volume in `shared/data` (see docs/BENCHMARKS.md).
 
 use crate::extract::cube::{CubeEdge, CORNER_OFFSETS};
 
 /// Corner positions in the source numbering.
-const SOURCE_CORNERS: [[u32; 3]; 8] = [
-    [0, 0, 0],
-    [1, 0, 0],
-    [1, 1, 0],
-    [0, 1, 0],
-    [0, 0, 1],
-    [1, 0, 1],
-    [1, 1, 1],
-    [0, 1, 1],
-];
+const SOURCE_CORNERS: [[u32; 3]; 8] =
+    [[0, 0, 0], [1, 0, 0], [1, 1, 0], [0, 1, 0], [0, 0, 1], [1, 0, 1], [1, 1, 1], [0, 1, 1]];
 
 /// Edge endpoints in the source numbering.
-const SOURCE_EDGES: [[usize; 2]; 12] = [
-    [0, 1],
-    [1, 2],
-    [2, 3],
-    [3, 0],
-    [4, 5],
-    [5, 6],
-    [6, 7],
-    [7, 4],
-    [0, 4],
-    [1, 5],
-    [2, 6],
-    [3, 7],
-];
+const SOURCE_EDGES: [[usize; 2]; 12] =
+    [[0, 1], [1, 2], [2, 3], [3, 0], [4, 5], [5, 6], [6, 7], [7, 4], [0, 4], [1, 5], [2, 6], [3, 7]];
 
 /// The source table, indexed by source case, rows of source edge triples ended by -1.
 #[rustfmt::skip]
@@ -314,9 +299,7 @@ impl CaseTriangles {
 
     /// Iterator over the triangles as [`CubeEdge`] triples.
     pub fn iter(&self) -> impl Iterator<Item = [CubeEdge; 3]> + '_ {
-        self.triangles()
-            .iter()
-            .map(|t| [CubeEdge(t[0]), CubeEdge(t[1]), CubeEdge(t[2])])
+        self.triangles().iter().map(|t| [CubeEdge(t[0]), CubeEdge(t[1]), CubeEdge(t[2])])
     }
 }
 
@@ -357,20 +340,16 @@ pub(crate) const fn source_case(case: usize) -> usize {
 
 /// The classic table in our numbering: `TRI_TABLE[case]`, case bit `c` set ⇔ corner `c` inside.
 pub const TRI_TABLE: [CaseTriangles; 256] = {
-    let mut t = [CaseTriangles {
-        len: 0,
-        edges: [[0; 3]; 5],
-    }; 256];
+    let mut t = [CaseTriangles { len: 0, edges: [[0; 3]; 5] }; 256];
     let mut case = 0;
     while case < 256 {
-        let row = SOURCE_TRI_TABLE[source_case(case)];
+        let row = SOURCE_TRI_TABLE[source_case(255 - case)];
         let mut n = 0;
         while n < 5 && row[3 * n] >= 0 {
-            // Reversed (0, 2, 1): the source winds towards the inside.
             t[case].edges[n] = [
                 edge_from_source(row[3 * n] as usize),
-                edge_from_source(row[3 * n + 2] as usize),
                 edge_from_source(row[3 * n + 1] as usize),
+                edge_from_source(row[3 * n + 2] as usize),
             ];
             n += 1;
         }

@@ -99,14 +99,8 @@ mod tests {
 
     #[test]
     fn csg_values() {
-        let a = Sphere {
-            center: Vec3::new(-0.5, 0.0, 0.0),
-            radius: 1.0,
-        };
-        let b = Sphere {
-            center: Vec3::new(0.5, 0.0, 0.0),
-            radius: 1.0,
-        };
+        let a = Sphere { center: Vec3::new(-0.5, 0.0, 0.0), radius: 1.0 };
+        let b = Sphere { center: Vec3::new(0.5, 0.0, 0.0), radius: 1.0 };
         let p = Vec3::new(-1.2, 0.0, 0.0); // inside a only
         assert!(Union(a, b).value(p) < 0.0);
         assert!(Intersection(a, b).value(p) > 0.0);

@@ -70,24 +70,14 @@ impl Field for Gyroid {
     #[inline]
     fn value(&self, p: Vec3) -> f32 {
         let q = p * self.frequency;
-        let (s, c) = (
-            Vec3::new(q.x.sin(), q.y.sin(), q.z.sin()),
-            Vec3::new(q.x.cos(), q.y.cos(), q.z.cos()),
-        );
+        let (s, c) = (Vec3::new(q.x.sin(), q.y.sin(), q.z.sin()), Vec3::new(q.x.cos(), q.y.cos(), q.z.cos()));
         s.x * c.y + s.y * c.z + s.z * c.x
     }
     #[inline]
     fn gradient(&self, p: Vec3) -> Vec3 {
         let q = p * self.frequency;
-        let (s, c) = (
-            Vec3::new(q.x.sin(), q.y.sin(), q.z.sin()),
-            Vec3::new(q.x.cos(), q.y.cos(), q.z.cos()),
-        );
-        Vec3::new(
-            c.x * c.y - s.z * s.x,
-            c.y * c.z - s.x * s.y,
-            c.z * c.x - s.y * s.z,
-        ) * self.frequency
+        let (s, c) = (Vec3::new(q.x.sin(), q.y.sin(), q.z.sin()), Vec3::new(q.x.cos(), q.y.cos(), q.z.cos()));
+        Vec3::new(c.x * c.y - s.z * s.x, c.y * c.z - s.x * s.y, c.z * c.x - s.y * s.z) * self.frequency
     }
 }
 
@@ -99,10 +89,7 @@ mod tests {
     #[test]
     fn analytic_gradients_match_central_differences() {
         let g = Gyroid { frequency: 3.0 };
-        let s = Sphere {
-            center: Vec3::new(0.1, 0.2, 0.3),
-            radius: 0.5,
-        };
+        let s = Sphere { center: Vec3::new(0.1, 0.2, 0.3), radius: 0.5 };
         for p in [Vec3::new(0.3, -0.7, 0.2), Vec3::new(1.1, 0.4, -0.9)] {
             assert!((g.gradient(p) - central_difference(&g, p)).length() < 1e-2);
             assert!((s.gradient(p) - central_difference(&s, p)).length() < 1e-2);
@@ -111,17 +98,10 @@ mod tests {
 
     #[test]
     fn distances() {
-        let b = Cuboid {
-            center: Vec3::ZERO,
-            half: Vec3::splat(1.0),
-        };
+        let b = Cuboid { center: Vec3::ZERO, half: Vec3::splat(1.0) };
         assert_eq!(b.value(Vec3::new(2.0, 0.0, 0.0)), 1.0);
         assert_eq!(b.value(Vec3::ZERO), -1.0);
-        let t = Torus {
-            center: Vec3::ZERO,
-            major: 1.0,
-            minor: 0.25,
-        };
+        let t = Torus { center: Vec3::ZERO, major: 1.0, minor: 0.25 };
         assert!((t.value(Vec3::new(1.0, 0.0, 0.0)) + 0.25).abs() < 1e-6);
         assert!((t.value(Vec3::ZERO) - 0.75).abs() < 1e-6);
     }
