@@ -1,5 +1,6 @@
-//! Extraction throughput on the peer harness's fields (sphere, gyroid, metaballs on [-1, 1]³,
-//! same definitions as bench/peers/volumes.py) sampled into f32 grids, at 128³ and 256³.
+//! Extraction throughput on fields like the peer harness's (sphere r 0.7, a gyroid with 4 periods
+//! across the cube — half the harness's frequency —, three metaballs) on [-1, 1]³, sampled into f32
+//! grids at 128³ and 256³.
 //!
 //! `cargo bench -p isoforge-bench` (never run by CI, which only builds it). Throughput is in
 //! lattice points per second; the triangle count is in the benchmark id.
@@ -19,7 +20,7 @@ fn fields(n: u32) -> Vec<(&'static str, DenseGrid<f32>, f64)> {
     let tau = std::f32::consts::TAU;
     vec![
         ("sphere", sample(n, |x, y, z| (x * x + y * y + z * z).sqrt() - 0.7), 0.0),
-        // 8 periods across the cube, like volumes.py.
+        // 4 periods across the 2-unit cube.
         (
             "gyroid",
             sample(n, |x, y, z| {
