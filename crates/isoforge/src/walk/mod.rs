@@ -104,3 +104,20 @@ pub fn hermite<V: Volume + ?Sized>(vol: &V, key: EdgeKey, d0: f32, d1: f32, iso:
     };
     Hermite { point, normal }
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// Compile-time: walkers and volumes can move to worker threads (the parallel walker needs it).
+    #[test]
+    fn thread_safety_of_the_roles() {
+        fn send<T: Send>() {}
+        fn sync<T: Sync>() {}
+        send::<SlabWalker<'static>>();
+        send::<ReferenceWalker>();
+        sync::<crate::volume::GridVolume<'static, f32>>();
+        sync::<crate::volume::Sampled<crate::volume::sdf::Sphere>>();
+        sync::<crate::mesh::MeshBuilder>();
+    }
+}
