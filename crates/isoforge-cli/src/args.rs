@@ -8,6 +8,9 @@ use clap::{Args as ClapArgs, Parser, Subcommand};
 #[derive(Debug, Parser)]
 #[command(name = "isoforge", version, about, long_about = None)]
 pub struct Args {
+    /// Worker threads for every command (default: all cores). Output does not depend on it.
+    #[arg(long, global = true, value_name = "N")]
+    pub threads: Option<usize>,
     #[command(subcommand)]
     pub command: Command,
 }
@@ -77,11 +80,9 @@ pub struct ExtractArgs {
     /// Extraction method.
     #[arg(long, default_value = "mc", value_name = "mc")]
     pub method: String,
-    /// Worker threads (default: all cores).
-    #[arg(long, value_name = "N")]
-    pub threads: Option<usize>,
-    /// Vertex normals: gradient (default) or none.
-    #[arg(long, default_value = "gradient", value_name = "gradient|none")]
+    /// Vertex normals: none (default, as VTK in the peer benchmarks) or gradient (unit normals
+    /// from the field gradient, written to PLY and OBJ).
+    #[arg(long, default_value = "none", value_name = "none|gradient")]
     pub normals: String,
     /// Write PLY as ASCII instead of binary.
     #[arg(long)]

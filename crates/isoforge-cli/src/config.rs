@@ -32,9 +32,6 @@ pub struct ExtractConfig {
     pub iso: Option<f64>,
     pub inside: Option<Inside>,
     pub options: Options,
-    /// Validated now; the slab walker is serial, so it takes effect with the parallel walker.
-    #[allow(dead_code)]
-    pub threads: usize,
     pub time_json: Option<PathBuf>,
     pub require: Vec<Guarantee>,
 }
@@ -188,19 +185,13 @@ impl ExtractConfig {
             "none" => Normals::None,
             s => bail!("--normals {s:?}: must be gradient or none"),
         };
-        let threads = match a.threads {
-            Some(0) => bail!("--threads 0: must be at least 1"),
-            Some(n) => n,
-            None => std::thread::available_parallelism().map_or(1, |n| n.get()),
-        };
         Ok(ExtractConfig {
             input,
             output: a.output.clone(),
             format,
             iso,
             inside,
-            options: Options { method, normals },
-            threads,
+            options: Options { method, normals, threads: None },
             time_json: a.time_json.clone(),
             require: guarantees(&a.require)?,
         })

@@ -26,6 +26,17 @@ fn main() -> ExitCode {
             return ExitCode::from(code);
         }
     };
+    if let Some(n) = args.threads {
+        let built = if n == 0 {
+            Err("must be at least 1".to_string())
+        } else {
+            rayon::ThreadPoolBuilder::new().num_threads(n).build_global().map_err(|e| e.to_string())
+        };
+        if let Err(e) = built {
+            eprintln!("isoforge: error: --threads {n}: {e}");
+            return ExitCode::from(2);
+        }
+    }
     let result = match &args.command {
         Command::Extract(a) => config::ExtractConfig::from_args(a).and_then(|c| run::extract(&c)),
         Command::Info(a) => config::InputConfig::from_args(&a.input_args()).and_then(|c| run::info(&c, a.json)),

@@ -260,3 +260,52 @@ fn real_volumes_mesh_cleanly() {
         }
     }
 }
+
+/// Issue 3: the output is byte-identical for every thread count (Flying Edges writes at offsets
+/// fixed by prefix sums, not in completion order).
+#[test]
+fn output_is_byte_identical_for_1_and_2_threads() {
+    let dir = tempfile::tempdir().unwrap();
+    let raw = dir.path().join("g.raw");
+    let n = 72u32;
+    let mut bytes = Vec::with_capacity((n * n * n * 4) as usize);
+    for k in 0..n {
+        for j in 0..n {
+            for i in 0..n {
+                let [x, y, z] = [i, j, k].map(|c| c as f32 * 0.35);
+                bytes.extend_from_slice(&(x.sin() * y.cos() + y.sin() * z.cos() + z.sin() * x.cos()).to_le_bytes());
+            }
+        }
+    }
+    std::fs::write(&raw, bytes).unwrap();
+    let mut outputs = Vec::new();
+    for threads in ["1", "2"] {
+        for normals in ["none", "gradient"] {
+            let out = dir.path().join(format!("t{threads}-{normals}.ply"));
+            let o = isoforge(&[
+                "extract",
+                "-i",
+                p(&raw),
+                "--dims",
+                "72,72,72",
+                "--dtype",
+                "f32",
+                "--iso",
+                "0.1",
+                "--normals",
+                normals,
+                "-o",
+                p(&out),
+                "--threads",
+                threads,
+            ]);
+            assert_eq!(o.status.code(), Some(0), "{}", stderr(&o));
+            outputs.push((threads, normals, std::fs::read(&out).unwrap()));
+        }
+    }
+    assert!(outputs[0].2.len() > 100_000, "the test volume should give a sizeable mesh");
+    assert_eq!(outputs[0].2, outputs[2].2, "normals none: threads 1 vs 2 differ");
+    assert_eq!(outputs[1].2, outputs[3].2, "normals gradient: threads 1 vs 2 differ");
+    let bad = isoforge(&["--threads", "0", "demo", "-o", p(&dir.path().join("d.ply"))]);
+    assert_eq!(bad.status.code(), Some(2));
+}

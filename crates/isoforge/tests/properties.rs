@@ -186,7 +186,8 @@ fn sphere_area_and_volume_converge() {
 #[test]
 fn normals_point_outward_and_are_unit() {
     let b = isoforge::volume::catalog::parse("torus?n=40").unwrap();
-    let out = isoforge::pipeline::extract_builtin(&b, b.iso, &Default::default(), None).unwrap();
+    let opts = isoforge::pipeline::Options { normals: isoforge::pipeline::Normals::Gradient, ..Default::default() };
+    let out = isoforge::pipeline::extract_builtin(&b, b.iso, &opts, None).unwrap();
     let m = &out.mesh;
     assert_eq!(m.normals.len(), m.positions.len());
     for t in &m.triangles {
@@ -260,4 +261,82 @@ fn field_vertices_lie_on_the_true_surface() {
         let err = b.field.visit(MaxError(&out.mesh, b.iso.value));
         assert!(err < 1e-3 * spacing, "{name}: vertex off the surface by {err} (spacing {spacing})");
     }
+}
+
+fn fe<S: isoforge::grid::Sample>(g: &DenseGrid<S>, iso: Iso) -> (Mesh, isoforge::walk::WalkStats) {
+    isoforge::walk::flying_edges(g, iso, &isoforge::extract::MarchingCubes, true).unwrap()
+}
+
+/// Random lattices with wider dims (up to 70 points in x, so rows span two 64-bit words).
+fn wide_lattice_values() -> impl Strategy<Value = ([u32; 3], Vec<f32>)> {
+    [2u32..=70, 2u32..=6, 2u32..=6].prop_flat_map(|dims| {
+        let n = (dims[0] * dims[1] * dims[2]) as usize;
+        (Just(dims), prop::collection::vec(prop::sample::select(vec![-2.0f32, -1.0, -0.5, 0.0, 0.25, 1.0, 3.0]), n))
+    })
+}
+
+proptest! {
+    #![proptest_config(config(1500))]
+
+    #[test]
+    fn flying_edges_equals_the_slab_walker((dims, values) in prop_oneof![lattice_values(), wide_lattice_values()], above in any::<bool>()) {
+        let g = grid(dims, values);
+        let iso = if above { Iso::above(0.0) } else { Iso::below(0.0) };
+        let (a, stats_a) = mc_with(&mut isoforge::walk::SlabWalker::new(), &vol(&g), iso);
+        let (b, stats_b) = fe(&g, iso);
+        prop_assert_eq!(a.num_vertices(), b.num_vertices());
+        prop_assert_eq!(a.canonical_triangles(), b.canonical_triangles());
+        prop_assert_eq!(stats_a, stats_b);
+        // Normals travel with their vertices.
+        let by_pos = |m: &Mesh| { let mut v: Vec<([u32; 3], [u32; 3])> = m.positions.iter().zip(&m.normals).map(|(p, n)| (p.map(f32::to_bits), n.map(f32::to_bits))).collect(); v.sort(); v };
+        prop_assert_eq!(by_pos(&a), by_pos(&b));
+    }
+
+    #[test]
+    fn native_thresholds_agree_with_offsets(v in any::<i32>(), iso in -3.0e9f64..3.0e9, fv in any::<f32>(), fiso in any::<f64>()) {
+        use isoforge::grid::Sample;
+        for inside in [isoforge::volume::Inside::Below, isoforge::volume::Inside::Above] {
+            let iso = Iso { value: iso, inside };
+            prop_assert_eq!(iso.threshold::<i32>().inside(v), iso.offset(v as f64) < 0.0);
+            prop_assert_eq!(iso.threshold::<u16>().inside(v as u16), iso.offset((v as u16).to_f64()) < 0.0);
+            prop_assert_eq!(iso.threshold::<i8>().inside(v as i8), iso.offset((v as i8).to_f64()) < 0.0);
+            prop_assert_eq!(iso.threshold::<u32>().inside(v as u32), iso.offset((v as u32).to_f64()) < 0.0);
+            if fv.is_finite() && fiso.is_finite() {
+                let fiso = Iso { value: fiso, inside };
+                prop_assert_eq!(fiso.threshold::<f32>().inside(fv), fiso.offset(fv as f64) < 0.0, "f32 {} vs {:?}", fv, fiso);
+                prop_assert_eq!(fiso.threshold::<f64>().inside(fv as f64), fiso.offset(fv as f64) < 0.0);
+                // Near-ties: iso one f32 step away.
+                let near = Iso { value: fv as f64 + (fv.abs() as f64).max(1e-30) * 1e-9, inside };
+                prop_assert_eq!(near.threshold::<f32>().inside(fv), near.offset(fv as f64) < 0.0);
+            }
+        }
+    }
+}
+
+#[test]
+fn flying_edges_on_every_sample_type_and_mirrored_lattices() {
+    let l = Lattice::with_geometry([37, 9, 11], [0.5, 1.0, 2.0], [3.0, 0.0, -1.0]).unwrap();
+    let f = |p: [u32; 3]| ((p[0] * 7 + p[1] * 13 + p[2] * 5 + p[0] * p[2]) % 29) as f64;
+    macro_rules! same {
+        ($t:ty) => {{
+            let g = DenseGrid::from_fn(l.clone(), |p| f(p) as $t);
+            let iso = Iso::below(13.5);
+            let a = mc(&isoforge::volume::GridVolume::new(&g), iso);
+            let (b, _) = fe(&g, iso);
+            assert_eq!(a.canonical_triangles(), b.canonical_triangles(), "{}", stringify!($t));
+        }};
+    }
+    same!(u8);
+    same!(i8);
+    same!(u16);
+    same!(i16);
+    same!(u32);
+    same!(i32);
+    same!(f32);
+    same!(f64);
+    let flip = [[-1.0, 0.0, 0.0], [0.0, 1.0, 0.0], [0.0, 0.0, 1.0]];
+    let g = DenseGrid::from_fn(l.clone().with_direction(flip).unwrap(), |p| f(p) as f32);
+    let a = mc(&isoforge::volume::GridVolume::new(&g), Iso::below(13.5));
+    let (b, _) = fe(&g, Iso::below(13.5));
+    assert_eq!(a.canonical_triangles(), b.canonical_triangles(), "mirrored");
 }

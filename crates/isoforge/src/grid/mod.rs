@@ -10,4 +10,4 @@ mod sample;
 pub use dense::{AnyGrid, DenseGrid, NonFinite, ValueRange};
 pub use histogram::Histogram;
 pub use lattice::{Lattice, IDENTITY};
-pub use sample::{DType, Sample};
+pub use sample::{as_bytes_mut, DType, Sample, Threshold};

@@ -96,10 +96,118 @@ pub trait Sample: Copy + Send + Sync + PartialOrd + fmt::Debug + sealed::Sealed 
     fn is_finite(self) -> bool {
         true
     }
+    /// The sample with its bytes reversed (endianness conversion).
+    fn swap_bytes(self) -> Self;
+    /// The native-type test equivalent to `v < iso` (`below`) or `v > iso` (`!below`) for every
+    /// finite sample `v`, with `iso` an `f64`.
+    fn threshold(iso: f64, below: bool) -> Threshold<Self>;
+    /// Sets bit `i` of `out` (64 per word) for each `row[i]` that passes `th`; `out` has
+    /// `row.len().div_ceil(64)` words and bits past the row are cleared.
+    fn classify_row(row: &[Self], th: Threshold<Self>, out: &mut [u64]) {
+        classify_generic(row, th, out)
+    }
 }
 
-macro_rules! impl_sample {
-    ($t:ty, $d:ident, $n:expr, $finite:expr) => {
+/// A native-type inside test: see [`Sample::threshold`].
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub enum Threshold<S> {
+    /// Inside ⇔ `v < t`.
+    Less(S),
+    /// Inside ⇔ `v > t`.
+    Greater(S),
+    /// Every value is inside.
+    All,
+    /// No value is inside.
+    None,
+}
+
+impl<S: PartialOrd + Copy> Threshold<S> {
+    /// Whether `v` is inside.
+    #[inline(always)]
+    pub fn inside(self, v: S) -> bool {
+        match self {
+            Threshold::Less(t) => v < t,
+            Threshold::Greater(t) => v > t,
+            Threshold::All => true,
+            Threshold::None => false,
+        }
+    }
+}
+
+/// Views samples as bytes, to read files straight into a grid's storage.
+pub fn as_bytes_mut<S: Sample>(samples: &mut [S]) -> &mut [u8] {
+    let len = std::mem::size_of_val(samples);
+    // SAFETY: `Sample` is sealed to the primitive integer and float types, which have no padding
+    // and for which every bit pattern is a valid value; `u8` has alignment 1 and the length is the
+    // slice's size in bytes, so the byte view covers exactly the same memory.
+    unsafe { std::slice::from_raw_parts_mut(samples.as_mut_ptr().cast::<u8>(), len) }
+}
+
+#[inline(always)]
+fn classify_generic<S: Sample>(row: &[S], th: Threshold<S>, out: &mut [u64]) {
+    let fill = match th {
+        Threshold::All => Some(!0u64),
+        Threshold::None => Some(0),
+        _ => None,
+    };
+    let mut chunks = row.chunks_exact(64);
+    for (w, c) in out.iter_mut().zip(&mut chunks) {
+        *w = match fill {
+            Some(f) => f,
+            // Bytes of 8 lanes, then one word: this shape vectorises on baseline x86-64.
+            None => (0..8).fold(0u64, |m, g| {
+                let b = (0..8).fold(0u8, |b, l| b | ((th.inside(c[g * 8 + l]) as u8) << l));
+                m | ((b as u64) << (8 * g))
+            }),
+        };
+    }
+    let rem = chunks.remainder();
+    if !rem.is_empty() {
+        let m = rem.iter().enumerate().fold(0u64, |m, (b, &v)| m | ((th.inside(v) as u64) << b));
+        out[row.len() / 64] = m;
+    }
+}
+
+#[cfg(target_arch = "x86_64")]
+fn classify_f32(row: &[f32], th: Threshold<f32>, out: &mut [u64]) {
+    if std::arch::is_x86_feature_detected!("avx2") {
+        // SAFETY: AVX2 is available (checked just above).
+        unsafe { classify_f32_avx2(row, th, out) }
+    } else {
+        classify_generic(row, th, out)
+    }
+}
+
+/// AVX2 classification: 8 compares and one movemask per 8 samples (the bandwidth floor on 256³).
+#[cfg(target_arch = "x86_64")]
+#[target_feature(enable = "avx2")]
+unsafe fn classify_f32_avx2(row: &[f32], th: Threshold<f32>, out: &mut [u64]) {
+    use std::arch::x86_64::*;
+    let (t, less) = match th {
+        Threshold::Less(t) => (t, true),
+        Threshold::Greater(t) => (t, false),
+        _ => return classify_generic(row, th, out),
+    };
+    let tv = _mm256_set1_ps(t);
+    let mut chunks = row.chunks_exact(64);
+    for (w, c) in out.iter_mut().zip(&mut chunks) {
+        let mut m = 0u64;
+        for g in 0..8 {
+            // SAFETY: `c` has 64 elements, so `g * 8 + 8 <= 64` stays inside it.
+            let v = unsafe { _mm256_loadu_ps(c.as_ptr().add(g * 8)) };
+            let r = if less { _mm256_cmp_ps::<_CMP_LT_OQ>(v, tv) } else { _mm256_cmp_ps::<_CMP_GT_OQ>(v, tv) };
+            m |= (_mm256_movemask_ps(r) as u32 as u64) << (8 * g);
+        }
+        *w = m;
+    }
+    let rem = chunks.remainder();
+    if !rem.is_empty() {
+        out[row.len() / 64] = rem.iter().enumerate().fold(0u64, |m, (b, &v)| m | ((th.inside(v) as u64) << b));
+    }
+}
+
+macro_rules! impl_int {
+    ($t:ty, $d:ident, $n:expr) => {
         impl sealed::Sealed for $t {}
         impl Sample for $t {
             const DTYPE: DType = DType::$d;
@@ -118,19 +226,114 @@ macro_rules! impl_sample {
                 }
             }
             #[inline]
-            fn is_finite(self) -> bool {
-                let finite: fn($t) -> bool = $finite;
-                finite(self)
+            fn swap_bytes(self) -> Self {
+                <$t>::swap_bytes(self)
+            }
+            fn threshold(iso: f64, below: bool) -> Threshold<Self> {
+                let (min, max) = (<$t>::MIN as f64, <$t>::MAX as f64);
+                if below {
+                    // v < iso ⇔ v < ceil(iso) for integers.
+                    let c = iso.ceil();
+                    if c > max {
+                        Threshold::All
+                    } else if c <= min {
+                        Threshold::None
+                    } else {
+                        Threshold::Less(c as $t)
+                    }
+                } else {
+                    // v > iso ⇔ v > floor(iso).
+                    let f = iso.floor();
+                    if f < min {
+                        Threshold::All
+                    } else if f >= max {
+                        Threshold::None
+                    } else {
+                        Threshold::Greater(f as $t)
+                    }
+                }
             }
         }
     };
 }
 
-impl_sample!(u8, U8, 1, |_| true);
-impl_sample!(i8, I8, 1, |_| true);
-impl_sample!(u16, U16, 2, |_| true);
-impl_sample!(i16, I16, 2, |_| true);
-impl_sample!(u32, U32, 4, |_| true);
-impl_sample!(i32, I32, 4, |_| true);
-impl_sample!(f32, F32, 4, |v| v.is_finite());
-impl_sample!(f64, F64, 8, |v| v.is_finite());
+impl_int!(u8, U8, 1);
+impl_int!(i8, I8, 1);
+impl_int!(u16, U16, 2);
+impl_int!(i16, I16, 2);
+impl_int!(u32, U32, 4);
+impl_int!(i32, I32, 4);
+
+impl sealed::Sealed for f32 {}
+impl Sample for f32 {
+    const DTYPE: DType = DType::F32;
+    #[inline]
+    fn to_f64(self) -> f64 {
+        self as f64
+    }
+    #[inline]
+    fn from_bytes(bytes: &[u8], big_endian: bool) -> Self {
+        let b = [bytes[0], bytes[1], bytes[2], bytes[3]];
+        if big_endian {
+            f32::from_be_bytes(b)
+        } else {
+            f32::from_le_bytes(b)
+        }
+    }
+    #[inline]
+    fn is_finite(self) -> bool {
+        f32::is_finite(self)
+    }
+    #[inline]
+    fn swap_bytes(self) -> Self {
+        f32::from_bits(self.to_bits().swap_bytes())
+    }
+    fn threshold(iso: f64, below: bool) -> Threshold<Self> {
+        // The nearest f32 on the right side of iso: v < iso ⇔ v < t with t the smallest f32 ≥ iso
+        // (v > iso ⇔ v > t with t the largest f32 ≤ iso).
+        let t = iso as f32;
+        if below {
+            Threshold::Less(if (t as f64) < iso { t.next_up() } else { t })
+        } else {
+            Threshold::Greater(if (t as f64) > iso { t.next_down() } else { t })
+        }
+    }
+    #[cfg(target_arch = "x86_64")]
+    fn classify_row(row: &[Self], th: Threshold<Self>, out: &mut [u64]) {
+        classify_f32(row, th, out)
+    }
+}
+
+impl sealed::Sealed for f64 {}
+impl Sample for f64 {
+    const DTYPE: DType = DType::F64;
+    #[inline]
+    fn to_f64(self) -> f64 {
+        self
+    }
+    #[inline]
+    fn from_bytes(bytes: &[u8], big_endian: bool) -> Self {
+        let mut b = [0u8; 8];
+        b.copy_from_slice(&bytes[..8]);
+        if big_endian {
+            f64::from_be_bytes(b)
+        } else {
+            f64::from_le_bytes(b)
+        }
+    }
+    #[inline]
+    fn is_finite(self) -> bool {
+        f64::is_finite(self)
+    }
+    #[inline]
+    fn swap_bytes(self) -> Self {
+        f64::from_bits(self.to_bits().swap_bytes())
+    }
+    fn threshold(iso: f64, below: bool) -> Threshold<Self> {
+        if below {
+            Threshold::Less(iso)
+        } else {
+            Threshold::Greater(iso)
+        }
+    }
+}

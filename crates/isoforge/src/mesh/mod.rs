@@ -104,6 +104,31 @@ impl Mesh {
     }
 }
 
+/// A vector of `n` zeros backed by huge pages where the platform allows. `vec!` of zeros takes
+/// fresh, untouched pages from the allocator (calloc); the kernel is asked for huge pages before
+/// the first write, so filling faults in 2 MiB pages instead of 4 KiB ones (page faults were 15 %
+/// of a 5-million-triangle extraction). Advisory: a plain `vec!` off Linux or for small sizes.
+pub fn huge_vec<T: Copy>(n: usize, zero: T) -> Vec<T> {
+    #[allow(unused_mut)]
+    let mut v = vec![zero; n];
+    #[cfg(target_os = "linux")]
+    {
+        const HUGE: usize = 2 << 20;
+        let bytes = std::mem::size_of_val(v.as_slice());
+        let start = v.as_mut_ptr() as usize;
+        let aligned = start.next_multiple_of(HUGE);
+        let len = (start + bytes).saturating_sub(aligned) / HUGE * HUGE;
+        if len > 0 {
+            // SAFETY: [aligned, aligned + len) lies inside `v`'s buffer, which we own;
+            // MADV_HUGEPAGE only changes how the kernel backs those pages, never their contents.
+            unsafe {
+                libc::madvise(aligned as *mut libc::c_void, len, libc::MADV_HUGEPAGE);
+            }
+        }
+    }
+    v
+}
+
 /// Accumulates vertices and triangles; fails cleanly when the mesh outgrows `u32` indices.
 #[derive(Debug, Default)]
 pub struct MeshBuilder {

@@ -70,6 +70,11 @@ impl Iso {
         }
     }
 
+    /// The native-type test equivalent to `self.offset(v) < 0` for samples of type `S`.
+    pub fn threshold<S: crate::grid::Sample>(&self) -> crate::grid::Threshold<S> {
+        S::threshold(self.value, self.inside == Inside::Below)
+    }
+
     /// +1 when inside is below iso, -1 when above: multiplies gradients into outward normals.
     #[inline]
     pub fn sign(&self) -> f32 {

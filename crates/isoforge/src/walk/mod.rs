@@ -4,9 +4,11 @@
 //! [`SlabWalker`] is the production walker (two value slabs, per-axis vertex-id slabs);
 //! [`ReferenceWalker`] recomputes everything and joins vertices by [`EdgeKey`], for tests.
 
+pub mod flying_edges;
 mod reference;
 mod slab;
 
+pub use flying_edges::{flying_edges, CaseTable};
 pub use reference::ReferenceWalker;
 pub use slab::SlabWalker;
 

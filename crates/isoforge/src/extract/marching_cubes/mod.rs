@@ -36,6 +36,13 @@ impl Extractor for MarchingCubes {
     }
 }
 
+impl crate::walk::CaseTable for MarchingCubes {
+    #[inline]
+    fn case_triangles(&self, case: u8) -> &[[u8; 3]] {
+        TRI_TABLE[case as usize].triangles()
+    }
+}
+
 #[cfg(test)]
 mod tests {
     use super::table::{source_case, SOURCE_TRI_TABLE};
