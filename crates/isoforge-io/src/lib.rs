@@ -21,6 +21,7 @@ pub use format::{MeshFormat, VolumeFormat};
 pub use limits::Limits;
 #[cfg(feature = "raw")]
 pub use read::raw::RawSpec;
+pub use read::stream::VolumeReader;
 
 use isoforge::grid::AnyGrid;
 use isoforge::mesh::Mesh;
@@ -30,6 +31,15 @@ use isoforge::mesh::Mesh;
 /// # Errors
 /// [`Error::Unsupported`] for an unknown extension or a raw file; otherwise the reader's errors.
 pub fn read_volume(path: &Path, limits: &Limits) -> Result<AnyGrid> {
+    open_volume(path, limits)?.read_grid(limits)
+}
+
+/// Opens a volume (header parsed, samples not read yet), choosing the reader by extension. Its
+/// size is checked against `limits`; pass `Limits::new(u64::MAX)` to stream it slab by slab.
+///
+/// # Errors
+/// As [`read_volume`], for the header.
+pub fn open_volume(path: &Path, limits: &Limits) -> Result<VolumeReader> {
     if !path.exists() {
         return Err(Error::Io {
             path: path.to_path_buf(),
@@ -39,11 +49,11 @@ pub fn read_volume(path: &Path, limits: &Limits) -> Result<AnyGrid> {
     let unsupported = |detail: &str| Err(Error::Unsupported { path: path.to_path_buf(), detail: detail.to_string() });
     match VolumeFormat::from_path(path) {
         #[cfg(feature = "nrrd")]
-        Some(VolumeFormat::Nrrd) => read::nrrd::read_nrrd(path, limits),
+        Some(VolumeFormat::Nrrd) => read::nrrd::open_nrrd(path, limits),
         #[cfg(feature = "nifti")]
-        Some(VolumeFormat::Nifti) => read::nifti::read_nifti(path, limits),
+        Some(VolumeFormat::Nifti) => read::nifti::open_nifti(path, limits),
         #[cfg(feature = "metaimage")]
-        Some(VolumeFormat::MetaImage) => read::metaimage::read_metaimage(path, limits),
+        Some(VolumeFormat::MetaImage) => read::metaimage::open_metaimage(path, limits),
         Some(VolumeFormat::Raw) => unsupported("raw volumes need their layout: pass --dims X,Y,Z and --dtype"),
         #[allow(unreachable_patterns)]
         Some(f) => unsupported(&format!("{} support is not compiled in", f.name())),

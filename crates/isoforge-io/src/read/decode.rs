@@ -1,8 +1,6 @@
 //! Shared steps of the volume readers: size checks before allocation, decompression to an exact
 //! size, byte decoding in the sample's own type, and the non-finite check.
 
-use std::borrow::Cow;
-use std::io::Read;
 use std::path::Path;
 
 use isoforge::grid::{AnyGrid, DType, DenseGrid, Lattice, Sample};
@@ -32,61 +30,6 @@ pub(crate) fn read_file(ctx: Ctx, path: &Path, max: u64) -> Result<Vec<u8>> {
         return Err(ctx.limit("the file", len, max));
     }
     std::fs::read(path).map_err(|e| ctx.io(e))
-}
-
-/// How a data block is compressed.
-#[derive(Debug, Clone, Copy, PartialEq, Eq)]
-pub(crate) enum Compression {
-    None,
-    Gzip,
-    Zlib,
-}
-
-/// The `expected` bytes of a possibly compressed data block; a short block is an error naming
-/// how much was found.
-pub(crate) fn take_data<'a>(
-    ctx: Ctx,
-    data: &'a [u8],
-    compression: Compression,
-    expected: usize,
-    what: &str,
-) -> Result<Cow<'a, [u8]>> {
-    let short = |got: usize| {
-        ctx.bad(format!("{what} ends after {got} of the {expected} bytes the header declares (truncated file?)"))
-    };
-    match compression {
-        Compression::None => {
-            if data.len() < expected {
-                return Err(short(data.len()));
-            }
-            Ok(Cow::Borrowed(&data[..expected]))
-        }
-        Compression::Gzip | Compression::Zlib => {
-            let mut out = Vec::with_capacity(expected);
-            let mut reader: Box<dyn Read> = match compression {
-                Compression::Gzip => Box::new(flate2::read::MultiGzDecoder::new(data)),
-                _ => Box::new(flate2::read::ZlibDecoder::new(data)),
-            };
-            let got = reader.by_ref().take(expected as u64).read_to_end(&mut out);
-            // One more read makes the decoder reach the stream's end and verify its checksum,
-            // so a file cut inside the trailer is reported too.
-            let tail = reader.read(&mut [0u8; 1]);
-            match got {
-                Ok(n) if n == expected => match tail {
-                    Ok(_) => Ok(Cow::Owned(out)),
-                    Err(e) => Err(ctx.bad(format!(
-                        "{what}: the compressed stream is cut or corrupt after its {expected} bytes: {e}"
-                    ))),
-                },
-                Ok(n) => Err(short(n)),
-                Err(e) => Err(ctx.bad(format!(
-                    "{what}: corrupt {} stream after {} bytes: {e}",
-                    if compression == Compression::Gzip { "gzip" } else { "zlib" },
-                    out.len()
-                ))),
-            }
-        }
-    }
 }
 
 /// Decodes exactly `lattice.num_points()` samples of `dtype` and rejects non-finite values.

@@ -1,11 +1,14 @@
 //! MetaImage (`.mha` with `ElementDataFile = LOCAL`, `.mhd` with a separate data file): raw or
 //! zlib-compressed, either byte order, spacing, offset and `TransformMatrix`.
 
-use std::path::{Path, PathBuf};
+use std::path::Path;
 
 use isoforge::grid::{AnyGrid, DType};
 
-use super::decode::{self, Compression};
+use std::io::Read;
+
+use super::decode;
+use super::stream::{open_data, Compression, VolumeReader};
 use crate::error::{Ctx, Result};
 use crate::limits::Limits;
 
@@ -14,22 +17,36 @@ const MAX_HEADER_BYTES: usize = 1 << 16;
 /// Reads a MetaImage volume.
 ///
 /// # Errors
-/// A [`crate::Error`] naming the line, key and value of any header problem, a truncated body, a
-/// size over `limits`, or a non-finite sample.
+/// As [`open_metaimage`] and [`VolumeReader::read_grid`].
 pub fn read_metaimage(path: &Path, limits: &Limits) -> Result<AnyGrid> {
+    open_metaimage(path, limits)?.read_grid(limits)
+}
+
+/// Opens a MetaImage volume: parses the header and positions the sample stream; the size is
+/// checked against `limits`.
+///
+/// # Errors
+/// A [`crate::Error`] naming the line, key and value of any header problem, or data shorter
+/// than the header declares.
+pub fn open_metaimage(path: &Path, limits: &Limits) -> Result<VolumeReader> {
     let ctx = Ctx::new(path, "MetaImage");
-    let file = decode::read_file(ctx, path, limits.max_bytes.saturating_add(MAX_HEADER_BYTES as u64))?;
+    let mut head = Vec::new();
+    std::fs::File::open(path)
+        .map_err(|e| ctx.io(e))?
+        .take(MAX_HEADER_BYTES as u64)
+        .read_to_end(&mut head)
+        .map_err(|e| ctx.io(e))?;
     let mut h = Header::default();
     let mut offset = 0usize;
     let mut line_no = 0usize;
     let mut data_start = None;
-    while offset < file.len() && offset < MAX_HEADER_BYTES {
-        let end = file[offset..].iter().position(|&b| b == b'\n').map_or(file.len(), |p| offset + p);
+    while offset < head.len() {
+        let end = head[offset..].iter().position(|&b| b == b'\n').map_or(head.len(), |p| offset + p);
         line_no += 1;
-        let line = std::str::from_utf8(&file[offset..end])
+        let line = std::str::from_utf8(&head[offset..end])
             .map_err(|_| ctx.bad(format!("line {line_no}: header is not text")))?
             .trim();
-        offset = (end + 1).min(file.len());
+        offset = (end + 1).min(head.len());
         if line.is_empty() {
             continue;
         }
@@ -38,7 +55,7 @@ pub fn read_metaimage(path: &Path, limits: &Limits) -> Result<AnyGrid> {
             .ok_or_else(|| ctx.bad(format!("line {line_no}: {:?} is not \"Key = Value\"", short(line))))?;
         let (key, value) = (key.trim(), value.trim());
         if h.set(ctx, line_no, key, value)? {
-            data_start = Some(offset);
+            data_start = Some(if end < head.len() { end + 1 } else { head.len() });
             break;
         }
     }
@@ -51,7 +68,7 @@ pub fn read_metaimage(path: &Path, limits: &Limits) -> Result<AnyGrid> {
             ctx.unsupported(format!("ElementNumberOfChannels = {}: only scalar volumes are supported", h.channels))
         );
     }
-    let need = decode::sample_bytes(ctx, dims, dtype, limits)?;
+    let need = decode::sample_bytes(ctx, dims, dtype, limits)? as u64;
     let direction = match h.transform {
         Some(t) => {
             Some(decode::split_axes(t).ok_or_else(|| ctx.bad("TransformMatrix: an axis is zero or not finite"))?.1)
@@ -60,31 +77,25 @@ pub fn read_metaimage(path: &Path, limits: &Limits) -> Result<AnyGrid> {
     };
     let lattice = decode::lattice(ctx, dims, h.spacing, h.origin, direction)?;
     let compression = if h.compressed { Compression::Zlib } else { Compression::None };
-    let external: PathBuf;
-    let loaded;
-    let (dctx, data): (Ctx, &[u8]) = if data_file.eq_ignore_ascii_case("LOCAL") {
-        let start = data_start.unwrap_or(file.len());
-        (ctx, &file[start..])
-    } else {
-        if data_file.starts_with("LIST") || data_file.contains('%') {
-            return Err(ctx.unsupported(format!("ElementDataFile = {data_file}: multi-file data is not supported")));
-        }
-        external = path.parent().unwrap_or(Path::new(".")).join(&data_file);
-        let dctx = Ctx::new(&external, "MetaImage data");
-        loaded =
-            decode::read_file(dctx, &external, limits.max_bytes.saturating_add(h.header_size.unwrap_or(0) as u64))?;
-        let skip = match h.header_size {
-            Some(-1) if !h.compressed => loaded.len().saturating_sub(need),
-            Some(n) if n >= 0 => n as usize,
-            Some(n) => return Err(ctx.bad(format!("HeaderSize = {n}: must be -1 or a byte count"))),
-            None => 0,
-        };
-        let rest =
-            loaded.get(skip..).ok_or_else(|| dctx.bad(format!("HeaderSize {skip} is past the end of the data")))?;
-        (dctx, rest)
+    if data_file.eq_ignore_ascii_case("LOCAL") {
+        let start = data_start.unwrap_or(head.len()) as u64;
+        let data = open_data(ctx, path, start, compression, need, "element data")?;
+        return Ok(VolumeReader::stream(ctx, lattice, dtype, h.big_endian, data));
+    }
+    if data_file.starts_with("LIST") || data_file.contains('%') {
+        return Err(ctx.unsupported(format!("ElementDataFile = {data_file}: multi-file data is not supported")));
+    }
+    let external = path.parent().unwrap_or(Path::new(".")).join(&data_file);
+    let dctx = Ctx::new(&external, "MetaImage data");
+    let len = std::fs::metadata(&external).map_err(|e| dctx.io(e))?.len();
+    let skip = match h.header_size {
+        Some(-1) if !h.compressed => len.saturating_sub(need),
+        Some(n) if n >= 0 => n as u64,
+        Some(n) => return Err(ctx.bad(format!("HeaderSize = {n}: must be -1 or a byte count"))),
+        None => 0,
     };
-    let body = decode::take_data(dctx, data, compression, need, "element data")?;
-    decode::decode(dctx, lattice, dtype, h.big_endian, &body)
+    let data = open_data(dctx, &external, skip, compression, need, "element data")?;
+    Ok(VolumeReader::stream(dctx, lattice, dtype, h.big_endian, data))
 }
 
 struct Header {

@@ -19,3 +19,4 @@ pub mod ply;
 pub mod raw;
 #[cfg(feature = "stl")]
 pub mod stl;
+pub mod stream;

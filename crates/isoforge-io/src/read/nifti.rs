@@ -6,9 +6,12 @@
 
 use std::path::Path;
 
-use isoforge::grid::{AnyGrid, DType, DenseGrid, Sample};
+use std::io::Read;
 
-use super::decode::{self, Compression};
+use isoforge::grid::{AnyGrid, DType};
+
+use super::decode;
+use super::stream::{self, open_data, Compression, VolumeReader};
 use crate::error::{Ctx, Result};
 use crate::limits::Limits;
 
@@ -17,64 +20,56 @@ const HEADER_SIZE: usize = 348;
 /// Reads a NIfTI-1 volume.
 ///
 /// # Errors
-/// A [`crate::Error`] naming the header field and value, a truncated body, a size over `limits`,
-/// or a non-finite sample.
+/// As [`open_nifti`] and [`VolumeReader::read_grid`].
 pub fn read_nifti(path: &Path, limits: &Limits) -> Result<AnyGrid> {
-    let ctx = Ctx::new(path, "NIfTI");
-    let file = decode::read_file(ctx, path, limits.max_bytes.saturating_add(1 << 20))?;
-    let gz = file.starts_with(&[0x1f, 0x8b]);
-    // The header first (decompressing only its 348 bytes), then the sizes, then the data.
-    let head = if gz {
-        decode::take_data(ctx, &file, Compression::Gzip, HEADER_SIZE, "header")?.into_owned()
-    } else {
-        file.get(..HEADER_SIZE)
-            .ok_or_else(|| ctx.bad(format!("file has {} bytes, a NIfTI-1 header needs {HEADER_SIZE}", file.len())))?
-            .to_vec()
-    };
-    let h = Header::parse(ctx, &head)?;
-    let need = decode::sample_bytes(ctx, h.dims, h.dtype, limits)?;
-    let lattice = decode::lattice(ctx, h.dims, h.spacing, h.origin, Some(h.direction))?;
-    let body = if h.magic_pair {
-        let img = path.with_extension("img");
-        let ictx = Ctx::new(&img, "NIfTI image");
-        let data = decode::read_file(ictx, &img, limits.max_bytes.saturating_add(h.vox_offset as u64))?;
-        let rest =
-            data.get(h.vox_offset..).ok_or_else(|| ictx.bad(format!("vox_offset {} is past the end", h.vox_offset)))?;
-        decode::take_data(ictx, rest, Compression::None, need, "image data")?.into_owned()
-    } else if gz {
-        let all = decode::take_data(ctx, &file, Compression::Gzip, h.vox_offset + need, "data")?;
-        all[h.vox_offset..].to_vec()
-    } else {
-        let rest = file.get(h.vox_offset..).ok_or_else(|| {
-            ctx.bad(format!("vox_offset {} is past the end of the {}-byte file", h.vox_offset, file.len()))
-        })?;
-        decode::take_data(ctx, rest, Compression::None, need, "data")?.into_owned()
-    };
-    let grid = decode::decode(ctx, lattice, h.dtype, h.big_endian, &body)?;
-    match h.scale {
-        None => Ok(grid),
-        Some((slope, inter)) => scale(ctx, grid, slope, inter),
-    }
+    open_nifti(path, limits)?.read_grid(limits)
 }
 
-/// Applies `slope · v + inter`: f64 for 32-bit integers and doubles (exact), f32 otherwise.
-fn scale(ctx: Ctx, grid: AnyGrid, slope: f64, inter: f64) -> Result<AnyGrid> {
-    fn to<S: Sample, T>(g: &DenseGrid<S>, f: impl Fn(f64) -> T) -> Vec<T> {
-        g.data().iter().map(|v| f(v.to_f64())).collect()
+/// Opens a NIfTI-1 volume: parses the header and positions the sample stream (scaling by
+/// `scl_slope`/`scl_inter` is applied as samples are read).
+///
+/// # Errors
+/// A [`crate::Error`] naming the header field and value, or data shorter than declared.
+pub fn open_nifti(path: &Path, limits: &Limits) -> Result<VolumeReader> {
+    let ctx = Ctx::new(path, "NIfTI");
+    let mut file = std::fs::File::open(path).map_err(|e| ctx.io(e))?;
+    let mut magic = [0u8; 2];
+    let n = file.read(&mut magic).map_err(|e| ctx.io(e))?;
+    let gz = n == 2 && magic == [0x1f, 0x8b];
+    let file = std::fs::File::open(path).map_err(|e| ctx.io(e))?;
+    let mut stream = stream::wrap(
+        std::io::BufReader::with_capacity(1 << 20, file),
+        if gz { Compression::Gzip } else { Compression::None },
+        "data",
+    );
+    let mut head = vec![0u8; HEADER_SIZE];
+    let mut got = 0;
+    while got < HEADER_SIZE {
+        match stream.reader.read(&mut head[got..]) {
+            Ok(0) => break,
+            Ok(k) => got += k,
+            Err(e) => return Err(ctx.bad(format!("header: corrupt or unreadable after {got} bytes: {e}"))),
+        }
     }
-    let lattice = grid.lattice().clone();
-    let wide = matches!(grid.dtype(), DType::U32 | DType::I32 | DType::F64);
-    let out: AnyGrid = if wide {
-        let data = isoforge::with_grid!(&grid, g => to(g, |v| slope * v + inter));
-        DenseGrid::new(lattice, data).map_err(|e| ctx.lib(e))?.into()
+    if got < HEADER_SIZE {
+        return Err(ctx.bad(format!("file has {got} bytes, a NIfTI-1 header needs {HEADER_SIZE}")));
+    }
+    let h = Header::parse(ctx, &head)?;
+    let need = decode::sample_bytes(ctx, h.dims, h.dtype, limits)? as u64;
+    let lattice = decode::lattice(ctx, h.dims, h.spacing, h.origin, Some(h.direction))?;
+    let reader = if h.magic_pair {
+        let img = path.with_extension("img");
+        let ictx = Ctx::new(&img, "NIfTI image");
+        let data = open_data(ictx, &img, h.vox_offset as u64, Compression::None, need, "image data")?;
+        VolumeReader::stream(ictx, lattice, h.dtype, h.big_endian, data)
+    } else if gz {
+        stream::skip(ctx, &mut stream.reader, (h.vox_offset - HEADER_SIZE) as u64, "data")?;
+        VolumeReader::stream(ctx, lattice, h.dtype, h.big_endian, stream)
     } else {
-        let data = isoforge::with_grid!(&grid, g => to(g, |v| (slope * v + inter) as f32));
-        DenseGrid::new(lattice, data).map_err(|e| ctx.lib(e))?.into()
+        let data = open_data(ctx, path, h.vox_offset as u64, Compression::None, need, "data")?;
+        VolumeReader::stream(ctx, lattice, h.dtype, h.big_endian, data)
     };
-    if let Some(nf) = out.first_non_finite() {
-        return Err(ctx.bad(format!("scl_slope {slope} / scl_inter {inter} make sample {:?} non-finite", nf.ijk)));
-    }
-    Ok(out)
+    Ok(reader.with_scale(h.scale))
 }
 
 struct Header {

@@ -8,7 +8,10 @@ use std::path::{Path, PathBuf};
 
 use isoforge::grid::{AnyGrid, DType};
 
-use super::decode::{self, Compression};
+use std::io::Read;
+
+use super::decode;
+use super::stream::{self, open_data, Compression, VolumeReader};
 use crate::error::{Ctx, Result};
 use crate::limits::Limits;
 
@@ -18,56 +21,70 @@ const MAX_HEADER_BYTES: usize = 1 << 20;
 /// Reads an NRRD file (attached or detached header).
 ///
 /// # Errors
-/// A [`crate::Error`] naming the line, field and value of any header problem, a truncated body,
-/// a size over `limits`, or a non-finite sample.
+/// As [`open_nrrd`] and [`VolumeReader::read_grid`].
 pub fn read_nrrd(path: &Path, limits: &Limits) -> Result<AnyGrid> {
+    open_nrrd(path, limits)?.read_grid(limits)
+}
+
+/// Opens an NRRD file: parses the header and positions the sample stream. The volume's size is
+/// checked against `limits` (pass `Limits::new(u64::MAX)` to stream a volume larger than memory).
+///
+/// # Errors
+/// A [`crate::Error`] naming the line, field and value of any header problem, or a data file
+/// shorter than the header declares.
+pub fn open_nrrd(path: &Path, limits: &Limits) -> Result<VolumeReader> {
     let ctx = Ctx::new(path, "NRRD");
-    let bytes = decode::read_file(ctx, path, limits.max_bytes.saturating_add(MAX_HEADER_BYTES as u64))?;
-    let header_end = header_end(&bytes);
-    let header_text = std::str::from_utf8(&bytes[..header_end.min(bytes.len())])
+    let head = read_prefix(ctx, path, MAX_HEADER_BYTES)?;
+    let header_end = header_end(&head);
+    let header_text = std::str::from_utf8(&head[..header_end.min(head.len())])
         .map_err(|e| ctx.bad(format!("byte {}: header is not text", e.valid_up_to())))?;
     let h = Header::parse(ctx, header_text)?;
-    let need = decode::sample_bytes(ctx, h.dims, h.dtype, limits)?;
+    let need = decode::sample_bytes(ctx, h.dims, h.dtype, limits)? as u64;
     let lattice = decode::lattice(ctx, h.dims, h.spacing, h.origin, h.direction)?;
 
     // The data: after the header, or in the detached file.
-    let data_path = h.data_file.as_ref().map(|name| resolve(path, name));
-    let detached;
-    let (data_ctx, raw): (Ctx, &[u8]) = match &data_path {
-        None => (ctx, &bytes[header_end.min(bytes.len())..]),
-        Some(p) => {
-            let dctx = Ctx::new(p, "NRRD data");
-            detached = decode::read_file(dctx, p, limits.max_bytes.saturating_mul(2))?;
-            (dctx, &detached[..])
-        }
+    let (data_path, mut offset) = match &h.data_file {
+        None => (path.to_path_buf(), header_end as u64),
+        Some(name) => (resolve(path, name), 0),
     };
-    let raw = skip_lines(data_ctx, raw, h.line_skip)?;
-    let body: std::borrow::Cow<[u8]> = match h.encoding {
-        Encoding::Ascii => std::borrow::Cow::Owned(ascii_to_bytes(data_ctx, raw, h.dims, h.dtype)?),
+    let dctx = Ctx::new(&data_path, if h.data_file.is_some() { "NRRD data" } else { "NRRD" });
+    offset = skip_lines(dctx, &data_path, offset, h.line_skip)?;
+    match h.encoding {
+        Encoding::Ascii => {
+            let all = decode::read_file(dctx, &data_path, limits.max_bytes.saturating_mul(8))?;
+            let text = all.get(offset as usize..).unwrap_or(&[]);
+            let bytes = ascii_to_bytes(dctx, text, h.dims, h.dtype)?;
+            let grid = crate::read::decode::decode(dctx, lattice, h.dtype, false, &bytes)?;
+            Ok(VolumeReader::decoded(dctx, grid))
+        }
         Encoding::Raw => {
-            let start = match h.byte_skip {
-                ByteSkip::Bytes(n) => n,
-                ByteSkip::FromEnd => raw.len().checked_sub(need).ok_or_else(|| {
-                    data_ctx
-                        .bad(format!("byte skip -1: the data has {} bytes, fewer than the {need} needed", raw.len()))
+            let len = std::fs::metadata(&data_path).map_err(|e| dctx.io(e))?.len();
+            offset = match h.byte_skip {
+                ByteSkip::Bytes(n) => offset.saturating_add(n as u64),
+                ByteSkip::FromEnd => len.checked_sub(need).ok_or_else(|| {
+                    dctx.bad(format!("byte skip -1: the data has {len} bytes, fewer than the {need} needed"))
                 })?,
             };
-            let rest = raw.get(start..).ok_or_else(|| {
-                data_ctx.bad(format!("byte skip {start} is past the end of the data ({} bytes)", raw.len()))
-            })?;
-            decode::take_data(data_ctx, rest, Compression::None, need, "raw data")?
+            let data = open_data(dctx, &data_path, offset, Compression::None, need, "raw data")?;
+            Ok(VolumeReader::stream(dctx, lattice, h.dtype, h.big_endian, data))
         }
         Encoding::Gzip => {
-            let ByteSkip::Bytes(start) = h.byte_skip else {
+            let ByteSkip::Bytes(skip) = h.byte_skip else {
                 return Err(ctx.unsupported("byte skip -1 is only defined for raw encoding"));
             };
-            let rest = raw
-                .get(start..)
-                .ok_or_else(|| data_ctx.bad(format!("byte skip {start} is past the end of the data")))?;
-            decode::take_data(data_ctx, rest, Compression::Gzip, need, "gzip data")?
+            let mut data = open_data(dctx, &data_path, offset, Compression::Gzip, need, "gzip data")?;
+            stream::skip(dctx, &mut data.reader, skip as u64, "gzip data")?;
+            Ok(VolumeReader::stream(dctx, lattice, h.dtype, h.big_endian, data))
         }
-    };
-    decode::decode(data_ctx, lattice, h.dtype, h.big_endian, &body)
+    }
+}
+
+/// The first `max` bytes of a file (all of it when shorter).
+fn read_prefix(ctx: Ctx, path: &Path, max: usize) -> Result<Vec<u8>> {
+    let file = std::fs::File::open(path).map_err(|e| ctx.io(e))?;
+    let mut head = Vec::new();
+    file.take(max as u64).read_to_end(&mut head).map_err(|e| ctx.io(e))?;
+    Ok(head)
 }
 
 fn header_end(bytes: &[u8]) -> usize {
@@ -83,15 +100,25 @@ fn resolve(header: &Path, name: &str) -> PathBuf {
     }
 }
 
-fn skip_lines<'a>(ctx: Ctx, mut data: &'a [u8], n: usize) -> Result<&'a [u8]> {
-    for i in 0..n {
-        let nl = data
-            .iter()
-            .position(|&b| b == b'\n')
-            .ok_or_else(|| ctx.bad(format!("line skip {n}: data has only {i} lines")))?;
-        data = &data[nl + 1..];
+/// The offset after `n` more lines from `offset` in `path`.
+fn skip_lines(ctx: Ctx, path: &Path, offset: u64, n: usize) -> Result<u64> {
+    if n == 0 {
+        return Ok(offset);
     }
-    Ok(data)
+    let mut file = std::fs::File::open(path).map_err(|e| ctx.io(e))?;
+    std::io::Seek::seek(&mut file, std::io::SeekFrom::Start(offset)).map_err(|e| ctx.io(e))?;
+    let mut r = std::io::BufReader::new(file);
+    let mut pos = offset;
+    let mut line = Vec::new();
+    for i in 0..n {
+        line.clear();
+        let got = std::io::BufRead::read_until(&mut r, b'\n', &mut line).map_err(|e| ctx.io(e))?;
+        if got == 0 {
+            return Err(ctx.bad(format!("line skip {n}: data has only {i} lines")));
+        }
+        pos += got as u64;
+    }
+    Ok(pos)
 }
 
 fn ascii_to_bytes(ctx: Ctx, data: &[u8], dims: [u32; 3], dtype: DType) -> Result<Vec<u8>> {

@@ -4,7 +4,8 @@ use std::path::Path;
 
 use isoforge::grid::{AnyGrid, DType};
 
-use super::decode::{self, Compression};
+use super::decode;
+use super::stream::{open_data, Compression, VolumeReader};
 use crate::error::{Ctx, Result};
 use crate::limits::Limits;
 
@@ -32,17 +33,16 @@ impl RawSpec {
     }
 }
 
-/// Reads a raw file; its size must be exactly `header_bytes` + the samples.
+/// Opens a raw file; its size must be exactly `header_bytes` + the samples.
 ///
 /// # Errors
-/// [`Error::Read`](crate::Error::Read) when the size does not match or a sample is not finite;
-/// [`Error::Limit`](crate::Error::Limit) when the dims exceed `limits`.
-pub fn read_raw(path: &Path, spec: &RawSpec, limits: &Limits) -> Result<AnyGrid> {
+/// [`Error::Read`](crate::Error::Read) when the size does not match.
+pub fn open_raw(path: &Path, spec: &RawSpec, limits: &Limits) -> Result<VolumeReader> {
     let ctx = Ctx::new(path, "raw");
-    let need = decode::sample_bytes(ctx, spec.dims, spec.dtype, limits)?;
+    let need = decode::sample_bytes(ctx, spec.dims, spec.dtype, limits)? as u64;
     let lattice = decode::lattice(ctx, spec.dims, spec.spacing, spec.origin, None)?;
     let len = std::fs::metadata(path).map_err(|e| ctx.io(e))?.len();
-    let expected = spec.header_bytes.saturating_add(need as u64);
+    let expected = spec.header_bytes.saturating_add(need);
     if len != expected {
         let [x, y, z] = spec.dims;
         return Err(ctx.bad(format!(
@@ -50,7 +50,14 @@ pub fn read_raw(path: &Path, spec: &RawSpec, limits: &Limits) -> Result<AnyGrid>
             spec.dtype, spec.header_bytes
         )));
     }
-    let bytes = decode::read_file(ctx, path, expected)?;
-    let body = decode::take_data(ctx, &bytes[spec.header_bytes as usize..], Compression::None, need, "sample data")?;
-    decode::decode(ctx, lattice, spec.dtype, spec.big_endian, &body)
+    let data = open_data(ctx, path, spec.header_bytes, Compression::None, need, "sample data")?;
+    Ok(VolumeReader::stream(ctx, lattice, spec.dtype, spec.big_endian, data))
+}
+
+/// Reads a raw file into a grid.
+///
+/// # Errors
+/// As [`open_raw`], [`VolumeReader::read_grid`].
+pub fn read_raw(path: &Path, spec: &RawSpec, limits: &Limits) -> Result<AnyGrid> {
+    open_raw(path, spec, limits)?.read_grid(limits)
 }

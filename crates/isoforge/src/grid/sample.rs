@@ -98,6 +98,8 @@ pub trait Sample: Copy + Send + Sync + PartialOrd + fmt::Debug + sealed::Sealed 
     }
     /// The sample with its bytes reversed (endianness conversion).
     fn swap_bytes(self) -> Self;
+    /// Conversion from `f64` (`as` semantics: saturating for integers).
+    fn from_f64(v: f64) -> Self;
     /// The native-type test equivalent to `v < iso` (`below`) or `v > iso` (`!below`) for every
     /// finite sample `v`, with `iso` an `f64`.
     fn threshold(iso: f64, below: bool) -> Threshold<Self>;
@@ -229,6 +231,10 @@ macro_rules! impl_int {
             fn swap_bytes(self) -> Self {
                 <$t>::swap_bytes(self)
             }
+            #[inline]
+            fn from_f64(v: f64) -> Self {
+                v as $t
+            }
             fn threshold(iso: f64, below: bool) -> Threshold<Self> {
                 let (min, max) = (<$t>::MIN as f64, <$t>::MAX as f64);
                 if below {
@@ -288,6 +294,10 @@ impl Sample for f32 {
     fn swap_bytes(self) -> Self {
         f32::from_bits(self.to_bits().swap_bytes())
     }
+    #[inline]
+    fn from_f64(v: f64) -> Self {
+        v as f32
+    }
     fn threshold(iso: f64, below: bool) -> Threshold<Self> {
         // The nearest f32 on the right side of iso: v < iso ⇔ v < t with t the smallest f32 ≥ iso
         // (v > iso ⇔ v > t with t the largest f32 ≤ iso).
@@ -328,6 +338,10 @@ impl Sample for f64 {
     #[inline]
     fn swap_bytes(self) -> Self {
         f64::from_bits(self.to_bits().swap_bytes())
+    }
+    #[inline]
+    fn from_f64(v: f64) -> Self {
+        v
     }
     fn threshold(iso: f64, below: bool) -> Threshold<Self> {
         if below {
