@@ -90,6 +90,11 @@ pub struct ExtractArgs {
     /// Write {"seconds", "vertices", "triangles"} of the extraction (not reading or writing) here.
     #[arg(long, value_name = "FILE")]
     pub time_json: Option<PathBuf>,
+    /// Memory budget (suffixes K, M, G): a volume whose in-memory extraction would not fit is
+    /// meshed slab by slab from the file (raw, NRRD, NIfTI, MetaImage; binary PLY output), using
+    /// O(nx·ny) memory.
+    #[arg(long, value_name = "BYTES")]
+    pub max_memory: Option<String>,
     /// Check the mesh after extraction and exit 1 unless these hold (closed manifold oriented watertight no-degenerate).
     #[arg(long, value_delimiter = ',', value_name = "LIST")]
     pub require: Vec<String>,

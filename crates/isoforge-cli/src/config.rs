@@ -34,6 +34,7 @@ pub struct ExtractConfig {
     pub options: Options,
     pub time_json: Option<PathBuf>,
     pub require: Vec<Guarantee>,
+    pub max_memory: Option<u64>,
 }
 
 pub struct CheckConfig {
@@ -59,6 +60,10 @@ fn triplet<T: std::str::FromStr>(flag: &str, s: &str) -> Result<[T; 3]> {
 }
 
 fn bytes(s: &str) -> Result<u64> {
+    bytes_for("--max-bytes", s)
+}
+
+fn bytes_for(flag: &str, s: &str) -> Result<u64> {
     let t = s.trim();
     let (num, mult) = match t.char_indices().find(|(_, c)| c.is_ascii_alphabetic()) {
         Some((i, _)) => {
@@ -69,14 +74,14 @@ fn bytes(s: &str) -> Result<u64> {
                 "m" | "mb" | "mib" => 1 << 20,
                 "g" | "gb" | "gib" => 1 << 30,
                 "t" | "tb" | "tib" => 1 << 40,
-                _ => bail!("--max-bytes {s:?}: unknown unit {unit:?} (use K, M, G, T)"),
+                _ => bail!("{flag} {s:?}: unknown unit {unit:?} (use K, M, G, T)"),
             };
             (&t[..i], m)
         }
         None => (t, 1),
     };
-    let n: u64 = num.trim().parse().map_err(|_| anyhow!("--max-bytes {s:?}: not a whole number of bytes"))?;
-    n.checked_mul(mult).ok_or_else(|| anyhow!("--max-bytes {s:?}: too large"))
+    let n: u64 = num.trim().parse().map_err(|_| anyhow!("{flag} {s:?}: not a whole number of bytes"))?;
+    n.checked_mul(mult).ok_or_else(|| anyhow!("{flag} {s:?}: too large"))
 }
 
 fn limits(max_bytes: Option<&str>) -> Result<Limits> {
@@ -194,6 +199,7 @@ impl ExtractConfig {
             options: Options { method, normals, threads: None },
             time_json: a.time_json.clone(),
             require: guarantees(&a.require)?,
+            max_memory: a.max_memory.as_deref().map(|m| bytes_for("--max-memory", m)).transpose()?,
         })
     }
 }

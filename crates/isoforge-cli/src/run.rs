@@ -4,11 +4,15 @@ use std::path::Path;
 use std::time::Instant;
 
 use anyhow::{anyhow, bail, Context, Result};
-use isoforge::grid::{AnyGrid, Histogram, IDENTITY};
-use isoforge::pipeline::{self, Extraction};
+use isoforge::extract::MarchingCubes;
+use isoforge::grid::{AnyGrid, DType, Histogram, Sample, IDENTITY};
+use isoforge::pipeline::{self, Extraction, Method, Normals};
 use isoforge::topo::{self, CheckOptions, Guarantee, MeshReport};
 use isoforge::volume::catalog::{self, Builtin};
 use isoforge::volume::{Inside, Iso};
+use isoforge::walk::{flying_edges_streaming, StreamStats};
+use isoforge_io::write::ply::PlyStream;
+use isoforge_io::{Limits, MeshFormat, VolumeReader};
 use serde_json::json;
 
 use crate::config::{CheckConfig, DemoConfig, ExtractConfig, InputConfig, Source};
@@ -27,16 +31,40 @@ pub enum Outcome {
 pub enum Loaded {
     Grid(AnyGrid),
     Field(Builtin),
+    /// A volume to mesh slab by slab (it does not fit the memory budget).
+    Stream(VolumeReader),
 }
 
 pub fn load(input: &InputConfig) -> Result<Loaded> {
-    match &input.source {
-        Source::Field(b) => Ok(Loaded::Field(b.clone())),
-        Source::File { path, raw: Some(spec) } => {
-            Ok(Loaded::Grid(isoforge_io::read::raw::read_raw(path, spec, &input.limits)?))
+    open_input(input, None)
+}
+
+/// Opens the input; with a memory budget, a volume whose in-memory extraction would exceed it
+/// stays a stream.
+fn open_input(input: &InputConfig, max_memory: Option<u64>) -> Result<Loaded> {
+    let (path, raw) = match &input.source {
+        Source::Field(b) => return Ok(Loaded::Field(b.clone())),
+        Source::File { path, raw } => (path, raw),
+    };
+    let open_limits = if max_memory.is_some() { Limits::new(u64::MAX) } else { input.limits };
+    let reader = match raw {
+        Some(spec) => isoforge_io::read::raw::open_raw(path, spec, &open_limits)?,
+        None => isoforge_io::open_volume(path, &open_limits)?,
+    };
+    if let Some(budget) = max_memory {
+        if in_memory_estimate(&reader) > budget {
+            return Ok(Loaded::Stream(reader));
         }
-        Source::File { path, raw: None } => Ok(Loaded::Grid(isoforge_io::read_volume(path, &input.limits)?)),
     }
+    Ok(Loaded::Grid(reader.read_grid(&input.limits)?))
+}
+
+/// Peak memory of an in-memory extraction, before the mesh: the samples, one bit per point, and
+/// slack for row tables and buffers. The mesh is not known in advance; it usually is a fraction
+/// of the volume.
+fn in_memory_estimate(reader: &VolumeReader) -> u64 {
+    let points = reader.lattice().num_points();
+    reader.volume_bytes().saturating_add(points / 8).saturating_add(64 << 20)
 }
 
 fn input_name(input: &InputConfig) -> String {
@@ -50,6 +78,67 @@ fn failed(report: &MeshReport, require: &[Guarantee]) -> Vec<&'static str> {
     require.iter().filter(|g| !report.holds(**g)).map(|g| g.name()).collect()
 }
 
+/// Out-of-core extraction: slab by slab from the file straight into a binary PLY.
+fn extract_streaming(c: &ExtractConfig, mut reader: VolumeReader, iso: Iso, name: &str, bar: &Bar) -> Result<Outcome> {
+    if c.format != MeshFormat::Ply {
+        bail!("{}: out-of-core extraction (--max-memory) writes binary PLY only", c.output.display());
+    }
+    if c.options.method != Method::MarchingCubes {
+        bail!("--max-memory: out-of-core extraction supports --method mc only");
+    }
+    let normals = c.options.normals == Normals::Gradient;
+    let mut sink =
+        PlyStream::create(&c.output, normals).with_context(|| format!("{}: cannot create", c.output.display()))?;
+    let start = Instant::now();
+    fn go<S: Sample>(
+        r: &mut VolumeReader,
+        iso: Iso,
+        n: bool,
+        sink: &mut PlyStream,
+        bar: &Bar,
+    ) -> isoforge::Result<StreamStats> {
+        flying_edges_streaming::<S, _>(r, iso, &MarchingCubes, n, sink, Some(bar))
+    }
+    let stats = match reader.dtype() {
+        DType::U8 => go::<u8>(&mut reader, iso, normals, &mut sink, bar),
+        DType::I8 => go::<i8>(&mut reader, iso, normals, &mut sink, bar),
+        DType::U16 => go::<u16>(&mut reader, iso, normals, &mut sink, bar),
+        DType::I16 => go::<i16>(&mut reader, iso, normals, &mut sink, bar),
+        DType::U32 => go::<u32>(&mut reader, iso, normals, &mut sink, bar),
+        DType::I32 => go::<i32>(&mut reader, iso, normals, &mut sink, bar),
+        DType::F32 => go::<f32>(&mut reader, iso, normals, &mut sink, bar),
+        _ => go::<f64>(&mut reader, iso, normals, &mut sink, bar),
+    }?;
+    let seconds = start.elapsed().as_secs_f64();
+    bar.finish();
+    let w = stats.walk;
+    if w.cells > 0 && (w.cells_outside == w.cells || w.cells_inside == w.cells) {
+        let side = if w.cells_outside == w.cells { "outside" } else { "inside" };
+        bail!("{name}: iso {} gives no surface: every lattice point is {side}", iso.value);
+    }
+    sink.finish().with_context(|| format!("{}: cannot finish writing", c.output.display()))?;
+    if let Some(t) = &c.time_json {
+        let body =
+            json!({ "seconds": seconds, "vertices": stats.vertices, "triangles": stats.triangles, "streamed": true });
+        isoforge_io::write_atomic(t, |w| w.write_all(body.to_string().as_bytes()))?;
+    }
+    eprintln!(
+        "{}: {} vertices, {} triangles (mc, streamed slab by slab, iso {}, reading + extraction + writing {:.3} s)",
+        c.output.display(),
+        stats.vertices,
+        stats.triangles,
+        iso.value,
+        seconds
+    );
+    if c.require.is_empty() {
+        return Ok(Outcome::Success);
+    }
+    let mesh = isoforge_io::read_mesh(&c.output, &isoforge_io::Limits::default())?;
+    let rep = topo::check(&mesh);
+    print!("{}", report::mesh_text(&rep));
+    Ok(verdict(&c.output, &rep, &c.require))
+}
+
 /// Success when every required guarantee holds; otherwise names the failures on stderr.
 fn verdict(mesh: &Path, report: &MeshReport, require: &[Guarantee]) -> Outcome {
     let bad = failed(report, require);
@@ -61,11 +150,11 @@ fn verdict(mesh: &Path, report: &MeshReport, require: &[Guarantee]) -> Outcome {
 }
 
 pub fn extract(c: &ExtractConfig) -> Result<Outcome> {
-    let loaded = load(&c.input)?;
+    let loaded = open_input(&c.input, c.max_memory)?;
     let name = input_name(&c.input);
     let default_iso = match &loaded {
         Loaded::Field(b) => b.iso,
-        Loaded::Grid(_) => Iso::below(0.0),
+        Loaded::Grid(_) | Loaded::Stream(_) => Iso::below(0.0),
     };
     let iso = Iso { value: c.iso.unwrap_or(default_iso.value), inside: c.inside.unwrap_or(default_iso.inside) };
     if let Loaded::Grid(g) = &loaded {
@@ -81,9 +170,10 @@ pub fn extract(c: &ExtractConfig) -> Result<Outcome> {
     }
     let bar = Bar::new("extracting");
     let start = Instant::now();
-    let out: Extraction = match &loaded {
-        Loaded::Grid(g) => pipeline::extract_grid(g, iso, &c.options, Some(&bar))?,
-        Loaded::Field(b) => pipeline::extract_builtin(b, iso, &c.options, Some(&bar))?,
+    let out: Extraction = match loaded {
+        Loaded::Grid(g) => pipeline::extract_grid(&g, iso, &c.options, Some(&bar))?,
+        Loaded::Field(b) => pipeline::extract_builtin(&b, iso, &c.options, Some(&bar))?,
+        Loaded::Stream(reader) => return extract_streaming(c, reader, iso, &name, &bar),
     };
     let seconds = start.elapsed().as_secs_f64();
     bar.finish();
@@ -125,6 +215,7 @@ pub fn info(input: &InputConfig, json_out: bool) -> Result<Outcome> {
     let (lattice, kind) = match &loaded {
         Loaded::Grid(g) => (g.lattice().clone(), g.dtype().to_string()),
         Loaded::Field(b) => (b.lattice.clone(), "field (f32)".to_string()),
+        Loaded::Stream(r) => (r.lattice().clone(), r.dtype().to_string()),
     };
     let (lo, hi) = lattice.world_bounds();
     let mut v = json!({
@@ -139,6 +230,7 @@ pub fn info(input: &InputConfig, json_out: bool) -> Result<Outcome> {
     });
     let hist = match &loaded {
         Loaded::Grid(g) => Histogram::of(g, 256),
+        Loaded::Stream(_) => None,
         Loaded::Field(b) => {
             v["default_iso"] = json!(b.iso.value);
             v["inside"] = json!(if b.iso.inside == Inside::Below { "below" } else { "above" });

@@ -309,3 +309,86 @@ fn output_is_byte_identical_for_1_and_2_threads() {
     let bad = isoforge(&["--threads", "0", "demo", "-o", p(&dir.path().join("d.ply"))]);
     assert_eq!(bad.status.code(), Some(2));
 }
+
+/// Issue 3: with a memory budget the volume is meshed slab by slab, and the streamed mesh equals
+/// the in-memory one (same vertices, normals and triangles, in the same order).
+#[test]
+fn streamed_mesh_equals_in_memory_mesh() {
+    let dir = tempfile::tempdir().unwrap();
+    let raw = dir.path().join("ct.raw");
+    let [nx, ny, nz] = [70u32, 40, 33];
+    let mut bytes = Vec::new();
+    for k in 0..nz {
+        for j in 0..ny {
+            for i in 0..nx {
+                let (x, y, z) = (i as f32 - 35.0, j as f32 - 20.0, k as f32 - 16.0);
+                let v = 1000.0 + 600.0 * ((x * 0.21).sin() + (y * 0.27).cos() + (z * 0.31).sin())
+                    - 2.0 * (x * x + y * y + z * z).sqrt();
+                bytes.extend_from_slice(&(v.max(0.0) as u16).to_le_bytes());
+            }
+        }
+    }
+    std::fs::write(&raw, &bytes).unwrap();
+    let read = |path: &Path| -> isoforge::mesh::Mesh {
+        isoforge_io::read_mesh(path, &isoforge_io::Limits::default()).unwrap()
+    };
+    for normals in ["none", "gradient"] {
+        let (mem, streamed) =
+            (dir.path().join(format!("mem-{normals}.ply")), dir.path().join(format!("stream-{normals}.ply")));
+        let base =
+            ["extract", "-i", p(&raw), "--dims", "70,40,33", "--dtype", "u16", "--iso", "1000.5", "--normals", normals];
+        let o = isoforge(&[&base[..], &["-o", p(&mem)]].concat());
+        assert_eq!(o.status.code(), Some(0), "{}", stderr(&o));
+        let t = dir.path().join("t.json");
+        let o = isoforge(&[&base[..], &["-o", p(&streamed), "--max-memory", "1K", "--time-json", p(&t)]].concat());
+        assert_eq!(o.status.code(), Some(0), "{}", stderr(&o));
+        assert!(stderr(&o).contains("streamed slab by slab"), "{}", stderr(&o));
+        let j: serde_json::Value = serde_json::from_str(&std::fs::read_to_string(&t).unwrap()).unwrap();
+        assert_eq!(j["streamed"], true);
+        let (a, b) = (read(&mem), read(&streamed));
+        assert!(a.num_triangles() > 1000);
+        assert_eq!(a.positions, b.positions, "normals {normals}");
+        assert_eq!(a.triangles, b.triangles, "normals {normals}");
+    }
+    // A streamed extraction that fails leaves nothing behind.
+    let out = dir.path().join("none.ply");
+    fails(
+        &[
+            "extract",
+            "-i",
+            p(&raw),
+            "--dims",
+            "70,40,33",
+            "--dtype",
+            "u16",
+            "--iso",
+            "99999",
+            "--max-memory",
+            "1K",
+            "-o",
+            p(&out),
+        ],
+        "gives no surface",
+        &out,
+    );
+    let out = dir.path().join("x.obj");
+    fails(
+        &[
+            "extract",
+            "-i",
+            p(&raw),
+            "--dims",
+            "70,40,33",
+            "--dtype",
+            "u16",
+            "--iso",
+            "1000",
+            "--max-memory",
+            "1K",
+            "-o",
+            p(&out),
+        ],
+        "binary PLY only",
+        &out,
+    );
+}

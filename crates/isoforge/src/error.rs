@@ -17,6 +17,9 @@ pub enum Error {
     /// The input is well-formed but cannot be processed as asked.
     #[error("{0}")]
     InvalidInput(String),
+    /// Reading the input or writing the output failed (out-of-core extraction).
+    #[error("{0}")]
+    External(Box<dyn std::error::Error + Send + Sync>),
     /// An internal invariant failed: this is a bug, please report it.
     #[error("internal error (this is a bug, please report it): {0}")]
     Internal(String),

@@ -370,3 +370,12 @@ pub(crate) fn skip(ctx: Ctx, r: &mut dyn Read, n: u64, what: &str) -> Result<()>
     }
     Ok(())
 }
+
+impl<S: Sample> isoforge::walk::SlabSource<S> for VolumeReader {
+    fn lattice(&self) -> &Lattice {
+        &self.lattice
+    }
+    fn read_slab(&mut self, out: &mut [S]) -> std::result::Result<(), isoforge::walk::ExternalError> {
+        VolumeReader::read_slab(self, out).map_err(Into::into)
+    }
+}

@@ -56,3 +56,151 @@ pub fn write_ply(w: &mut dyn Write, mesh: &Mesh, ascii: bool) -> io::Result<()> 
     }
     Ok(())
 }
+
+/// Width the streamed header reserves for each count, so the counts can be written at the end.
+const COUNT_WIDTH: usize = 20;
+
+/// A binary PLY written as the mesh is produced ([`isoforge::walk::MeshSink`]): vertices go to the
+/// file, triangles to a side file; [`PlyStream::finish`] appends the triangles, writes the counts
+/// into the header's reserved space and renames into place. Until then `path` is untouched, and a
+/// stream dropped unfinished removes its temporary files.
+pub struct PlyStream {
+    path: std::path::PathBuf,
+    main_tmp: std::path::PathBuf,
+    tris_tmp: std::path::PathBuf,
+    main: io::BufWriter<std::fs::File>,
+    tris: io::BufWriter<std::fs::File>,
+    normals: bool,
+    vertices: u64,
+    triangles: u64,
+    finished: bool,
+}
+
+fn stream_header(vertices: u64, triangles: u64, normals: bool) -> String {
+    let mut h = format!(
+        "ply\nformat binary_little_endian 1.0\ncomment isoforge {}\nelement vertex {:<w$}\nproperty float x\nproperty float y\nproperty float z\n",
+        env!("CARGO_PKG_VERSION"),
+        vertices,
+        w = COUNT_WIDTH
+    );
+    if normals {
+        h.push_str("property float nx\nproperty float ny\nproperty float nz\n");
+    }
+    h.push_str(&format!(
+        "element face {:<w$}\nproperty list uchar int vertex_indices\nend_header\n",
+        triangles,
+        w = COUNT_WIDTH
+    ));
+    h
+}
+
+impl PlyStream {
+    /// Starts writing `path` (through temporary files beside it).
+    ///
+    /// # Errors
+    /// The files cannot be created.
+    pub fn create(path: &std::path::Path, normals: bool) -> io::Result<Self> {
+        let name = path.file_name().map(|n| n.to_string_lossy().into_owned()).unwrap_or_default();
+        let main_tmp = path.with_file_name(format!(".{name}.tmp-{}", std::process::id()));
+        let tris_tmp = path.with_file_name(format!(".{name}.faces.tmp-{}", std::process::id()));
+        let main = std::fs::File::create(&main_tmp)?;
+        let tris = match std::fs::File::create(&tris_tmp) {
+            Ok(f) => f,
+            Err(e) => {
+                let _ = std::fs::remove_file(&main_tmp);
+                return Err(e);
+            }
+        };
+        let mut s = PlyStream {
+            path: path.to_path_buf(),
+            main_tmp,
+            tris_tmp,
+            main: io::BufWriter::with_capacity(1 << 20, main),
+            tris: io::BufWriter::with_capacity(1 << 20, tris),
+            normals,
+            vertices: 0,
+            triangles: 0,
+            finished: false,
+        };
+        s.main.write_all(stream_header(0, 0, normals).as_bytes())?;
+        Ok(s)
+    }
+
+    /// Appends vertices and triangles.
+    ///
+    /// # Errors
+    /// Writing fails, or `normals` does not match the stream.
+    pub fn push(&mut self, positions: &[[f32; 3]], normals: &[[f32; 3]], triangles: &[[u32; 3]]) -> io::Result<()> {
+        if self.normals == normals.is_empty() && !positions.is_empty() {
+            return Err(io::Error::other("normals given to a stream created without them, or missing"));
+        }
+        let mut buf = Vec::with_capacity(positions.len() * 24);
+        for (i, p) in positions.iter().enumerate() {
+            for c in p {
+                buf.extend_from_slice(&c.to_le_bytes());
+            }
+            if self.normals {
+                for c in normals[i] {
+                    buf.extend_from_slice(&c.to_le_bytes());
+                }
+            }
+        }
+        self.main.write_all(&buf)?;
+        buf.clear();
+        for t in triangles {
+            buf.push(3);
+            for v in t {
+                buf.extend_from_slice(&(*v as i32).to_le_bytes());
+            }
+        }
+        self.tris.write_all(&buf)?;
+        self.vertices += positions.len() as u64;
+        self.triangles += triangles.len() as u64;
+        Ok(())
+    }
+
+    /// Appends the triangles, writes the counts and renames the file into place.
+    ///
+    /// # Errors
+    /// Writing or renaming fails (the temporary files are removed).
+    pub fn finish(mut self) -> io::Result<(u64, u64)> {
+        use std::io::{Seek, SeekFrom};
+        let result = (|| {
+            self.tris.flush()?;
+            let mut tris = std::fs::File::open(&self.tris_tmp)?;
+            io::copy(&mut tris, &mut self.main)?;
+            self.main.flush()?;
+            let file = self.main.get_mut();
+            file.seek(SeekFrom::Start(0))?;
+            file.write_all(stream_header(self.vertices, self.triangles, self.normals).as_bytes())?;
+            file.sync_all()?;
+            std::fs::rename(&self.main_tmp, &self.path)
+        })();
+        self.finished = result.is_ok();
+        let _ = std::fs::remove_file(&self.tris_tmp);
+        result.map(|()| (self.vertices, self.triangles))
+    }
+}
+
+impl Drop for PlyStream {
+    fn drop(&mut self) {
+        if !self.finished {
+            let _ = std::fs::remove_file(&self.main_tmp);
+            let _ = std::fs::remove_file(&self.tris_tmp);
+        }
+    }
+}
+
+impl isoforge::walk::MeshSink for PlyStream {
+    fn push(
+        &mut self,
+        positions: &[[f32; 3]],
+        normals: &[[f32; 3]],
+        triangles: &[[u32; 3]],
+    ) -> Result<(), isoforge::walk::ExternalError> {
+        PlyStream::push(self, positions, normals, triangles).map_err(|e| {
+            let msg = format!("{}: {e}", self.path.display());
+            msg.into()
+        })
+    }
+}

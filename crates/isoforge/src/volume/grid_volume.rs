@@ -16,31 +16,45 @@ impl<'g, S: Sample> GridVolume<'g, S> {
     pub fn new(grid: &'g DenseGrid<S>) -> Self {
         GridVolume { grid }
     }
+}
 
-    /// The index-space central-difference gradient at lattice point `p`.
-    fn point_gradient(&self, p: [u32; 3]) -> [f64; 3] {
-        let dims = self.grid.lattice().dims();
-        let mut g = [0.0; 3];
-        for a in 0..3 {
-            if dims[a] < 2 {
-                continue;
-            }
-            let (mut lo, mut hi) = (p, p);
-            let mut span = 2.0;
-            if p[a] == 0 {
-                span = 1.0;
-            } else {
-                lo[a] -= 1;
-            }
-            if p[a] + 1 == dims[a] {
-                span -= 1.0;
-            } else {
-                hi[a] += 1;
-            }
-            g[a] = (self.grid.get(hi).to_f64() - self.grid.get(lo).to_f64()) / span;
+/// The index-space central-difference gradient at lattice point `p` (one-sided at the lattice
+/// faces), reading values through `get`.
+#[inline]
+pub fn point_gradient(dims: [u32; 3], p: [u32; 3], get: &impl Fn([u32; 3]) -> f64) -> [f64; 3] {
+    let mut g = [0.0; 3];
+    for a in 0..3 {
+        if dims[a] < 2 {
+            continue;
         }
-        g
+        let (mut lo, mut hi) = (p, p);
+        let mut span = 2.0;
+        if p[a] == 0 {
+            span = 1.0;
+        } else {
+            lo[a] -= 1;
+        }
+        if p[a] + 1 == dims[a] {
+            span -= 1.0;
+        } else {
+            hi[a] += 1;
+        }
+        g[a] = (get(hi) - get(lo)) / span;
     }
+    g
+}
+
+/// The world gradient at parameter `t` on edge `e`: the end points' central differences,
+/// interpolated. Shared by every grid-backed volume so their normals agree bit for bit.
+#[inline]
+pub fn edge_gradient(lattice: &Lattice, e: EdgeKey, t: f32, get: &impl Fn([u32; 3]) -> f64) -> Vec3 {
+    let dims = lattice.dims();
+    let g0 = point_gradient(dims, e.origin, get);
+    let g1 = point_gradient(dims, e.end(), get);
+    let t = t as f64;
+    let g = [0, 1, 2].map(|a| g0[a] + (g1[a] - g0[a]) * t);
+    let w = lattice.gradient_to_world(g);
+    Vec3::new(w[0] as f32, w[1] as f32, w[2] as f32)
 }
 
 impl<S: Sample> Volume for GridVolume<'_, S> {
@@ -64,11 +78,6 @@ impl<S: Sample> Volume for GridVolume<'_, S> {
     }
 
     fn gradient(&self, e: EdgeKey, t: f32) -> Vec3 {
-        let g0 = self.point_gradient(e.origin);
-        let g1 = self.point_gradient(e.end());
-        let t = t as f64;
-        let g = [0, 1, 2].map(|a| g0[a] + (g1[a] - g0[a]) * t);
-        let w = self.grid.lattice().gradient_to_world(g);
-        Vec3::new(w[0] as f32, w[1] as f32, w[2] as f32)
+        edge_gradient(self.grid.lattice(), e, t, &|p| self.grid.get(p).to_f64())
     }
 }

@@ -14,7 +14,7 @@ mod sampled;
 pub mod sdf;
 
 pub use field::{central_difference, Field, FieldVisitor};
-pub use grid_volume::GridVolume;
+pub use grid_volume::{edge_gradient, point_gradient, GridVolume};
 pub use oracle::{Bisection, Illinois, Linear, Oracle};
 pub use sampled::Sampled;
 

@@ -13,12 +13,12 @@
 //! Crossings and normals come from [`hermite`] on a [`GridVolume`], so every vertex is bit-identical
 //! to the [`SlabWalker`](super::SlabWalker)'s; only the numbering differs.
 
-use super::{hermite, WalkStats};
+use super::{hermite, Progress, WalkStats};
 use crate::error::{Error, Result};
 use crate::extract::cube::{Axis, EdgeKey, CASE_EDGES};
-use crate::grid::{DenseGrid, Sample};
+use crate::grid::{DenseGrid, Lattice, Sample};
 use crate::mesh::{huge_vec, Mesh, MeshBuilder};
-use crate::volume::{GridVolume, Iso};
+use crate::volume::{GridVolume, Iso, Volume};
 
 /// An extractor whose triangles depend on the case alone (a fixed table): what Flying Edges needs
 /// to count triangles before creating them.
@@ -27,16 +27,36 @@ pub trait CaseTable: Sync {
     fn case_triangles(&self, case: u8) -> &[[u8; 3]];
 }
 
-/// Bit rows of one lattice: `words` u64 per row, rows indexed `k · ny + j`.
+/// Bit rows (one bit per point, set = inside): `words` u64 per row, for global rows
+/// `row0 ..` (row index `k · ny + j`). The whole lattice in memory, a 3-slab window when streaming.
 struct Bits {
     words: usize,
+    row0: usize,
     data: Vec<u64>,
 }
 
 impl Bits {
     #[inline]
     fn row(&self, r: usize) -> &[u64] {
+        let r = r - self.row0;
         &self.data[r * self.words..(r + 1) * self.words]
+    }
+}
+
+/// Where PASS 4 reads samples, by global linear index.
+trait Samples<S>: Sync {
+    fn at(&self, lin: usize) -> S;
+    fn prefetch(&self, lin: usize);
+}
+
+impl<S: Sample> Samples<S> for [S] {
+    #[inline(always)]
+    fn at(&self, lin: usize) -> S {
+        self[lin]
+    }
+    #[inline(always)]
+    fn prefetch(&self, lin: usize) {
+        prefetch(&self[lin]);
     }
 }
 
@@ -102,6 +122,25 @@ struct RowCount {
     tris: u32,
 }
 
+/// Row counts and each row's first vertex id, for global rows `row0 ..`.
+#[derive(Clone, Copy)]
+struct RowTable<'a> {
+    counts: &'a [RowCount],
+    vbase: &'a [u64],
+    row0: usize,
+}
+
+impl RowTable<'_> {
+    #[inline(always)]
+    fn count(&self, r: usize) -> RowCount {
+        self.counts[r - self.row0]
+    }
+    #[inline(always)]
+    fn vbase(&self, r: usize) -> u32 {
+        self.vbase[r - self.row0] as u32
+    }
+}
+
 /// Extracts the `iso` surface of `grid` with the triangle table of `table`.
 ///
 /// Runs on the current rayon pool (all of it) when the `parallel` feature is on.
@@ -126,7 +165,7 @@ pub fn flying_edges<S: Sample, T: CaseTable>(
     let counts_of: [u8; 256] = std::array::from_fn(|c| table.case_triangles(c as u8).len() as u8);
 
     // PASS 1: classify every row.
-    let mut bits = Bits { words, data: huge_vec(rows * words, 0u64) };
+    let mut bits = Bits { words, row0: 0, data: huge_vec(rows * words, 0u64) };
     let data = grid.data();
     for_each_slab(&mut bits.data, ny * words, |k, slab| {
         for (j, out) in slab.chunks_mut(words).enumerate() {
@@ -142,27 +181,7 @@ pub fn flying_edges<S: Sample, T: CaseTable>(
         let bits = &bits;
         let counts_of = &counts_of;
         for_each_slab_with(&mut counts, ny, &mut cell_stats, |k, slab_counts, cs| {
-            let mut scratch = Scratch::new(words);
-            for (j, c) in slab_counts.iter_mut().enumerate() {
-                let r = k * ny + j;
-                if let Some(class) = uniform_block(bits, r, j, k, ny, nz, nx) {
-                    // No crossing in or out of this row and its cell row: only cell counts.
-                    if j + 1 < ny && k + 1 < nz {
-                        cs[class as usize] += (nx - 1) as u64;
-                    }
-                    continue;
-                }
-                x_crossings(bits.row(r), &mut scratch.x.mask, nx - 1);
-                c.x = popcount(&scratch.x.mask);
-                c.y = if j + 1 < ny { xor_count(bits.row(r), bits.row(r + 1)) } else { 0 };
-                c.z = if k + 1 < nz { xor_count(bits.row(r), bits.row(r + ny)) } else { 0 };
-                if j + 1 < ny && k + 1 < nz {
-                    let (tris, outside, inside) = scratch.count_cells(bits, r, ny, nx, counts_of);
-                    c.tris = tris;
-                    cs[0] += outside;
-                    cs[1] += inside;
-                }
-            }
+            *cs = count_slab(bits, k, [nx, ny, nz], counts_of, slab_counts);
         });
     }
     stats.cells = ((nx - 1) * (ny - 1) * (nz - 1)) as u64;
@@ -208,7 +227,19 @@ pub fn flying_edges<S: Sample, T: CaseTable>(
             tasks.push((k, p, n, tr));
         }
     }
-    let ctx = Fill { bits: &bits, counts: &counts, vbase: &vbase, vol: &vol, iso, table, nx, ny, nz, reverse, data };
+    let ctx = Fill {
+        bits: &bits,
+        rows: RowTable { counts: &counts, vbase: &vbase, row0: 0 },
+        vol: &vol,
+        iso,
+        table,
+        nx,
+        ny,
+        nz,
+        reverse,
+        data,
+        _sample: std::marker::PhantomData,
+    };
     run_tasks(tasks, |(k, p, n, tr)| ctx.slab(k, p, n, tr));
     Ok((mesh, stats))
 }
@@ -236,6 +267,36 @@ fn uniform_block(bits: &Bits, r: usize, j: usize, k: usize, ny: usize, nz: usize
         return None;
     }
     Some(class)
+}
+
+/// PASS 2 for slab k: each row's crossed-edge counts and each cell row's triangle count, from the
+/// bits of slabs k and k + 1. Returns the all-outside and all-inside cell counts.
+fn count_slab(bits: &Bits, k: usize, dims: [usize; 3], counts_of: &[u8; 256], out: &mut [RowCount]) -> [u64; 2] {
+    let [nx, ny, nz] = dims;
+    let mut cs = [0u64; 2];
+    let mut scratch = Scratch::new(bits.words);
+    for (j, c) in out.iter_mut().enumerate() {
+        let r = k * ny + j;
+        *c = RowCount::default();
+        if let Some(class) = uniform_block(bits, r, j, k, ny, nz, nx) {
+            // No crossing in or out of this row and its cell row: only cell counts.
+            if j + 1 < ny && k + 1 < nz {
+                cs[class as usize] += (nx - 1) as u64;
+            }
+            continue;
+        }
+        x_crossings(bits.row(r), &mut scratch.x.mask, nx - 1);
+        c.x = popcount(&scratch.x.mask);
+        c.y = if j + 1 < ny { xor_count(bits.row(r), bits.row(r + 1)) } else { 0 };
+        c.z = if k + 1 < nz { xor_count(bits.row(r), bits.row(r + ny)) } else { 0 };
+        if j + 1 < ny && k + 1 < nz {
+            let (tris, outside, inside) = scratch.count_cells(bits, r, ny, nx, counts_of);
+            c.tris = tris;
+            cs[0] += outside;
+            cs[1] += inside;
+        }
+    }
+    cs
 }
 
 #[inline]
@@ -330,21 +391,21 @@ fn for_each_bit(words: &[u64], mut f: impl FnMut(usize)) {
 }
 
 /// What PASS 4 needs, shared by all tasks.
-struct Fill<'a, S, T> {
+struct Fill<'a, S, T, D: ?Sized, V> {
     bits: &'a Bits,
-    counts: &'a [RowCount],
-    vbase: &'a [u64],
-    vol: &'a GridVolume<'a, S>,
+    rows: RowTable<'a>,
+    vol: &'a V,
     iso: Iso,
     table: &'a T,
     nx: usize,
     ny: usize,
     nz: usize,
     reverse: bool,
-    data: &'a [S],
+    data: &'a D,
+    _sample: std::marker::PhantomData<S>,
 }
 
-impl<S: Sample, T: CaseTable> Fill<'_, S, T> {
+impl<S: Sample, T: CaseTable, D: Samples<S> + ?Sized, V: Volume + Sync> Fill<'_, S, T, D, V> {
     fn slab(&self, k: usize, pos: &mut [[f32; 3]], nrm: &mut [[f32; 3]], tris: &mut [[u32; 3]]) {
         let (nx, ny) = (self.nx, self.ny);
         let words = self.bits.words;
@@ -353,7 +414,7 @@ impl<S: Sample, T: CaseTable> Fill<'_, S, T> {
         let mut scratch = Scratch::new(words);
         let mut ymask = vec![0u64; words];
         let mut emit = |key: EdgeKey, lin0: usize, lin1: usize, out_v: &mut usize| {
-            let (d0, d1) = (self.iso.offset(self.data[lin0].to_f64()), self.iso.offset(self.data[lin1].to_f64()));
+            let (d0, d1) = (self.iso.offset(self.data.at(lin0).to_f64()), self.iso.offset(self.data.at(lin1).to_f64()));
             let h = hermite(self.vol, key, d0, d1, self.iso, normals);
             pos[*out_v] = h.point;
             if normals {
@@ -400,11 +461,11 @@ impl<S: Sample, T: CaseTable> Fill<'_, S, T> {
         let mut out_t = 0usize;
         for j in 0..ny - 1 {
             let r = k * ny + j;
-            if self.counts[r].tris == 0 {
+            if self.rows.count(r).tris == 0 {
                 continue;
             }
             scratch.mark_active(self.bits, r, ny, nx);
-            ranked.load(self.bits, r, ny, nx, self.vbase, self.counts);
+            ranked.load(self.bits, r, ny, nx, self.rows);
             let rows = [self.bits.row(r), self.bits.row(r + 1), self.bits.row(r + ny), self.bits.row(r + ny + 1)];
             let mut ids = [0u32; 12];
             for_each_bit(&scratch.active, |i| {
@@ -428,7 +489,7 @@ impl<S: Sample, T: CaseTable> Fill<'_, S, T> {
     }
 }
 
-impl<S: Sample, T: CaseTable> Fill<'_, S, T> {
+impl<S: Sample, T: CaseTable, D: Samples<S> + ?Sized, V: Volume + Sync> Fill<'_, S, T, D, V> {
     /// Prefetches the samples that row (j, k)'s crossings will read: rows (j, k), (j + 1, k) and
     /// (j, k + 1) around every point where an edge starting in row (j, k) crosses.
     #[inline]
@@ -457,12 +518,12 @@ impl<S: Sample, T: CaseTable> Fill<'_, S, T> {
                 return;
             }
             last_line = line;
-            prefetch(&self.data[lin + i]);
+            self.data.prefetch(lin + i);
             if j + 1 < ny {
-                prefetch(&self.data[lin + nx + i]);
+                self.data.prefetch(lin + nx + i);
             }
             if k + 1 < self.nz {
-                prefetch(&self.data[lin + nx * ny + i]);
+                self.data.prefetch(lin + nx * ny + i);
             }
         });
     }
@@ -518,21 +579,22 @@ impl RowMasks {
         RowMasks { masks: std::array::from_fn(|_| RankedMask::new(words)), base: [0; 8] }
     }
 
-    fn load(&mut self, bits: &Bits, r: usize, ny: usize, nx: usize, vbase: &[u64], counts: &[RowCount]) {
+    fn load(&mut self, bits: &Bits, r: usize, ny: usize, nx: usize, rows: RowTable) {
         let row_of = [r, r + 1, r + ny, r + ny + 1];
+        let (vbase, counts) = (|r: usize| rows.vbase(r), |r: usize| rows.count(r));
         for q in 0..4 {
             x_crossings(bits.row(row_of[q]), &mut self.masks[q].mask, nx - 1);
-            self.base[q] = vbase[row_of[q]] as u32;
+            self.base[q] = vbase(row_of[q]);
         }
         // y-edges of A = (j, k) and C = (j, k + 1), after their rows' x-edges.
         for (h, row) in [r, r + ny].into_iter().enumerate() {
             xor_into(bits.row(row), bits.row(row + 1), &mut self.masks[4 + h].mask);
-            self.base[4 + h] = vbase[row] as u32 + counts[row].x;
+            self.base[4 + h] = vbase(row) + counts(row).x;
         }
         // z-edges of A = (j, k) and B = (j + 1, k), after their rows' x- and y-edges.
         for (h, row) in [r, r + 1].into_iter().enumerate() {
             xor_into(bits.row(row), bits.row(row + ny), &mut self.masks[6 + h].mask);
-            self.base[6 + h] = vbase[row] as u32 + counts[row].x + counts[row].y;
+            self.base[6 + h] = vbase(row) + counts(row).x + counts(row).y;
         }
         for m in &mut self.masks {
             m.rank_prefix();
@@ -575,4 +637,209 @@ fn run_tasks<X: Send>(tasks: Vec<X>, f: impl Fn(X) + Sync) {
     }
     #[cfg(not(feature = "parallel"))]
     tasks.into_iter().for_each(f);
+}
+
+/// An error from a [`SlabSource`] or a [`MeshSink`] (file I/O, decoding).
+pub type ExternalError = Box<dyn std::error::Error + Send + Sync>;
+
+/// Supplies a volume's z-slabs in order (k = 0, 1, …), nx·ny samples each, x fastest.
+pub trait SlabSource<S> {
+    /// The lattice of the whole volume.
+    fn lattice(&self) -> &Lattice;
+    /// Writes the next slab into `out`.
+    ///
+    /// # Errors
+    /// Whatever reading the slab fails with.
+    fn read_slab(&mut self, out: &mut [S]) -> std::result::Result<(), ExternalError>;
+}
+
+/// Receives a mesh as it is produced, slab by slab. Vertices are numbered from 0 in arrival
+/// order; a call's triangles may refer to vertices of the next call (those of the slab above).
+pub trait MeshSink {
+    /// Takes the next vertices (and normals, empty when off) and triangles.
+    ///
+    /// # Errors
+    /// Whatever writing fails with.
+    fn push(
+        &mut self,
+        positions: &[[f32; 3]],
+        normals: &[[f32; 3]],
+        triangles: &[[u32; 3]],
+    ) -> std::result::Result<(), ExternalError>;
+}
+
+/// Counts of a streamed extraction.
+#[derive(Debug, Clone, Copy, Default, PartialEq, Eq)]
+pub struct StreamStats {
+    /// Cell counts, as for an in-memory walk.
+    pub walk: WalkStats,
+    /// Vertices pushed.
+    pub vertices: u64,
+    /// Triangles pushed.
+    pub triangles: u64,
+}
+
+/// Out-of-core Flying Edges: reads `src` one slab at a time and pushes the mesh to `sink` as it is
+/// produced, keeping O(nx·ny) state (4 slabs of samples, 3 of bits, 2 of row counts). The vertices
+/// and triangles arrive in exactly the order [`flying_edges`] stores them, with the same values.
+///
+/// # Errors
+/// [`Error::External`] from the source or the sink; [`Error::Limit`] past `u32` vertex indices.
+pub fn flying_edges_streaming<S: Sample, T: CaseTable>(
+    src: &mut dyn SlabSource<S>,
+    iso: Iso,
+    table: &T,
+    normals: bool,
+    sink: &mut dyn MeshSink,
+    progress: Option<&dyn Progress>,
+) -> Result<StreamStats> {
+    let lattice = src.lattice().clone();
+    let mut out = StreamStats::default();
+    if !lattice.has_cells() {
+        return Ok(out);
+    }
+    let [nx, ny, nz] = lattice.dims().map(|d| d as usize);
+    let words = nx.div_ceil(64);
+    let slab_len = nx * ny;
+    let th = iso.threshold::<S>();
+    let counts_of: [u8; 256] = std::array::from_fn(|c| table.case_triangles(c as u8).len() as u8);
+    let mut ring = SlabRing {
+        slabs: std::array::from_fn(|_| vec![S::from_f64(0.0); slab_len]),
+        slab_len,
+        lattice: lattice.clone(),
+    };
+    let mut bits = Bits { words, row0: 0, data: vec![0u64; 3 * ny * words] };
+    let external = |e: ExternalError| Error::External(e);
+
+    // Reads slab k into the ring and classifies it into the bit window.
+    let mut load = |k: usize, ring: &mut SlabRing<S>, bits: &mut Bits| -> Result<()> {
+        let slot = &mut ring.slabs[k % 4];
+        src.read_slab(slot).map_err(external)?;
+        let at = (k * ny - bits.row0) * words;
+        for (j, row) in bits.data[at..at + ny * words].chunks_mut(words).enumerate() {
+            S::classify_row(&slot[j * nx..(j + 1) * nx], th, row);
+        }
+        Ok(())
+    };
+    for k in 0..nz.min(3) {
+        load(k, &mut ring, &mut bits)?;
+    }
+
+    // Row counts and first vertex ids of slabs k (first ny) and k + 1 (next ny).
+    let mut counts = vec![RowCount::default(); 2 * ny];
+    let mut vbase = vec![0u64; 2 * ny];
+    let mut next_vertex = 0u64;
+    let count = |k: usize,
+                 half: usize,
+                 counts: &mut [RowCount],
+                 vbase: &mut [u64],
+                 bits: &Bits,
+                 out: &mut StreamStats,
+                 next: &mut u64| {
+        let part = &mut counts[half * ny..(half + 1) * ny];
+        let cs = count_slab(bits, k, [nx, ny, nz], &counts_of, part);
+        out.walk.cells_outside += cs[0];
+        out.walk.cells_inside += cs[1];
+        for (j, c) in part.iter().enumerate() {
+            vbase[half * ny + j] = *next;
+            *next += (c.x + c.y + c.z) as u64;
+        }
+    };
+    count(0, 0, &mut counts, &mut vbase, &bits, &mut out, &mut next_vertex);
+    let (mut pos, mut nrm, mut tri) = (Vec::new(), Vec::new(), Vec::new());
+    for k in 0..nz {
+        if k + 1 < nz {
+            count(k + 1, 1, &mut counts, &mut vbase, &bits, &mut out, &mut next_vertex);
+        }
+        if next_vertex > MeshBuilder::MAX_VERTICES {
+            return Err(Error::Limit {
+                what: "mesh vertices",
+                requested: next_vertex,
+                allowed: MeshBuilder::MAX_VERTICES,
+            });
+        }
+        // PASS 4 for slab k, into reused buffers sized from the counts.
+        let nv: usize = counts[..ny].iter().map(|c| (c.x + c.y + c.z) as usize).sum();
+        let nt: usize = counts[..ny].iter().map(|c| c.tris as usize).sum();
+        pos.clear();
+        pos.resize(nv, [0.0; 3]);
+        nrm.clear();
+        nrm.resize(if normals { nv } else { 0 }, [0.0; 3]);
+        tri.clear();
+        tri.resize(nt, [0u32; 3]);
+        let fill = Fill {
+            bits: &bits,
+            rows: RowTable { counts: &counts, vbase: &vbase, row0: k * ny },
+            vol: &ring,
+            iso,
+            table,
+            nx,
+            ny,
+            nz,
+            reverse: lattice.is_mirrored(),
+            data: &ring,
+            _sample: std::marker::PhantomData,
+        };
+        fill.slab(k, &mut pos, &mut nrm, &mut tri);
+        sink.push(&pos, &nrm, &tri).map_err(external)?;
+        out.vertices += nv as u64;
+        out.triangles += nt as u64;
+        // Slide the windows up one slab.
+        counts.copy_within(ny.., 0);
+        vbase.copy_within(ny.., 0);
+        bits.data.copy_within(ny * words.., 0);
+        bits.row0 += ny;
+        if k + 3 < nz {
+            load(k + 3, &mut ring, &mut bits)?;
+        }
+        if let Some(p) = progress {
+            p.advance(k as u64 + 1, nz as u64);
+        }
+    }
+    out.walk.cells = ((nx - 1) * (ny - 1) * (nz - 1)) as u64;
+    Ok(out)
+}
+
+/// Four consecutive slabs k − 1 … k + 2 of a streamed volume, slab k in slot k mod 4; indices
+/// are global, so crossings and normals are computed exactly as on the whole grid.
+struct SlabRing<S> {
+    slabs: [Vec<S>; 4],
+    slab_len: usize,
+    lattice: Lattice,
+}
+
+impl<S: Sample> SlabRing<S> {
+    #[inline(always)]
+    fn get(&self, lin: usize) -> S {
+        self.slabs[(lin / self.slab_len) % 4][lin % self.slab_len]
+    }
+}
+
+impl<S: Sample> Samples<S> for SlabRing<S> {
+    #[inline(always)]
+    fn at(&self, lin: usize) -> S {
+        self.get(lin)
+    }
+    #[inline(always)]
+    fn prefetch(&self, lin: usize) {
+        prefetch(&self.slabs[(lin / self.slab_len) % 4][lin % self.slab_len]);
+    }
+}
+
+impl<S: Sample> Volume for SlabRing<S> {
+    fn lattice(&self) -> &Lattice {
+        &self.lattice
+    }
+    fn fill_slab(&self, k: u32, iso: Iso, out: &mut [f32]) {
+        for (o, v) in out.iter_mut().zip(&self.slabs[k as usize % 4]) {
+            *o = iso.offset(v.to_f64());
+        }
+    }
+    #[inline]
+    fn crossing(&self, _e: EdgeKey, d0: f32, d1: f32, _iso: Iso) -> f32 {
+        crate::volume::linear_crossing(d0, d1)
+    }
+    fn gradient(&self, e: EdgeKey, t: f32) -> glam::Vec3 {
+        crate::volume::edge_gradient(&self.lattice, e, t, &|p| self.get(self.lattice.linear(p)).to_f64())
+    }
 }

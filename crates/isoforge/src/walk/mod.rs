@@ -8,7 +8,9 @@ pub mod flying_edges;
 mod reference;
 mod slab;
 
-pub use flying_edges::{flying_edges, CaseTable};
+pub use flying_edges::{
+    flying_edges, flying_edges_streaming, CaseTable, ExternalError, MeshSink, SlabSource, StreamStats,
+};
 pub use reference::ReferenceWalker;
 pub use slab::SlabWalker;
 
