@@ -188,7 +188,8 @@ impl VolumeReader {
         AnyGrid: From<DenseGrid<S>>,
     {
         let n = self.lattice.num_points() as usize;
-        let mut data: Vec<S> = vec![S::from_f64(0.0); n];
+        // Huge pages: fewer faults while reading, fewer TLB misses while extracting.
+        let mut data: Vec<S> = isoforge::mesh::huge_vec(n, S::from_f64(0.0));
         self.fill(r, as_bytes_mut(&mut data), 0)?;
         if self.big_endian != cfg!(target_endian = "big") && S::DTYPE.size() > 1 {
             for v in &mut data {
