@@ -1,14 +1,17 @@
 //! Extraction throughput on fields like the peer harness's (sphere r 0.7, a gyroid with 4 periods
-//! across the cube — half the harness's frequency —, three metaballs) on [-1, 1]³, sampled into f32
-//! grids at 128³ and 256³.
+//! across the cube, three metaballs) on [-1, 1]³, sampled into f32 grids at 128³ and 256³.
 //!
-//! `cargo bench -p isoforge-bench` (never run by CI, which only builds it). Throughput is in
-//! lattice points per second; the triangle count is in the benchmark id.
+//! `cargo bench -p isoforge-bench` (never run by CI, which only builds it). Groups: `flying_edges`
+//! (the grid path of `isoforge extract`, one thread) and `slab_walker` (the generic walker used for
+//! fields), each with and without gradient normals. Throughput in lattice points per second; the
+//! triangle count is in the benchmark id.
 
 use criterion::{criterion_group, criterion_main, BenchmarkId, Criterion, Throughput};
+use isoforge::extract::MarchingCubes;
 use isoforge::grid::{DenseGrid, Lattice};
 use isoforge::pipeline::{extract, Normals, Options};
 use isoforge::volume::{GridVolume, Iso};
+use isoforge::walk::flying_edges;
 
 fn sample(n: u32, f: impl Fn(f32, f32, f32) -> f32) -> DenseGrid<f32> {
     let l = Lattice::spanning([n; 3], [-1.0; 3], [1.0; 3]).unwrap();
@@ -24,7 +27,7 @@ fn fields(n: u32) -> Vec<(&'static str, DenseGrid<f32>, f64)> {
         (
             "gyroid",
             sample(n, |x, y, z| {
-                let (x, y, z) = (x * 4.0 * tau / 2.0, y * 4.0 * tau / 2.0, z * 4.0 * tau / 2.0);
+                let (x, y, z) = (x * 2.0 * tau, y * 2.0 * tau, z * 2.0 * tau);
                 x.sin() * y.cos() + y.sin() * z.cos() + z.sin() * x.cos()
             }),
             0.0,
@@ -43,24 +46,28 @@ fn fields(n: u32) -> Vec<(&'static str, DenseGrid<f32>, f64)> {
 }
 
 fn bench(c: &mut Criterion) {
-    let mut g = c.benchmark_group("extract_mc");
-    g.sample_size(10);
+    let pool = rayon::ThreadPoolBuilder::new().num_threads(1).build().unwrap();
     for n in [128u32, 256] {
         for (name, grid, iso) in fields(n) {
-            for (label, normals) in [("normals", Normals::Gradient), ("no-normals", Normals::None)] {
-                let opts = Options { normals, ..Default::default() };
-                let vol = GridVolume::new(&grid);
-                let tris = extract(&vol, Iso::below(iso), &opts).unwrap().mesh.num_triangles();
+            let iso = Iso::below(iso);
+            for (label, normals) in [("normals", true), ("no-normals", false)] {
+                let tris =
+                    pool.install(|| flying_edges(&grid, iso, &MarchingCubes, normals).unwrap().0.num_triangles());
+                let id = |group: &str| BenchmarkId::new(format!("{group}/{name}-{n}-{label}"), format!("{tris}tris"));
+                let mut g = c.benchmark_group("extract_mc");
+                g.sample_size(10);
                 g.throughput(Throughput::Elements(u64::from(n).pow(3)));
-                g.bench_with_input(
-                    BenchmarkId::new(format!("{name}-{n}-{label}"), format!("{tris}tris")),
-                    &vol,
-                    |b, vol| b.iter(|| extract(vol, Iso::below(iso), &opts).unwrap()),
-                );
+                g.bench_function(id("flying_edges"), |b| {
+                    b.iter(|| pool.install(|| flying_edges(&grid, iso, &MarchingCubes, normals).unwrap()))
+                });
+                let opts =
+                    Options { normals: if normals { Normals::Gradient } else { Normals::None }, ..Default::default() };
+                let vol = GridVolume::new(&grid);
+                g.bench_function(id("slab_walker"), |b| b.iter(|| extract(&vol, iso, &opts).unwrap()));
+                g.finish();
             }
         }
     }
-    g.finish();
 }
 
 criterion_group!(benches, bench);
