@@ -27,13 +27,14 @@ def main():
         sk, f1, f2 = g("skimage-lewiner", 1), g("rust-sum-f64", 1), g("rust-sum-f64", 2)
         if not (fe1 and i1):
             continue
-        same = "yes" if fe1.get("triangles") == i1.get("triangles") == (i2 or {}).get("triangles") else \
-            f"no ({fe1.get('triangles')} vs {i1.get('triangles')})"
+        tris = {r.get("triangles") for r in (fe1, fe2, i1, i2) if r and r.get("triangles") is not None}
+        same = "yes" if len(tris) == 1 else f"no ({sorted(tris)})"
         c = i1.get("check") or {}
         verdict = "closed" if c.get("watertight") is True else (
             "open@faces" if c.get("boundary_edges_interior") == 0 and c.get("nonmanifold_edges") == 0 else str(c.get("watertight")))
-        floor = f"{ms(f1):.2f} / {ms(f2):.2f}" if f1 else "-"
-        fr = f"{ms(i2) / ms(f2):.0f}×" if f2 and i2 else "-"
+        ok = lambda r: r and r.get("median_s")
+        floor = f"{ms(f1):.2f} / {ms(f2):.2f}" if ok(f1) and ok(f2) else "-"
+        fr = f"{ms(i2) / ms(f2):.0f}×" if ok(f2) and ok(i2) else "-"
         name = v if v.startswith("real_") else v.replace("_", " ") + "³"
         print(f"| {name} | {ms(fe1):.1f} | {ms(i1):.1f} ({mn(i1):.1f}) | **{ms(fe1) / ms(i1):.2f}×** | {ms(fe2):.1f} | "
               f"{ms(i2):.1f} ({mn(i2):.1f}) | **{ms(fe2) / ms(i2):.2f}×** | {ms(sk):.0f} | {floor} | {fr} | "

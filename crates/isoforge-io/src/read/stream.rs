@@ -95,34 +95,30 @@ macro_rules! with_dtype {
 }
 
 impl VolumeReader {
-    pub(crate) fn stream(ctx: Ctx, lattice: Lattice, dtype: DType, big_endian: bool, data: StreamSpec) -> Self {
+    fn new(ctx: Ctx, lattice: Lattice, file_dtype: DType, big_endian: bool, body: Body) -> Self {
         VolumeReader {
             path: ctx.path.to_path_buf(),
             format: ctx.format,
             lattice,
-            file_dtype: dtype,
+            file_dtype,
             big_endian,
             scale: None,
-            compressed: data.compressed,
-            what: data.what,
-            body: Body::Stream(data.reader),
+            compressed: false,
+            what: "data",
+            body,
             next_k: 0,
         }
     }
 
+    pub(crate) fn stream(ctx: Ctx, lattice: Lattice, dtype: DType, big_endian: bool, data: StreamSpec) -> Self {
+        let mut r = Self::new(ctx, lattice, dtype, big_endian, Body::Stream(data.reader));
+        r.compressed = data.compressed;
+        r.what = data.what;
+        r
+    }
+
     pub(crate) fn decoded(ctx: Ctx, grid: AnyGrid) -> Self {
-        VolumeReader {
-            path: ctx.path.to_path_buf(),
-            format: ctx.format,
-            lattice: grid.lattice().clone(),
-            file_dtype: grid.dtype(),
-            big_endian: false,
-            scale: None,
-            compressed: false,
-            what: "data",
-            body: Body::Grid(grid),
-            next_k: 0,
-        }
+        Self::new(ctx, grid.lattice().clone(), grid.dtype(), false, Body::Grid(grid))
     }
 
     pub(crate) fn with_scale(mut self, scale: Option<(f64, f64)>) -> Self {

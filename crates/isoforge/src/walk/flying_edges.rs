@@ -12,6 +12,10 @@
 //! Vertex order: rows in (k, j) order; within a row its x-edges by i, then y-edges, then z-edges.
 //! Crossings and normals come from [`hermite`] on a [`GridVolume`], so every vertex is bit-identical
 //! to the [`SlabWalker`](super::SlabWalker)'s; only the numbering differs.
+//!
+//! [`flying_edges_streaming`] runs the same passes over a window that slides up the volume (4 slabs
+//! of samples, 3 of bits, 2 of row counts) and hands each slab's vertices and triangles to a
+//! [`MeshSink`]: a volume larger than memory in O(nx·ny) memory, with the same output.
 
 use super::{hermite, Progress, WalkStats};
 use crate::error::{Error, Result};
