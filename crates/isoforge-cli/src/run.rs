@@ -56,7 +56,10 @@ fn open_input(input: &InputConfig, max_memory: Option<u64>) -> Result<Loaded> {
             return Ok(Loaded::Stream(reader));
         }
     }
-    Ok(Loaded::Grid(reader.read_grid(&input.limits)?))
+    let bar = Bar::new("reading");
+    let grid = reader.read_grid_with_progress(&input.limits, Some(&bar))?;
+    bar.finish();
+    Ok(Loaded::Grid(grid))
 }
 
 /// Peak memory of an in-memory extraction, before the mesh: the samples, one bit per point, and

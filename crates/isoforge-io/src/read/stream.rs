@@ -7,10 +7,14 @@ use std::io::{BufReader, Read, Seek, SeekFrom};
 use std::path::{Path, PathBuf};
 
 use isoforge::grid::{as_bytes_mut, AnyGrid, DType, DenseGrid, Lattice, Sample};
+use isoforge::walk::Progress;
 
 use super::decode;
 use crate::error::{Ctx, Error, Result};
 use crate::limits::Limits;
+
+/// Bytes read between two progress reports.
+const PROGRESS_STEP: usize = 16 << 20;
 
 /// How a data block is compressed.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
@@ -155,13 +159,21 @@ impl VolumeReader {
     ///
     /// # Errors
     /// [`Error::Limit`], a truncated or corrupt stream, a non-finite sample.
-    pub fn read_grid(mut self, limits: &Limits) -> Result<AnyGrid> {
+    pub fn read_grid(self, limits: &Limits) -> Result<AnyGrid> {
+        self.read_grid_with_progress(limits, None)
+    }
+
+    /// [`VolumeReader::read_grid`], reporting progress per slab.
+    ///
+    /// # Errors
+    /// As [`VolumeReader::read_grid`].
+    pub fn read_grid_with_progress(mut self, limits: &Limits, progress: Option<&dyn Progress>) -> Result<AnyGrid> {
         let dims = self.lattice.dims();
         decode::sample_bytes(self.ctx(), dims, self.dtype(), limits)?;
         let grid = match std::mem::replace(&mut self.body, Body::Stream(Box::new(std::io::empty()))) {
             Body::Grid(g) => g,
             Body::Stream(mut r) => {
-                let g = with_dtype!(self.file_dtype, S => self.read_all::<S>(&mut r)?);
+                let g = with_dtype!(self.file_dtype, S => self.read_all::<S>(&mut r, progress)?);
                 self.check_trailer(&mut r)?;
                 g
             }
@@ -179,14 +191,14 @@ impl VolumeReader {
         }
     }
 
-    fn read_all<S: Sample>(&self, r: &mut dyn Read) -> Result<AnyGrid>
+    fn read_all<S: Sample>(&self, r: &mut dyn Read, progress: Option<&dyn Progress>) -> Result<AnyGrid>
     where
         AnyGrid: From<DenseGrid<S>>,
     {
         let n = self.lattice.num_points() as usize;
         // Huge pages: fewer faults while reading, fewer TLB misses while extracting.
         let mut data: Vec<S> = isoforge::mesh::huge_vec(n, S::from_f64(0.0));
-        self.fill(r, as_bytes_mut(&mut data), 0)?;
+        self.fill(r, as_bytes_mut(&mut data), 0, progress)?;
         if self.big_endian != cfg!(target_endian = "big") && S::DTYPE.size() > 1 {
             for v in &mut data {
                 *v = v.swap_bytes();
@@ -196,11 +208,19 @@ impl VolumeReader {
     }
 
     /// Reads exactly `buf.len()` bytes; `done` bytes of the volume came before.
-    fn fill(&self, r: &mut dyn Read, buf: &mut [u8], done: u64) -> Result<()> {
+    fn fill(&self, r: &mut dyn Read, buf: &mut [u8], done: u64, progress: Option<&dyn Progress>) -> Result<()> {
         let total = self.lattice.num_points() * self.file_dtype.size() as u64;
         let mut got = 0;
+        let mut reported = 0;
         while got < buf.len() {
-            match r.read(&mut buf[got..]) {
+            if got - reported >= PROGRESS_STEP {
+                reported = got;
+                if let Some(p) = progress {
+                    p.advance(done + got as u64, total);
+                }
+            }
+            let end = (got + PROGRESS_STEP).min(buf.len());
+            match r.read(&mut buf[got..end]) {
                 Ok(0) => {
                     return Err(self.ctx().bad(format!(
                         "{} ends after {} of the {total} bytes the header declares (truncated file?)",
@@ -282,7 +302,7 @@ impl VolumeReader {
         };
         let done = k as u64 * n as u64 * self.file_dtype.size() as u64;
         let result = if self.scale.is_none() {
-            self.fill(&mut r, as_bytes_mut(out), done).map(|()| {
+            self.fill(&mut r, as_bytes_mut(out), done, None).map(|()| {
                 if self.big_endian != cfg!(target_endian = "big") && S::DTYPE.size() > 1 {
                     for v in out.iter_mut() {
                         *v = v.swap_bytes();
@@ -293,7 +313,7 @@ impl VolumeReader {
             let size = self.file_dtype.size();
             let mut bytes = vec![0u8; n * size];
             let (slope, inter) = self.scale.unwrap_or((1.0, 0.0));
-            self.fill(&mut r, &mut bytes, done).map(|()| {
+            self.fill(&mut r, &mut bytes, done, None).map(|()| {
                 with_dtype!(self.file_dtype, F => {
                     for (o, c) in out.iter_mut().zip(bytes.chunks_exact(size)) {
                         *o = S::from_f64(slope * F::from_bytes(c, self.big_endian).to_f64() + inter);
