@@ -5,7 +5,7 @@ use std::time::Instant;
 
 use anyhow::{anyhow, bail, Context, Result};
 use isoforge::extract::MarchingCubes;
-use isoforge::grid::{AnyGrid, DType, Histogram, Sample, IDENTITY};
+use isoforge::grid::{AnyGrid, Histogram, Sample, IDENTITY};
 use isoforge::pipeline::{self, Extraction, Method, Normals};
 use isoforge::topo::{self, CheckOptions, Guarantee, MeshReport};
 use isoforge::volume::catalog::{self, Builtin};
@@ -102,16 +102,7 @@ fn extract_streaming(c: &ExtractConfig, mut reader: VolumeReader, iso: Iso, name
     ) -> isoforge::Result<StreamStats> {
         flying_edges_streaming::<S, _>(r, iso, &MarchingCubes, n, sink, Some(bar))
     }
-    let stats = match reader.dtype() {
-        DType::U8 => go::<u8>(&mut reader, iso, normals, &mut sink, bar),
-        DType::I8 => go::<i8>(&mut reader, iso, normals, &mut sink, bar),
-        DType::U16 => go::<u16>(&mut reader, iso, normals, &mut sink, bar),
-        DType::I16 => go::<i16>(&mut reader, iso, normals, &mut sink, bar),
-        DType::U32 => go::<u32>(&mut reader, iso, normals, &mut sink, bar),
-        DType::I32 => go::<i32>(&mut reader, iso, normals, &mut sink, bar),
-        DType::F32 => go::<f32>(&mut reader, iso, normals, &mut sink, bar),
-        _ => go::<f64>(&mut reader, iso, normals, &mut sink, bar),
-    }?;
+    let stats = isoforge::with_dtype!(reader.dtype(), S => go::<S>(&mut reader, iso, normals, &mut sink, bar))?;
     let seconds = start.elapsed().as_secs_f64();
     bar.finish();
     let w = stats.walk;

@@ -50,17 +50,7 @@ pub(crate) fn decode(ctx: Ctx, lattice: Lattice, dtype: DType, big_endian: bool,
         }
         Ok(grid.into())
     }
-    match dtype {
-        DType::U8 => go::<u8>(ctx, lattice, big_endian, bytes),
-        DType::I8 => go::<i8>(ctx, lattice, big_endian, bytes),
-        DType::U16 => go::<u16>(ctx, lattice, big_endian, bytes),
-        DType::I16 => go::<i16>(ctx, lattice, big_endian, bytes),
-        DType::U32 => go::<u32>(ctx, lattice, big_endian, bytes),
-        DType::I32 => go::<i32>(ctx, lattice, big_endian, bytes),
-        DType::F32 => go::<f32>(ctx, lattice, big_endian, bytes),
-        DType::F64 => go::<f64>(ctx, lattice, big_endian, bytes),
-        other => Err(ctx.unsupported(format!("sample type {other}"))),
-    }
+    isoforge::with_dtype!(dtype, S => go::<S>(ctx, lattice, big_endian, bytes))
 }
 
 /// Splits `text` into trimmed lines numbered from 1.

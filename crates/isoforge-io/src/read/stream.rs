@@ -58,46 +58,6 @@ impl std::fmt::Debug for VolumeReader {
     }
 }
 
-/// Calls `$body` with `$s` bound to the Rust type of a [`DType`].
-macro_rules! with_dtype {
-    ($dtype:expr, $s:ident => $body:expr) => {
-        match $dtype {
-            DType::U8 => {
-                type $s = u8;
-                $body
-            }
-            DType::I8 => {
-                type $s = i8;
-                $body
-            }
-            DType::U16 => {
-                type $s = u16;
-                $body
-            }
-            DType::I16 => {
-                type $s = i16;
-                $body
-            }
-            DType::U32 => {
-                type $s = u32;
-                $body
-            }
-            DType::I32 => {
-                type $s = i32;
-                $body
-            }
-            DType::F32 => {
-                type $s = f32;
-                $body
-            }
-            _ => {
-                type $s = f64;
-                $body
-            }
-        }
-    };
-}
-
 impl VolumeReader {
     fn new(ctx: Ctx, lattice: Lattice, file_dtype: DType, big_endian: bool, body: Body) -> Self {
         VolumeReader {
@@ -173,7 +133,7 @@ impl VolumeReader {
         let grid = match std::mem::replace(&mut self.body, Body::Stream(Box::new(std::io::empty()))) {
             Body::Grid(g) => g,
             Body::Stream(mut r) => {
-                let g = with_dtype!(self.file_dtype, S => self.read_all::<S>(&mut r, progress)?);
+                let g = isoforge::with_dtype!(self.file_dtype, S => self.read_all::<S>(&mut r, progress)?);
                 self.check_trailer(&mut r)?;
                 g
             }
@@ -314,7 +274,7 @@ impl VolumeReader {
             let mut bytes = vec![0u8; n * size];
             let (slope, inter) = self.scale.unwrap_or((1.0, 0.0));
             self.fill(&mut r, &mut bytes, done, None).map(|()| {
-                with_dtype!(self.file_dtype, F => {
+                isoforge::with_dtype!(self.file_dtype, F => {
                     for (o, c) in out.iter_mut().zip(bytes.chunks_exact(size)) {
                         *o = S::from_f64(slope * F::from_bytes(c, self.big_endian).to_f64() + inter);
                     }

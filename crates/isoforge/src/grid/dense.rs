@@ -153,6 +153,49 @@ macro_rules! with_grid {
     };
 }
 
+/// Calls `$body` with `$s` bound to the Rust sample type of a [`DType`](crate::grid::DType)
+/// (f64 for any type added later): a runtime type matched once, then generic code.
+#[macro_export]
+macro_rules! with_dtype {
+    ($dtype:expr, $s:ident => $body:expr) => {{
+        #[allow(unreachable_patterns)]
+        match $dtype {
+            $crate::grid::DType::U8 => {
+                type $s = u8;
+                $body
+            }
+            $crate::grid::DType::I8 => {
+                type $s = i8;
+                $body
+            }
+            $crate::grid::DType::U16 => {
+                type $s = u16;
+                $body
+            }
+            $crate::grid::DType::I16 => {
+                type $s = i16;
+                $body
+            }
+            $crate::grid::DType::U32 => {
+                type $s = u32;
+                $body
+            }
+            $crate::grid::DType::I32 => {
+                type $s = i32;
+                $body
+            }
+            $crate::grid::DType::F32 => {
+                type $s = f32;
+                $body
+            }
+            _ => {
+                type $s = f64;
+                $body
+            }
+        }
+    }};
+}
+
 macro_rules! any_from {
     ($t:ty, $v:ident) => {
         impl From<DenseGrid<$t>> for AnyGrid {
