@@ -90,6 +90,10 @@ pub struct ExtractArgs {
     /// Write {"seconds", "vertices", "triangles"} of the extraction (not reading or writing) here.
     #[arg(long, value_name = "FILE")]
     pub time_json: Option<PathBuf>,
+    /// Benchmarking: extract N times in this process (the volume read once), report every run in
+    /// --time-json as "runs" and keep the last mesh. Like a warm loop in VTK or scikit-image.
+    #[arg(long, value_name = "N", default_value_t = 1, value_parser = clap::value_parser!(u32).range(1..=1000))]
+    pub repeat: u32,
     /// Memory budget (suffixes K, M, G): a volume whose in-memory extraction would not fit is
     /// meshed slab by slab from the file (raw, NRRD, NIfTI, MetaImage; binary PLY output), using
     /// O(nx·ny) memory.

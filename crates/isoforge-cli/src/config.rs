@@ -33,6 +33,8 @@ pub struct ExtractConfig {
     pub inside: Option<Inside>,
     pub options: Options,
     pub time_json: Option<PathBuf>,
+    /// Extractions to run in this process (benchmarking); the last mesh is kept.
+    pub repeat: u32,
     pub require: Vec<Guarantee>,
     pub max_memory: Option<u64>,
 }
@@ -198,6 +200,7 @@ impl ExtractConfig {
             inside,
             options: Options { method, normals, threads: None },
             time_json: a.time_json.clone(),
+            repeat: a.repeat,
             require: guarantees(&a.require)?,
             max_memory: a.max_memory.as_deref().map(|m| bytes_for("--max-memory", m)).transpose()?,
         })

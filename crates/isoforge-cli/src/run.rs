@@ -163,13 +163,25 @@ pub fn extract(c: &ExtractConfig) -> Result<Outcome> {
         }
     }
     let bar = Bar::new("extracting");
-    let start = Instant::now();
-    let out: Extraction = match loaded {
-        Loaded::Grid(g) => pipeline::extract_grid(&g, iso, &c.options, Some(&bar))?,
-        Loaded::Field(b) => pipeline::extract_builtin(&b, iso, &c.options, Some(&bar))?,
+    let loaded = match loaded {
+        Loaded::Stream(_) if c.repeat > 1 => bail!("--repeat: out-of-core extraction (--max-memory) runs once"),
         Loaded::Stream(reader) => return extract_streaming(c, reader, iso, &name, &bar),
+        in_memory => in_memory,
     };
-    let seconds = start.elapsed().as_secs_f64();
+    let mut runs = Vec::with_capacity(c.repeat as usize);
+    let mut last: Option<Extraction> = None;
+    for _ in 0..c.repeat {
+        drop(last.take()); // as a warm loop elsewhere: the previous mesh is freed before the next run
+        let start = Instant::now();
+        last = Some(match &loaded {
+            Loaded::Grid(g) => pipeline::extract_grid(g, iso, &c.options, Some(&bar))?,
+            Loaded::Field(b) => pipeline::extract_builtin(b, iso, &c.options, Some(&bar))?,
+            Loaded::Stream(_) => bail!("internal: streamed input reached the in-memory path"),
+        });
+        runs.push(start.elapsed().as_secs_f64());
+    }
+    let out = last.ok_or_else(|| anyhow!("internal: --repeat ran no extraction"))?;
+    let seconds = runs.last().copied().unwrap_or_default();
     bar.finish();
     let s = out.stats;
     if s.cells > 0 && (s.cells_outside == s.cells || s.cells_inside == s.cells) {
@@ -182,8 +194,12 @@ pub fn extract(c: &ExtractConfig) -> Result<Outcome> {
     }
     isoforge_io::write_mesh(&c.output, &out.mesh, c.format)?;
     if let Some(t) = &c.time_json {
-        let body =
-            json!({ "seconds": seconds, "vertices": out.mesh.num_vertices(), "triangles": out.mesh.num_triangles() });
+        let body = json!({
+            "seconds": seconds,
+            "runs": runs,
+            "vertices": out.mesh.num_vertices(),
+            "triangles": out.mesh.num_triangles()
+        });
         isoforge_io::write_atomic(t, |w| w.write_all(body.to_string().as_bytes()))?;
     }
     eprintln!(

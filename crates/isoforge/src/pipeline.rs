@@ -4,36 +4,59 @@
 //! the same generic walk, monomorphised for its volume and extractor.
 
 use crate::error::{Error, Result};
-use crate::extract::MarchingCubes;
+use crate::extract::{Decomposition, MarchingCubes, MarchingCubes33, MarchingTetrahedra};
 use crate::grid::{AnyGrid, DenseGrid, Sample};
 use crate::mesh::{Mesh, MeshBuilder};
 use crate::volume::catalog::Builtin;
-use crate::volume::{Field, FieldVisitor, Iso, Sampled, Volume};
+use crate::volume::{Field, FieldVisitor, GridVolume, Iso, Sampled, Volume};
 use crate::walk::{flying_edges, Progress, SlabWalker, WalkStats, Walker};
 
 /// An extraction algorithm.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
 #[non_exhaustive]
 pub enum Method {
-    /// Classic marching cubes ([`MarchingCubes`]).
+    /// Classic marching cubes ([`MarchingCubes`]), parallel Flying Edges on grids.
     #[default]
     MarchingCubes,
+    /// Marching cubes 33 ([`MarchingCubes33`]): the topology of the trilinear interpolant.
+    MarchingCubes33,
+    /// Marching tetrahedra, five per cell ([`MarchingTetrahedra`]).
+    Tetrahedra5,
+    /// Marching tetrahedra, six per cell around the main diagonal.
+    Tetrahedra6,
+    /// Marching tetrahedra on the body-centred lattice (cell centres added).
+    TetrahedraBcc,
 }
 
 impl Method {
     /// Every method, in CLI order.
-    pub const ALL: [Method; 1] = [Method::MarchingCubes];
+    pub const ALL: [Method; 5] =
+        [Method::MarchingCubes, Method::MarchingCubes33, Method::Tetrahedra5, Method::Tetrahedra6, Method::TetrahedraBcc];
 
-    /// The short CLI name (`mc`).
+    /// The short CLI name (`mc`, `mc33`, `mt5`, `mt6`, `mt-bcc`).
     pub fn name(self) -> &'static str {
         match self {
             Method::MarchingCubes => "mc",
+            Method::MarchingCubes33 => "mc33",
+            Method::Tetrahedra5 => "mt5",
+            Method::Tetrahedra6 => "mt6",
+            Method::TetrahedraBcc => "mt-bcc",
         }
     }
 
     /// Parses a short CLI name.
     pub fn parse(s: &str) -> Option<Method> {
         Method::ALL.into_iter().find(|m| m.name() == s)
+    }
+
+    /// The tetrahedral decomposition of an `mt*` method.
+    fn decomposition(self) -> Option<Decomposition> {
+        match self {
+            Method::Tetrahedra5 => Some(Decomposition::Five),
+            Method::Tetrahedra6 => Some(Decomposition::Six),
+            Method::TetrahedraBcc => Some(Decomposition::BodyCentred),
+            Method::MarchingCubes | Method::MarchingCubes33 => None,
+        }
     }
 }
 
@@ -96,8 +119,10 @@ pub fn extract_with_progress<V: Volume>(
     if let Some(p) = progress {
         walker = walker.with_progress(p);
     }
-    let stats = match opts.method {
-        Method::MarchingCubes => walker.walk(vol, iso, &mut MarchingCubes, &mut out)?,
+    let stats = match (opts.method, opts.method.decomposition()) {
+        (_, Some(decomposition)) => walker.walk(vol, iso, &mut MarchingTetrahedra { decomposition }, &mut out)?,
+        (Method::MarchingCubes33, _) => walker.walk(vol, iso, &mut MarchingCubes33, &mut out)?,
+        _ => walker.walk(vol, iso, &mut MarchingCubes, &mut out)?,
     };
     Ok(Extraction { mesh: out.finish()?, stats })
 }
@@ -111,9 +136,11 @@ pub fn extract_with_progress<V: Volume>(
 pub fn extract_grid(grid: &AnyGrid, iso: Iso, opts: &Options, progress: Option<&dyn Progress>) -> Result<Extraction> {
     fn go<S: Sample>(g: &DenseGrid<S>, iso: Iso, opts: &Options) -> Result<Extraction> {
         let normals = opts.normals == Normals::Gradient;
-        let (mesh, stats) = match opts.method {
-            Method::MarchingCubes => flying_edges(g, iso, &MarchingCubes, normals)?,
-        };
+        if opts.method != Method::MarchingCubes {
+            // The other methods run on the serial slab walker.
+            return extract(&GridVolume::new(g), iso, opts);
+        }
+        let (mesh, stats) = flying_edges(g, iso, &MarchingCubes, normals)?;
         Ok(Extraction { mesh, stats })
     }
     if !iso.value.is_finite() {

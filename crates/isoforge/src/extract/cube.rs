@@ -142,6 +142,60 @@ impl EdgeKey {
     }
 }
 
+/// The corners of each face (`2 · axis + side`) in counter-clockwise order seen from outside the
+/// cell. With u = axis + 1 and v = axis + 2 (mod 3), e_u × e_v = e_axis: the max face runs
+/// (0,0) (1,0) (1,1) (0,1) in (u, v), the min face the other way round.
+pub const FACE_CORNERS: [[u8; 4]; 6] = {
+    let mut t = [[0u8; 4]; 6];
+    let mut f = 0;
+    while f < 6 {
+        let (a, side) = (f / 2, f % 2);
+        let (u, v) = ((a + 1) % 3, (a + 2) % 3);
+        let uv: [(usize, usize); 4] = if side == 1 { [(0, 0), (1, 0), (1, 1), (0, 1)] } else { [(0, 0), (0, 1), (1, 1), (1, 0)] };
+        let mut i = 0;
+        while i < 4 {
+            t[f][i] = ((side << a) | (uv[i].0 << u) | (uv[i].1 << v)) as u8;
+            i += 1;
+        }
+        f += 1;
+    }
+    t
+};
+
+/// The edge joining corners `a` and `b`, which must differ in exactly one coordinate.
+#[inline]
+pub const fn edge_between(a: u8, b: u8) -> CubeEdge {
+    let axis = (a ^ b).trailing_zeros() as u8;
+    let lo = a & b;
+    let (p, q) = match axis {
+        0 => (1, 2),
+        1 => (0, 2),
+        _ => (0, 1),
+    };
+    CubeEdge(4 * axis + (((lo >> p) & 1) | (((lo >> q) & 1) << 1)))
+}
+
+/// The two faces each edge lies on.
+pub const EDGE_FACES: [[u8; 2]; 12] = {
+    let mut t = [[0u8; 2]; 12];
+    let mut e = 0;
+    while e < 12 {
+        let [c, _] = EDGE_CORNERS[e];
+        let axis = e / 4;
+        let mut n = 0;
+        let mut a = 0;
+        while a < 3 {
+            if a != axis {
+                t[e][n] = (2 * a + ((c as usize >> a) & 1)) as u8;
+                n += 1;
+            }
+            a += 1;
+        }
+        e += 1;
+    }
+    t
+};
+
 /// The case index of eight corner values already offset by iso: bit `c` set ⇔ `d[c] < 0`.
 #[inline]
 pub fn case_of(d: &[f32; 8]) -> u8 {
@@ -194,6 +248,25 @@ mod tests {
         seen.sort();
         seen.dedup();
         assert_eq!(seen.len(), 12);
+    }
+
+    #[test]
+    fn faces_run_counter_clockwise_seen_from_outside() {
+        for f in 0..6 {
+            let c = FACE_CORNERS[f].map(|c| CORNER_OFFSETS[c as usize].map(|x| x as i64));
+            let (a, side) = (f / 2, f % 2);
+            assert!(c.iter().all(|p| p[a] == side as i64), "face {f}: corners off the face");
+            // (c1 − c0) × (c2 − c1) points along the outward normal.
+            let (e1, e2) = ([0, 1, 2].map(|i| c[1][i] - c[0][i]), [0, 1, 2].map(|i| c[2][i] - c[1][i]));
+            let n = [e1[1] * e2[2] - e1[2] * e2[1], e1[2] * e2[0] - e1[0] * e2[2], e1[0] * e2[1] - e1[1] * e2[0]];
+            let mut expect = [0i64; 3];
+            expect[a] = if side == 1 { 1 } else { -1 };
+            assert_eq!(n, expect, "face {f}");
+            for i in 0..4 {
+                let e = edge_between(FACE_CORNERS[f][i], FACE_CORNERS[f][(i + 1) % 4]);
+                assert!(EDGE_FACES[e.0 as usize].contains(&(f as u8)), "face {f}: edge {e:?} not on it");
+            }
+        }
     }
 
     #[test]

@@ -9,8 +9,12 @@
 
 pub mod cube;
 pub mod marching_cubes;
+pub mod mc33;
+pub mod tetrahedra;
 
 pub use marching_cubes::MarchingCubes;
+pub use mc33::MarchingCubes33;
+pub use tetrahedra::{Decomposition, MarchingTetrahedra};
 
 use crate::walk::Cell;
 
@@ -18,4 +22,11 @@ use crate::walk::Cell;
 pub trait Extractor {
     /// Emits the cell's triangles through `cell`.
     fn process<C: Cell>(&mut self, cell: &mut C);
+
+    /// Whether walkers must also call [`process`](Extractor::process) for cells whose eight
+    /// corners are all on one side (extractors that sample off the lattice, such as cell centres
+    /// of a field, can find a surface there).
+    fn visits_uniform_cells(&self) -> bool {
+        false
+    }
 }

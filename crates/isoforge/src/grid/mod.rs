@@ -5,9 +5,11 @@
 mod dense;
 mod histogram;
 mod lattice;
+mod resample;
 mod sample;
 
 pub use dense::{AnyGrid, DenseGrid, NonFinite, ValueRange};
 pub use histogram::Histogram;
 pub use lattice::{Lattice, IDENTITY};
+pub use resample::upsample_trilinear;
 pub use sample::{as_bytes_mut, DType, Sample, Threshold};

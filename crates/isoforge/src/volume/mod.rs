@@ -14,7 +14,7 @@ mod sampled;
 pub mod sdf;
 
 pub use field::{central_difference, Field, FieldVisitor};
-pub use grid_volume::{edge_gradient, point_gradient, GridVolume};
+pub use grid_volume::{edge_gradient, point_gradient, point_gradient_at, trilinear_value, GridVolume};
 pub use oracle::{Bisection, Illinois, Linear, Oracle};
 pub use sampled::Sampled;
 
@@ -103,6 +103,21 @@ pub trait Volume {
     /// The world-space gradient of the value at parameter `t` on edge `e` (not normalised; may
     /// be zero).
     fn gradient(&self, e: EdgeKey, t: f32) -> Vec3;
+
+    /// The value offset by iso at index-space point `p` off the lattice points (a cell centre,
+    /// a point on a diagonal): the field itself for fields, the trilinear interpolant for grids.
+    fn value_at(&self, p: [f64; 3], iso: Iso) -> f32;
+
+    /// The world-space gradient at index-space point `p` (not normalised; may be zero).
+    fn gradient_at(&self, p: [f64; 3]) -> Vec3;
+
+    /// The crossing on the segment `p0` → `p1` (index space; a diagonal or a segment to a cell
+    /// centre) as a parameter in [0, 1], given the offset values at its ends (one < 0, the other
+    /// ≥ 0). Linear by default; fields refine it with their oracle.
+    fn segment_crossing(&self, p0: [f64; 3], p1: [f64; 3], d0: f32, d1: f32, iso: Iso) -> f32 {
+        let _ = (p0, p1, iso);
+        linear_crossing(d0, d1)
+    }
 }
 
 impl<V: Volume + ?Sized> Volume for &V {
@@ -121,6 +136,18 @@ impl<V: Volume + ?Sized> Volume for &V {
     #[inline]
     fn gradient(&self, e: EdgeKey, t: f32) -> Vec3 {
         (**self).gradient(e, t)
+    }
+    #[inline]
+    fn value_at(&self, p: [f64; 3], iso: Iso) -> f32 {
+        (**self).value_at(p, iso)
+    }
+    #[inline]
+    fn gradient_at(&self, p: [f64; 3]) -> Vec3 {
+        (**self).gradient_at(p)
+    }
+    #[inline]
+    fn segment_crossing(&self, p0: [f64; 3], p1: [f64; 3], d0: f32, d1: f32, iso: Iso) -> f32 {
+        (**self).segment_crossing(p0, p1, d0, d1, iso)
     }
 }
 

@@ -62,4 +62,18 @@ impl<F: Field, O: Oracle> Volume for Sampled<F, O> {
     fn gradient(&self, e: EdgeKey, t: f32) -> Vec3 {
         self.field.gradient(self.world(e.point_at(t as f64)))
     }
+
+    fn value_at(&self, p: [f64; 3], iso: Iso) -> f32 {
+        iso.offset(self.field.value(self.world(p)) as f64)
+    }
+
+    fn gradient_at(&self, p: [f64; 3]) -> Vec3 {
+        self.field.gradient(self.world(p))
+    }
+
+    fn segment_crossing(&self, p0: [f64; 3], p1: [f64; 3], d0: f32, d1: f32, iso: Iso) -> f32 {
+        let (p0, p1) = (self.world(p0), self.world(p1));
+        let g = |t: f32| iso.offset(self.field.value(p0.lerp(p1, t)) as f64);
+        self.oracle.root(g, d0, d1)
+    }
 }

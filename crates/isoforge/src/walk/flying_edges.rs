@@ -846,4 +846,11 @@ impl<S: Sample> Volume for SlabRing<S> {
     fn gradient(&self, e: EdgeKey, t: f32) -> glam::Vec3 {
         crate::volume::edge_gradient(&self.lattice, e, t, &|p| self.get(self.lattice.linear(p)).to_f64())
     }
+    fn value_at(&self, p: [f64; 3], iso: Iso) -> f32 {
+        let v = crate::volume::trilinear_value(self.lattice.dims(), p, &|q| self.get(self.lattice.linear(q)).to_f64());
+        iso.offset(v)
+    }
+    fn gradient_at(&self, p: [f64; 3]) -> glam::Vec3 {
+        crate::volume::point_gradient_at(&self.lattice, p, &|q| self.get(self.lattice.linear(q)).to_f64())
+    }
 }

@@ -6,12 +6,14 @@
 
 pub mod flying_edges;
 mod reference;
+pub mod segment;
 mod slab;
 
 pub use flying_edges::{
     flying_edges, flying_edges_streaming, CaseTable, ExternalError, MeshSink, SlabSource, StreamStats,
 };
 pub use reference::ReferenceWalker;
+pub use segment::{CellPoint, SegmentKey};
 pub use slab::SlabWalker;
 
 use crate::error::Result;
@@ -35,6 +37,18 @@ pub trait Cell {
     fn edge_vertex(&mut self, e: CubeEdge) -> VertexId;
     /// Emits a triangle (wound counter-clockwise seen from outside).
     fn push_triangle(&mut self, t: [VertexId; 3]);
+
+    /// Whether the neighbouring cell across `face` (`2 · axis + side`) exists.
+    fn has_neighbour(&self, face: u8) -> bool;
+    /// The value offset by iso at a cell point: a corner's from [`values`](Cell::values), a
+    /// centre's from [`Volume::value_at`] (computed once per cell).
+    fn point_value(&mut self, p: CellPoint) -> f32;
+    /// The mesh vertex where segment `a`–`b` crosses (their values differ in class), created on
+    /// first request and shared with every cell that names the same lattice segment; axis edges
+    /// give the same vertex as [`edge_vertex`](Cell::edge_vertex).
+    fn segment_vertex(&mut self, a: CellPoint, b: CellPoint) -> VertexId;
+    /// A new vertex private to this cell at cell coordinates `local` ∈ [0, 1]³ (never shared).
+    fn interior_vertex(&mut self, local: [f32; 3]) -> VertexId;
 }
 
 /// A traversal strategy: visits every cell of `vol` and lets `x` process the active ones.

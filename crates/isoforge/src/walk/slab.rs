@@ -1,3 +1,4 @@
+use super::segment::{self, CellPoint, SegmentCache};
 use super::{hermite, Cell, Progress, WalkStats, Walker};
 use crate::error::Result;
 use crate::extract::cube::{case_of, Axis, CubeEdge, EdgeKey};
@@ -20,6 +21,7 @@ pub struct SlabWalker<'p> {
     x_ids: [Vec<VertexId>; 2],
     y_ids: [Vec<VertexId>; 2],
     z_ids: Vec<VertexId>,
+    segs: SegmentCache,
     progress: Option<&'p dyn Progress>,
 }
 
@@ -60,8 +62,10 @@ impl Walker for SlabWalker<'_> {
             ids.clear();
             ids.resize(n, VertexId::NONE);
         }
+        self.segs.clear();
         vol.fill_slab(0, iso, &mut self.below);
         let normals = out.wants_normals();
+        let uniform_too = x.visits_uniform_cells();
         let nxu = nx as usize;
         for k in 0..nz - 1 {
             // PASS 1: values of the next slab; fresh id slots for its edges and the z-edges below it.
@@ -81,22 +85,26 @@ impl Walker for SlabWalker<'_> {
                     match case {
                         0 => stats.cells_outside += 1,
                         255 => stats.cells_inside += 1,
-                        _ => {
-                            let mut cell = SlabCell {
-                                ijk: [i as u32, j, k],
-                                d,
-                                case,
-                                nx: nxu,
-                                vol,
-                                iso,
-                                normals,
-                                x_ids: &mut self.x_ids,
-                                y_ids: &mut self.y_ids,
-                                z_ids: &mut self.z_ids,
-                                out,
-                            };
-                            x.process(&mut cell);
-                        }
+                        _ => {}
+                    }
+                    if (case != 0 && case != 255) || uniform_too {
+                        let mut cell = SlabCell {
+                            ijk: [i as u32, j, k],
+                            d,
+                            case,
+                            nx: nxu,
+                            dims: [nx, ny, nz],
+                            vol,
+                            iso,
+                            normals,
+                            x_ids: &mut self.x_ids,
+                            y_ids: &mut self.y_ids,
+                            z_ids: &mut self.z_ids,
+                            segs: &mut self.segs,
+                            memo: [f32::NAN; 7],
+                            out,
+                        };
+                        x.process(&mut cell);
                     }
                 }
             }
@@ -104,6 +112,7 @@ impl Walker for SlabWalker<'_> {
             std::mem::swap(&mut self.below, &mut self.above);
             self.x_ids.swap(0, 1);
             self.y_ids.swap(0, 1);
+            self.segs.advance();
             if let Some(p) = self.progress {
                 p.advance(k as u64 + 1, nz as u64 - 1);
             }
@@ -117,12 +126,15 @@ struct SlabCell<'a, V> {
     d: [f32; 8],
     case: u8,
     nx: usize,
+    dims: [u32; 3],
     vol: &'a V,
     iso: Iso,
     normals: bool,
     x_ids: &'a mut [Vec<VertexId>; 2],
     y_ids: &'a mut [Vec<VertexId>; 2],
     z_ids: &'a mut Vec<VertexId>,
+    segs: &'a mut SegmentCache,
+    memo: [f32; 7],
     out: &'a mut MeshBuilder,
 }
 
@@ -165,5 +177,37 @@ impl<V: Volume> Cell for SlabCell<'_, V> {
     #[inline]
     fn push_triangle(&mut self, t: [VertexId; 3]) {
         self.out.push_triangle(t);
+    }
+
+    #[inline]
+    fn has_neighbour(&self, face: u8) -> bool {
+        segment::has_neighbour(self.dims, self.ijk, face)
+    }
+
+    #[inline]
+    fn point_value(&mut self, p: CellPoint) -> f32 {
+        segment::point_value(self.vol, self.iso, self.ijk, &self.d, &mut self.memo, p)
+    }
+
+    fn segment_vertex(&mut self, a: CellPoint, b: CellPoint) -> VertexId {
+        if let Some(e) = CellPoint::axis_edge(a, b) {
+            return self.edge_vertex(e);
+        }
+        let (vol, iso, ijk, d) = (self.vol, self.iso, self.ijk, self.d);
+        let memo = &mut self.memo;
+        let (key, d0, d1) = segment::segment_ends(ijk, a, b, |p| segment::point_value(vol, iso, ijk, &d, memo, p));
+        if let Some(id) = self.segs.get(&key) {
+            return id;
+        }
+        let h = segment::segment_hermite(vol, key, d0, d1, iso, self.normals);
+        let id = self.out.push_vertex(h.point, h.normal);
+        self.segs.insert(key, id);
+        id
+    }
+
+    fn interior_vertex(&mut self, local: [f32; 3]) -> VertexId {
+        let p = segment::cell_point(self.ijk, local);
+        let h = segment::point_hermite(self.vol, p, self.iso, self.normals, || [0.0; 3]);
+        self.out.push_vertex(h.point, h.normal)
     }
 }
