@@ -77,8 +77,10 @@ pub struct ExtractArgs {
     /// Which side of iso is inside: below (value < iso, default for files) or above.
     #[arg(long, value_name = "below|above")]
     pub inside: Option<String>,
-    /// Extraction method.
-    #[arg(long, default_value = "mc", value_name = "mc")]
+    /// Extraction method: mc (classic marching cubes, parallel Flying Edges on grids), mc33
+    /// (topology of the trilinear interpolant), mt5 / mt6 / mt-bcc (marching tetrahedra with 5, 6
+    /// or body-centred tetrahedra per cell).
+    #[arg(long, default_value = "mc", value_name = "mc|mc33|mt5|mt6|mt-bcc")]
     pub method: String,
     /// Vertex normals: none (default, as VTK in the peer benchmarks) or gradient (unit normals
     /// from the field gradient, written to PLY and OBJ).

@@ -26,6 +26,8 @@ pub fn mesh_json(r: &MeshReport) -> Value {
         "genus": r.genus(),
         "area": r.area,
         "volume": r.volume,
+        "min_angle_mean_deg": r.min_angle_mean_deg,
+        "min_angle_deg": r.min_angle_deg,
         "bounds": if r.bounds.is_empty() { Value::Null } else { json!({ "min": r.bounds.min, "max": r.bounds.max }) },
         "components": r.components.iter().map(|c| json!({
             "vertices": c.vertices, "edges": c.edges, "triangles": c.triangles, "euler": c.euler,
@@ -69,6 +71,10 @@ pub fn mesh_text(r: &MeshReport) -> String {
     let genus = r.genus().map_or("-".to_string(), |g| g.to_string());
     line(format!("components:  {}   euler characteristic: {}   genus: {}", r.components.len(), r.euler, genus));
     line(format!("area:        {:.6}   enclosed volume: {:.6}", r.area, r.volume));
+    line(format!(
+        "quality:     smallest angle per triangle {:.1}° mean, {:.2}° minimum",
+        r.min_angle_mean_deg, r.min_angle_deg
+    ));
     if !r.bounds.is_empty() {
         let (a, b) = (r.bounds.min, r.bounds.max);
         line(format!(

@@ -30,8 +30,13 @@ pub enum Method {
 
 impl Method {
     /// Every method, in CLI order.
-    pub const ALL: [Method; 5] =
-        [Method::MarchingCubes, Method::MarchingCubes33, Method::Tetrahedra5, Method::Tetrahedra6, Method::TetrahedraBcc];
+    pub const ALL: [Method; 5] = [
+        Method::MarchingCubes,
+        Method::MarchingCubes33,
+        Method::Tetrahedra5,
+        Method::Tetrahedra6,
+        Method::TetrahedraBcc,
+    ];
 
     /// The short CLI name (`mc`, `mc33`, `mt5`, `mt6`, `mt-bcc`).
     pub fn name(self) -> &'static str {

@@ -77,11 +77,15 @@ fn genera(r: &MeshReport) -> Vec<i64> {
 /// The trilinear interpolant's components and genera, from classic MC on the grid refined
 /// `factor` times.
 fn oracle(g: &DenseGrid<f32>, factor: u32) -> Vec<i64> {
-    let fine = upsample_trilinear(g, factor).unwrap();
-    let (mesh, _) = flying_edges(&fine, Iso::below(0.0), &MarchingCubes, false).unwrap();
-    let r = topo::check(&mesh);
+    let r = topo::check(&oracle_mesh(g, factor));
     assert!(r.is_watertight(), "the oracle mesh is not watertight");
     genera(&r)
+}
+
+/// Classic MC on the grid refined `factor` times (the trilinear interpolant, finely).
+fn oracle_mesh(g: &DenseGrid<f32>, factor: u32) -> Mesh {
+    let fine = upsample_trilinear(g, factor).unwrap();
+    flying_edges(&fine, Iso::below(0.0), &MarchingCubes, false).unwrap().0
 }
 
 fn cases() -> usize {
@@ -219,13 +223,21 @@ fn mc33_and_tetrahedra_agree_between_walkers() {
 fn debug_case() {
     // ISOFORGE_CASE="3 2 3 v0 v1 …" (dims then values, as `describe` prints them).
     let spec = std::env::var("ISOFORGE_CASE").expect("set ISOFORGE_CASE");
-    let nums: Vec<f32> = spec.split(|c: char| c == ',' || c.is_whitespace() || c == '[' || c == ']').filter(|s| !s.is_empty()).map(|s| s.parse().unwrap()).collect();
+    let nums: Vec<f32> = spec
+        .split(|c: char| c == ',' || c.is_whitespace() || c == '[' || c == ']')
+        .filter(|s| !s.is_empty())
+        .map(|s| s.parse().unwrap())
+        .collect();
     let dims = [nums[0] as u32, nums[1] as u32, nums[2] as u32];
     let inner = nums[3..].to_vec();
     let outer = Lattice::new(dims.map(|d| d + 2)).unwrap();
     let inner_lat = Lattice::new(dims).unwrap();
     let g = DenseGrid::from_fn(outer, |p| {
-        if p.iter().zip(dims).all(|(&x, d)| x >= 1 && x <= d) { inner[inner_lat.linear([p[0] - 1, p[1] - 1, p[2] - 1])] } else { 1.0 }
+        if p.iter().zip(dims).all(|(&x, d)| x >= 1 && x <= d) {
+            inner[inner_lat.linear([p[0] - 1, p[1] - 1, p[2] - 1])]
+        } else {
+            1.0
+        }
     });
     for f in [16, 24, 48, 96] {
         eprintln!("oracle {f}: {:?}", oracle(&g, f));
@@ -236,9 +248,14 @@ fn debug_case() {
     for k in 0..od[2] - 1 {
         for j in 0..od[1] - 1 {
             for i in 0..od[0] - 1 {
-                let c: Vec<f32> = (0..8u32).map(|c| g.get([i + (c & 1), j + ((c >> 1) & 1), k + ((c >> 2) & 1)])).collect();
+                let c: Vec<f32> =
+                    (0..8u32).map(|c| g.get([i + (c & 1), j + ((c >> 1) & 1), k + ((c >> 2) & 1)])).collect();
                 let cell = DenseGrid::from_fn(Lattice::new([4, 4, 4]).unwrap(), |p| {
-                    if p.iter().all(|&x| (1..=2).contains(&x)) { c[((p[0] - 1) + 2 * (p[1] - 1) + 4 * (p[2] - 1)) as usize] } else { 1.0 }
+                    if p.iter().all(|&x| (1..=2).contains(&x)) {
+                        c[((p[0] - 1) + 2 * (p[1] - 1) + 4 * (p[2] - 1)) as usize]
+                    } else {
+                        1.0
+                    }
                 });
                 let (a, b) = (genera(&topo::check(&extract(&cell, &mut MarchingCubes33))), oracle(&cell, 64));
                 if a != b {
@@ -257,4 +274,398 @@ fn debug_case() {
         }
     }
     eprintln!("mc {:?}", genera(&topo::check(&extract(&g, &mut MarchingCubes))));
+}
+
+/// The MC33 catalogue: one cell per configuration and subcase (Chernyaev's numbering; inside
+/// corners ≤ 4, "joins" = the face's saddle joins two inside corners), embedded in a border of
+/// outside points, with the components and Euler characteristic of the closed surface. The
+/// values were found by `print_catalogue`; every row is also checked against the refined oracle
+/// and in all 24 rotations.
+const CATALOGUE: &[(&str, [f32; 8], usize, i64)] = &[
+    (
+        "0: no corner inside",
+        [0.108338356, 0.029629946, 0.57622766, 0.12521541, 0.27742267, 0.75209665, 0.5662023, 0.10457063],
+        0,
+        0,
+    ),
+    ("1", [0.6029862, 0.16850579, 0.6553978, -0.28622603, 0.9916314, 0.5232047, 0.24365759, 0.06788564], 1, 2),
+    ("2", [-0.13995314, -0.87379146, 0.4290285, 0.49025965, 0.6430193, 0.13424218, 0.57064295, 0.7991375], 1, 2),
+    (
+        "3.1: face separates",
+        [-0.8538135, 0.39196277, 0.7141315, -0.17422116, 0.6526369, 0.69091666, 0.50866663, 0.9124725],
+        2,
+        4,
+    ),
+    (
+        "3.2: face joins",
+        [0.6509234, 0.29641497, 0.72117496, 0.5618377, -0.5328536, 0.6434159, 0.17380476, -0.6954453],
+        1,
+        2,
+    ),
+    (
+        "4.1.2: tunnel",
+        [0.21459556, 0.16631222, -0.19394875, 0.03738129, 0.015635848, -0.76107144, 0.007655382, 0.22990048],
+        1,
+        2,
+    ),
+    (
+        "4.1.1: no tunnel",
+        [-0.3225385, 0.44880044, 0.91305184, 0.42729878, 0.03770995, 0.8429676, 0.13380349, -0.046055317],
+        2,
+        4,
+    ),
+    ("5", [0.31300402, 0.24691212, 0.18059468, -0.5867778, 0.1225816, 0.5997299, -0.39841032, -0.033076525], 1, 2),
+    (
+        "6.1.2: face separates, tunnel",
+        [0.14674115, 0.60833395, -0.6298318, -0.19892085, 0.5840409, -0.8205993, 0.07304299, 0.29805088],
+        1,
+        2,
+    ),
+    (
+        "6.1.1: face separates, no tunnel",
+        [-0.5937922, 0.8175496, -0.38084292, 0.015196562, 0.4168707, -0.13800192, 0.59858835, 0.6732167],
+        2,
+        4,
+    ),
+    (
+        "6.2: face joins",
+        [0.42918384, 0.049230814, -0.4759115, 0.002981782, -0.9836558, -0.72421205, 0.11490333, 0.45584],
+        1,
+        2,
+    ),
+    (
+        "7.1: no face joins",
+        [0.8583504, -0.6338515, -0.092699885, 0.4471693, 0.3479731, 0.9048716, 0.33949828, -0.43489254],
+        3,
+        6,
+    ),
+    (
+        "7.2: one face joins",
+        [0.09895694, -0.24543631, 0.5208247, 0.9588593, -0.6947477, 0.20533824, 0.5425006, -0.06196177],
+        2,
+        4,
+    ),
+    (
+        "7.3: two faces join",
+        [-0.49305356, 0.3980056, 0.52037907, -0.38005388, 0.43294072, -0.63055015, 0.48830926, 0.3004824],
+        1,
+        2,
+    ),
+    (
+        "7.4.2: three faces join, tunnel (torus)",
+        [-0.7778417, 0.056962848, 0.54053104, 0.7931161, 0.7077869, -0.7320397, -0.63641727, 0.59586525],
+        1,
+        0,
+    ),
+    (
+        "7.4.1: three faces join, interior closed",
+        [-0.8664937, 0.31764364, 0.811352, -0.4780295, 0.42467523, -0.99230254, 0.6527238, 0.0053044558],
+        1,
+        2,
+    ),
+    ("8", [-0.43496644, 0.74868786, -0.299474, 0.45825386, -0.75129676, 0.2799735, -0.24208784, 0.7516277], 1, 2),
+    ("9", [0.8958663, 0.94784415, -0.22380376, 0.34202266, -0.006506443, 0.7323115, -0.19537687, -0.61732864], 1, 2),
+    (
+        "10.1.2: faces separate, tunnel",
+        [-0.62452424, 0.7310202, -0.018297315, 0.14765823, 0.57486045, -0.49563944, 0.07183957, -0.3857435],
+        1,
+        2,
+    ),
+    (
+        "10.1.1: faces separate, no tunnel",
+        [0.60298526, -0.744501, 0.91136956, -0.3371241, -0.6349349, 0.85149527, -0.10874212, 0.43400216],
+        2,
+        4,
+    ),
+    (
+        "10.2: one face joins",
+        [0.63726616, 0.6194366, -0.50494397, -0.662354, -0.56524885, -0.85107493, 0.9809079, 0.81881666],
+        1,
+        2,
+    ),
+    (
+        "10.1.2 complemented: both faces join, tunnel (torus)",
+        [-0.2051475, -0.45350242, 0.04581189, 0.9530393, 0.4379109, 0.3797096, -0.14785779, -0.8475189],
+        1,
+        0,
+    ),
+    (
+        "10.1.1 complemented: both faces join",
+        [-0.19498742, -0.18059266, 0.055634737, 0.06331527, 0.43255353, 0.34600496, -0.48165345, -0.39619994],
+        1,
+        2,
+    ),
+    ("11", [-0.08031404, -0.95640206, 0.10773361, -0.90574, 0.0039498806, 0.28939617, 0.3208338, -0.9182774], 1, 2),
+    (
+        "12.1.2: faces separate, tunnel",
+        [-0.51936626, -0.07057619, 0.022304654, 0.30572307, -0.3822763, 0.5453298, 0.8410951, -0.89578736],
+        1,
+        2,
+    ),
+    (
+        "12.1.1: faces separate, no tunnel",
+        [-0.120527506, 0.8104303, 0.5731789, -0.56412065, 0.7190691, -0.4291973, 0.9863205, -0.3009516],
+        2,
+        4,
+    ),
+    (
+        "12.2 / 12.3: one face joins",
+        [-0.89965534, 0.4764744, 0.8197322, -0.50111914, 0.7964233, 0.9393649, -0.33486974, -0.19444704],
+        1,
+        2,
+    ),
+    (
+        "12.1.2 complemented: both faces join, tunnel (torus)",
+        [0.53472066, -0.65499413, -0.6327617, 0.38115633, -0.13076389, -0.0030817986, 0.0870173, 0.5402076],
+        1,
+        0,
+    ),
+    (
+        "12.1.1 complemented: both faces join",
+        [0.66708636, -0.5248126, -0.76365316, 0.22920144, 0.37922943, 0.34887826, -0.67529476, -0.71750224],
+        1,
+        2,
+    ),
+    (
+        "13.1: no face joins",
+        [0.53721964, -0.21968234, -0.4280752, 0.6194482, -0.4701054, 0.59191334, 0.7920778, -0.5512891],
+        4,
+        8,
+    ),
+    (
+        "13.2: one face joins",
+        [0.7293602, -0.26055527, -0.7385813, 0.7911706, -0.12124002, 0.25453544, 0.26525116, -0.45069706],
+        3,
+        6,
+    ),
+    (
+        "13.3: two faces join",
+        [-0.9290489, 0.51936495, 0.71457076, -0.18257558, 0.46668017, -0.34237432, -0.7978662, 0.9817084],
+        2,
+        4,
+    ),
+    (
+        "13.5 (star): three faces join at one corner",
+        [0.96152115, -0.53648543, -0.6246426, 0.9152756, -0.9002156, 0.26092327, 0.35434055, -0.11179662],
+        1,
+        2,
+    ),
+    (
+        "13.4 (triangle): ring joined to the fourth corner through the interior",
+        [-0.38021994, 0.7475592, 0.44469392, -0.8697777, 0.11739254, -0.6698234, -0.41434157, 0.8385215],
+        1,
+        2,
+    ),
+    (
+        "13.5.2 (triangle): ring with a tunnel (torus)",
+        [-0.24391675, 0.57992077, 0.12244749, -0.3055297, 0.21287608, -0.20419192, -0.18723416, 0.45803976],
+        2,
+        2,
+    ),
+    (
+        "13.5.1 (triangle): three faces join in a ring, interior closed",
+        [-0.4030012, 0.56272984, 0.24105275, -0.6811935, 0.153692, -0.04651165, -0.1021266, 0.14149153],
+        2,
+        4,
+    ),
+    (
+        "13.3 complemented: four faces join",
+        [0.7676252, -0.7000941, -0.3134433, 0.68971956, -0.5933509, 0.06893158, 0.24140859, -0.4191532],
+        1,
+        2,
+    ),
+    (
+        "13.2 complemented: five faces join",
+        [0.77309144, -0.45392334, -0.8963492, 0.6416838, -0.5307963, 0.30232275, 0.1282115, -0.6553838],
+        1,
+        2,
+    ),
+    (
+        "13.1 complemented: six faces join",
+        [-0.95777535, 0.3374685, 0.44216144, -0.9713054, 0.4447571, -0.9084327, -0.23612201, 0.03285849],
+        1,
+        2,
+    ),
+    ("14", [0.89901614, 0.2124213, 0.22888267, -0.06154096, -0.9432968, -0.0331316, 0.42442942, -0.44995093], 1, 2),
+];
+
+/// Corner values rotated by a corner permutation.
+fn rotate(v: &[f32; 8], r: &[u8; 8]) -> [f32; 8] {
+    let mut out = [0.0; 8];
+    for c in 0..8 {
+        out[r[c] as usize] = v[c];
+    }
+    out
+}
+
+#[test]
+fn mc33_catalogue_has_the_expected_topology_in_every_rotation() {
+    let rots = rotations();
+    let mut classes = std::collections::BTreeSet::new();
+    for (name, v, comps, chi) in CATALOGUE {
+        let o = topo::check(&oracle_mesh(&single_cell(v), 48));
+        assert_eq!((o.components.len(), o.euler), (*comps, *chi), "{name}: the oracle disagrees with the table");
+        for r in &rots {
+            let g = single_cell(&rotate(v, r));
+            let m = topo::check(&extract(&g, &mut MarchingCubes33));
+            assert_watertight(&m, name, &g);
+            assert_eq!((m.components.len(), m.euler), (*comps, *chi), "{name} rotated by {r:?}");
+            assert!(m.components.iter().all(|c| c.volume > 0.0), "{name}: a component is inside out");
+        }
+        let set = (0..8).filter(|&c| v[c] < 0.0).map(|c| 1u8 << c).sum::<u8>();
+        classes.insert(class_of(set, &rots));
+    }
+    assert_eq!(classes.len(), 15, "every one of the 15 sign configurations is in the catalogue");
+    // Chernyaev's 33 configurations and subcases, each at least once (12.2 and 12.3 share a row,
+    // their topology being the same; complemented rows are extra).
+    assert!(CATALOGUE.len() >= 33);
+}
+
+/// The 24 rotations of the cube as corner permutations.
+fn rotations() -> Vec<[u8; 8]> {
+    let perm = |f: fn([u8; 3]) -> [u8; 3]| -> [u8; 8] {
+        std::array::from_fn(|c| {
+            let p = f([c as u8 & 1, (c as u8 >> 1) & 1, (c as u8 >> 2) & 1]);
+            p[0] | (p[1] << 1) | (p[2] << 2)
+        })
+    };
+    let gens = [perm(|[x, y, z]| [x, 1 - z, y]), perm(|[x, y, z]| [z, y, 1 - x])];
+    let mut all = vec![[0, 1, 2, 3, 4, 5, 6, 7]];
+    let mut i = 0;
+    while i < all.len() {
+        for g in &gens {
+            let p: [u8; 8] = std::array::from_fn(|c| g[all[i][c] as usize]);
+            if !all.contains(&p) {
+                all.push(p);
+            }
+        }
+        i += 1;
+    }
+    all
+}
+
+/// Lorensen's class (0–14) of a corner set with at most four corners, from invariants: the
+/// number of corners, of cube edges and ambiguous faces among them; 11 and 14 are the two
+/// mirror-image chains, told apart by their rotation orbit.
+fn class_of(set: u8, rots: &[[u8; 8]]) -> u8 {
+    let n = set.count_ones();
+    let edges = (0..8u8)
+        .flat_map(|a| (0..3).map(move |ax| (a, a ^ (1 << ax))))
+        .filter(|&(a, b)| a < b && set >> a & 1 == 1 && set >> b & 1 == 1)
+        .count();
+    let amb: Vec<usize> = (0..6).filter(|&f| ambiguous_face(set, f)).collect();
+    let orbit_has =
+        |rep: u8| rots.iter().any(|r| (0..8).filter(|&c| rep >> c & 1 == 1).map(|c| 1u8 << r[c]).sum::<u8>() == set);
+    match (n, edges) {
+        (0, _) => 0,
+        (1, _) => 1,
+        (2, 1) => 2,
+        (2, _) => {
+            if amb.len() == 1 {
+                3
+            } else {
+                4
+            }
+        }
+        (3, 2) => 5,
+        (3, 1) => 6,
+        (3, _) => 7,
+        (4, 4) => 8,
+        (4, 3) => {
+            let star = (0..8u8).any(|a| set >> a & 1 == 1 && (0..3).all(|ax| set >> (a ^ (1 << ax)) & 1 == 1));
+            if star {
+                9
+            } else if orbit_has(0b1000_1011) {
+                11
+            } else {
+                14
+            }
+        }
+        (4, 2) => {
+            if amb.len() == 2 && amb[0] / 2 == amb[1] / 2 {
+                10
+            } else {
+                12
+            }
+        }
+        _ => 13,
+    }
+}
+
+fn ambiguous_face(set: u8, f: usize) -> bool {
+    let c = isoforge::extract::cube::FACE_CORNERS[f];
+    let i = |k: usize| set >> c[k] & 1;
+    i(0) == i(2) && i(1) == i(3) && i(0) != i(1)
+}
+
+/// Prints one representative per (class, joined faces, components, χ) found by random search:
+/// the source of the catalogue below (`cargo test --release --test topology print_catalogue -- --ignored --nocapture`).
+#[test]
+#[ignore]
+fn print_catalogue() {
+    let rots = rotations();
+    assert_eq!(rots.len(), 24);
+    let mut rng = Rng(0xca7a);
+    let mut seen = std::collections::BTreeMap::new();
+    for _ in 0..200_000 {
+        let mut v: [f32; 8] = std::array::from_fn(|_| rng.uniform());
+        let mut set = (0..8).filter(|&c| v[c] < 0.0).map(|c| 1u8 << c).sum::<u8>();
+        if set.count_ones() > 4 {
+            v = v.map(|x| -x);
+            set = !set;
+        }
+        if v.contains(&0.0) {
+            continue;
+        }
+        let class = class_of(set, &rots);
+        let joined = (0..6).filter(|&f| ambiguous_face(set, f) && face_joins_inside(&v, f)).count();
+        // MC33 finds the distinct topologies fast; each representative is then checked
+        // against the refined oracle.
+        let r = topo::check(&extract(&single_cell(&v), &mut MarchingCubes33));
+        seen.entry((class, joined, arrangement(&v), r.components.len(), r.euler)).or_insert(v);
+    }
+    for ((class, joined, arr, comps, chi), v) in &seen {
+        let o = topo::check(&oracle_mesh(&single_cell(v), 48));
+        println!("    ({class}, {joined}, {arr}, {comps}, {chi}, {v:?}), // oracle {} {}", o.components.len(), o.euler);
+    }
+}
+
+/// How the joined faces link inside corners: the largest number of joined faces at one corner
+/// (1 single links, 2 a path or a triangle, 3 a star) plus 10 when they close a triangle.
+fn arrangement(v: &[f32; 8]) -> u8 {
+    let set = (0..8).filter(|&c| v[c] < 0.0).map(|c| 1u8 << c).sum::<u8>();
+    let mut degree = [0u8; 8];
+    for f in 0..6 {
+        if ambiguous_face(set, f) && face_joins_inside(v, f) {
+            let c = isoforge::extract::cube::FACE_CORNERS[f];
+            let (a, b) = if v[c[0] as usize] < 0.0 { (c[0], c[2]) } else { (c[1], c[3]) };
+            degree[a as usize] += 1;
+            degree[b as usize] += 1;
+        }
+    }
+    let edges: u8 = degree.iter().sum::<u8>() / 2;
+    let touched = degree.iter().filter(|&&d| d > 0).count() as u8;
+    let max = *degree.iter().max().unwrap();
+    max + if edges >= 3 && touched == edges { 10 } else { 0 }
+}
+
+fn face_joins_inside(v: &[f32; 8], f: usize) -> bool {
+    let [p, q, r, s] = isoforge::extract::cube::FACE_CORNERS[f].map(|c| v[c as usize] as f64);
+    let num = p * r - q * s;
+    if p < 0.0 {
+        num > 0.0
+    } else {
+        num < 0.0
+    }
+}
+
+/// One cell's values inside a border of outside points.
+fn single_cell(v: &[f32; 8]) -> DenseGrid<f32> {
+    DenseGrid::from_fn(Lattice::new([4, 4, 4]).unwrap(), |p| {
+        if p.iter().all(|&x| (1..=2).contains(&x)) {
+            v[((p[0] - 1) + 2 * (p[1] - 1) + 4 * (p[2] - 1)) as usize]
+        } else {
+            1.0
+        }
+    })
 }

@@ -151,7 +151,8 @@ pub const FACE_CORNERS: [[u8; 4]; 6] = {
     while f < 6 {
         let (a, side) = (f / 2, f % 2);
         let (u, v) = ((a + 1) % 3, (a + 2) % 3);
-        let uv: [(usize, usize); 4] = if side == 1 { [(0, 0), (1, 0), (1, 1), (0, 1)] } else { [(0, 0), (0, 1), (1, 1), (1, 0)] };
+        let uv: [(usize, usize); 4] =
+            if side == 1 { [(0, 0), (1, 0), (1, 1), (0, 1)] } else { [(0, 0), (0, 1), (1, 1), (1, 0)] };
         let mut i = 0;
         while i < 4 {
             t[f][i] = ((side << a) | (uv[i].0 << u) | (uv[i].1 << v)) as u8;

@@ -491,16 +491,27 @@ mod tests {
     use super::*;
 
     #[test]
-    fn debug_topology() {
-        let d = [1.0, -1.0, 0.25, -0.5, -1.0, 1.0, 2.0, -2.0];
-        let t = CellTopology::of(&d);
-        for l in 0..t.n_loops {
-            eprintln!("loop {l}: {:?}", t.loop_edges(l));
+    fn the_face_decider_agrees_from_both_sides_and_every_start() {
+        // The two cells of a face list its corners in opposite orders; any start corner.
+        for vals in [[-1.0, 2.0, -3.0, 0.5], [1.0, -2.0, 3.0, -0.5], [-1.0, 1.0, -1.0, 1.0], [-2.0, 1.0, -0.5, 1.0]] {
+            let [p, q, r, s] = vals.map(|x: f64| x);
+            let want = saddle_inside(p, q, r, s);
+            assert_eq!(saddle_inside(q, r, s, p), want);
+            assert_eq!(saddle_inside(p, s, r, q), want, "reversed order");
+            assert_eq!(saddle_inside(s, r, q, p), want, "reversed, other start");
         }
-        eprintln!("tubes {:?}", &t.tubes[..t.n_tubes]);
-        for class in [true, false] {
-            let u = interior_components(&d, class);
-            eprintln!("class inside={class}: {:?}", (0..8).map(|c| u.find(c)).collect::<Vec<_>>());
-        }
+        // A saddle exactly at iso is outside (ties outside).
+        assert!(!saddle_inside(-1.0, 1.0, -1.0, 1.0));
+        assert!(saddle_inside(-2.0, 1.0, -1.0, 1.0));
+    }
+
+    #[test]
+    fn a_body_diagonal_pair_is_joined_only_through_the_interior() {
+        // Case 4: corners 0 and 7 inside. Deep enough, they meet in the middle (4.1.2).
+        let tube = [-1.0, 0.2, 0.2, 0.2, 0.2, 0.2, 0.2, -1.0];
+        let caps = [-0.1, 1.0, 1.0, 1.0, 1.0, 1.0, 1.0, -0.1];
+        assert_eq!(CellTopology::of(&tube).n_tubes, 1);
+        assert_eq!(CellTopology::of(&caps).n_tubes, 0);
+        assert_eq!(CellTopology::of(&tube).n_loops, 2);
     }
 }

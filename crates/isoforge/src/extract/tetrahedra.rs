@@ -67,6 +67,18 @@ impl Extractor for MarchingTetrahedra {
                 }
             }
             Decomposition::BodyCentred => {
+                let case = cell.case();
+                if case == 0 || case == 255 {
+                    // A uniform cell holds a crossing only if its centre or the centre across a
+                    // lower face (the octahedra it owns) is of the other class.
+                    let inside = case == 255;
+                    let other = |v: f32| (v < 0.0) != inside;
+                    if !other(cell.point_value(Centre))
+                        && (0..3u8).all(|a| !cell.has_neighbour(2 * a) || !other(cell.point_value(Beyond(2 * a))))
+                    {
+                        return;
+                    }
+                }
                 for f in 0..6u8 {
                     let r = FACE_CORNERS[f as usize].map(Corner);
                     if !cell.has_neighbour(f) {
@@ -114,7 +126,8 @@ fn tetrahedron<C: Cell>(cell: &mut C, mut p: [CellPoint; 4]) {
     let q = p.map(|x| x.doubled());
     let e = |i: usize| [0, 1, 2].map(|a| q[i][a] - q[0][a]);
     let (a, b, c) = (e(1), e(2), e(3));
-    let det = a[0] * (b[1] * c[2] - b[2] * c[1]) - a[1] * (b[0] * c[2] - b[2] * c[0]) + a[2] * (b[0] * c[1] - b[1] * c[0]);
+    let det =
+        a[0] * (b[1] * c[2] - b[2] * c[1]) - a[1] * (b[0] * c[2] - b[2] * c[0]) + a[2] * (b[0] * c[1] - b[1] * c[0]);
     if det < 0 {
         p.swap(1, 2);
     }

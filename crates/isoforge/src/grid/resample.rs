@@ -44,7 +44,15 @@ pub fn upsample_trilinear<S: Sample>(grid: &DenseGrid<S>, factor: u32) -> Result
     for &(k, wz) in &az {
         for &(j, wy) in &ay {
             for &(i, wx) in &ax {
-                let lerp = |a: f64, b: f64, w: f64| if w == 0.0 { a } else if w == 1.0 { b } else { a + (b - a) * w };
+                let lerp = |a: f64, b: f64, w: f64| {
+                    if w == 0.0 {
+                        a
+                    } else if w == 1.0 {
+                        b
+                    } else {
+                        a + (b - a) * w
+                    }
+                };
                 let c00 = lerp(at(i, j, k), at(i + 1, j, k), wx);
                 let c10 = lerp(at(i, j + 1, k), at(i + 1, j + 1, k), wx);
                 let c01 = lerp(at(i, j, k + 1), at(i + 1, j, k + 1), wx);
@@ -63,7 +71,8 @@ mod tests {
 
     #[test]
     fn lattice_points_keep_their_values_and_midpoints_interpolate() {
-        let g = DenseGrid::new(Lattice::new([2, 2, 2]).unwrap(), vec![0.0f32, 1.0, 2.0, 3.0, 4.0, 5.0, 6.0, 7.0]).unwrap();
+        let g =
+            DenseGrid::new(Lattice::new([2, 2, 2]).unwrap(), vec![0.0f32, 1.0, 2.0, 3.0, 4.0, 5.0, 6.0, 7.0]).unwrap();
         let u = upsample_trilinear(&g, 4).unwrap();
         assert_eq!(u.lattice().dims(), [5, 5, 5]);
         assert_eq!(u.get([0, 0, 0]), 0.0);

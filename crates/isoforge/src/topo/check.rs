@@ -127,6 +127,11 @@ pub struct MeshReport {
     pub volume: f64,
     /// Bounding box of the used vertices.
     pub bounds: Aabb,
+    /// Smallest interior angle of each non-degenerate triangle, in degrees: mean and minimum
+    /// (60° for an equilateral triangle; 0 when there is no such triangle).
+    pub min_angle_mean_deg: f64,
+    /// The smallest of those angles.
+    pub min_angle_deg: f64,
 }
 
 /// A property a caller can require of a mesh.
@@ -433,6 +438,7 @@ pub fn check_with(mesh: &Mesh, opts: &CheckOptions) -> MeshReport {
     }
     comps.sort_by_key(|c| std::cmp::Reverse(c.triangles));
     let used_count = used.iter().filter(|&&u| u).count();
+    let angles = min_angles(mesh, &valid);
     MeshReport {
         vertices: nv,
         triangles: mesh.triangles.len(),
@@ -450,6 +456,42 @@ pub fn check_with(mesh: &Mesh, opts: &CheckOptions) -> MeshReport {
         volume: comps.iter().map(|c| c.volume).sum(),
         bounds,
         components: comps,
+        min_angle_mean_deg: angles.0,
+        min_angle_deg: angles.1,
+    }
+}
+
+/// Mean and minimum over the triangles of the smallest interior angle, in degrees (triangles of
+/// zero area are left out).
+fn min_angles(mesh: &Mesh, triangles: &[u32]) -> (f64, f64) {
+    let (mut sum, mut min, mut n) = (0.0, f64::INFINITY, 0usize);
+    for &ti in triangles {
+        let p = mesh.triangles[ti as usize].map(|v| mesh.positions[v as usize].map(|x| x as f64));
+        let len2 = |a: usize, b: usize| (0..3).map(|k| (p[a][k] - p[b][k]).powi(2)).sum::<f64>();
+        let (a2, b2, c2) = (len2(1, 2), len2(0, 2), len2(0, 1));
+        if a2 == 0.0 || b2 == 0.0 || c2 == 0.0 {
+            continue;
+        }
+        // The smallest angle faces the shortest side (law of cosines).
+        let (s2, o1, o2) = if a2 <= b2 && a2 <= c2 {
+            (a2, b2, c2)
+        } else if b2 <= c2 {
+            (b2, a2, c2)
+        } else {
+            (c2, a2, b2)
+        };
+        let cos = ((o1 + o2 - s2) / (2.0 * (o1 * o2).sqrt())).clamp(-1.0, 1.0);
+        let angle = cos.acos().to_degrees();
+        if angle.is_finite() && angle > 0.0 {
+            sum += angle;
+            min = min.min(angle);
+            n += 1;
+        }
+    }
+    if n == 0 {
+        (0.0, 0.0)
+    } else {
+        (sum / n as f64, min)
     }
 }
 

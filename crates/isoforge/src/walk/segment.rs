@@ -9,8 +9,8 @@ use std::collections::HashMap;
 use std::hash::{BuildHasherDefault, Hasher};
 
 use super::Hermite;
-use crate::mesh::VertexId;
 use crate::extract::cube::{CubeEdge, CORNER_OFFSETS};
+use crate::mesh::VertexId;
 use crate::volume::{Iso, Volume};
 
 /// A point a cell can name.
@@ -59,7 +59,7 @@ impl CellPoint {
         }
         let axis = diff.trailing_zeros() as u8;
         let lo = a & b; // the lower corner: the one without the differing bit
-        // r gathers the lower corner's bits on the two other axes, in increasing axis order.
+                        // r gathers the lower corner's bits on the two other axes, in increasing axis order.
         let others: [u8; 2] = match axis {
             0 => [1, 2],
             1 => [0, 2],
@@ -138,7 +138,8 @@ pub fn point_hermite<V: Volume + ?Sized>(
         return Hermite { point, normal: [0.0; 3] };
     }
     let n = (vol.gradient_at(p) * iso.sign()).normalize_or_zero();
-    let normal = if n == glam::Vec3::ZERO { glam::Vec3::from(flat()).normalize_or_zero().to_array() } else { n.to_array() };
+    let normal =
+        if n == glam::Vec3::ZERO { glam::Vec3::from(flat()).normalize_or_zero().to_array() } else { n.to_array() };
     Hermite { point, normal }
 }
 
