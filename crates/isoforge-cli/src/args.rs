@@ -25,6 +25,9 @@ pub enum Command {
     Check(CheckArgs),
     /// Build the classic three-metaball field, extract it, write demo.ply and print the report.
     Demo(DemoArgs),
+    /// Isolines of a 2D image (PNG, TIFF) or of one slice of a volume (marching squares), written
+    /// as SVG, GeoJSON or CSV.
+    Contour(ContourArgs),
 }
 
 /// Where the volume comes from (`extract -i INPUT`).
@@ -116,6 +119,43 @@ pub struct InfoArgs {
     /// Print JSON instead of text.
     #[arg(long)]
     pub json: bool,
+}
+
+#[derive(Debug, ClapArgs)]
+pub struct ContourArgs {
+    /// Image (.png .tif .tiff) or volume file (as for `extract -i`; raw with --dims/--dtype).
+    #[arg(value_name = "INPUT")]
+    pub input: String,
+    #[command(flatten)]
+    pub layout: LayoutArgs,
+    /// Iso value.
+    #[arg(long, value_name = "V")]
+    pub iso: String,
+    /// Which side of iso is inside (contours wind counter-clockwise around it, y up): below or above.
+    #[arg(long, value_name = "below|above", default_value = "below")]
+    pub inside: String,
+    /// Axis normal to the slice of a 3D volume.
+    #[arg(long, value_name = "x|y|z", default_value = "z")]
+    pub axis: String,
+    /// Slice index along --axis (default: the middle slice; 0 for 2D images).
+    #[arg(long, value_name = "K")]
+    pub slice: Option<u32>,
+    /// Saddle cells: decider (the bilinear interpolant decides), join-inside or join-outside
+    /// (fixed rules; scikit-image's `fully_connected='low'` is join-inside for inside below).
+    #[arg(long, value_name = "RULE", default_value = "decider")]
+    pub saddle: String,
+    /// Output (.svg .geojson .json .csv).
+    #[arg(short = 'o', long, value_name = "OUT")]
+    pub output: PathBuf,
+    /// Print the summary as JSON.
+    #[arg(long)]
+    pub json: bool,
+}
+
+impl ContourArgs {
+    pub fn input_args(&self) -> InputArgs {
+        InputArgs { input: self.input.clone(), layout: self.layout.clone() }
+    }
 }
 
 #[derive(Debug, ClapArgs)]

@@ -3,14 +3,16 @@
 use std::path::PathBuf;
 
 use anyhow::{anyhow, bail, Context, Result};
+use isoforge::extract::Saddle;
 use isoforge::grid::DType;
 use isoforge::pipeline::{Method, Normals, Options};
 use isoforge::topo::Guarantee;
 use isoforge::volume::catalog::{self, Builtin};
-use isoforge::volume::Inside;
+use isoforge::volume::{Inside, Iso};
+use isoforge_io::write::contour::ContourFormat;
 use isoforge_io::{Limits, MeshFormat, RawSpec};
 
-use crate::args::{CheckArgs, DemoArgs, ExtractArgs, InputArgs};
+use crate::args::{CheckArgs, ContourArgs, DemoArgs, ExtractArgs, InputArgs};
 
 /// Where values come from.
 pub enum Source {
@@ -164,25 +166,11 @@ impl ExtractConfig {
     pub fn from_args(a: &ExtractArgs) -> Result<Self> {
         let input = InputConfig::from_args(&a.input)?;
         let format = output_format(&a.output, a.ascii)?;
-        let iso = match &a.iso {
-            Some(s) => {
-                let v: f64 = s.trim().parse().map_err(|_| anyhow!("--iso {s:?}: not a number"))?;
-                if !v.is_finite() {
-                    bail!("--iso {s:?}: must be a finite number");
-                }
-                Some(v)
-            }
-            None => None,
-        };
+        let iso = a.iso.as_deref().map(parse_iso).transpose()?;
         if iso.is_none() && matches!(input.source, Source::File { .. }) {
             bail!("--iso is required for volume files (see `isoforge info {}` for a suggestion)", a.input.input);
         }
-        let inside = match a.inside.as_deref() {
-            None => None,
-            Some("below") => Some(Inside::Below),
-            Some("above") => Some(Inside::Above),
-            Some(s) => bail!("--inside {s:?}: must be below or above"),
-        };
+        let inside = a.inside.as_deref().map(parse_inside).transpose()?;
         let method = Method::parse(&a.method).ok_or_else(|| {
             let names: Vec<&str> = Method::ALL.iter().map(|m| m.name()).collect();
             anyhow!("--method {:?}: unknown method (available: {})", a.method, names.join(", "))
@@ -203,6 +191,67 @@ impl ExtractConfig {
             repeat: a.repeat,
             require: guarantees(&a.require)?,
             max_memory: a.max_memory.as_deref().map(|m| bytes_for("--max-memory", m)).transpose()?,
+        })
+    }
+}
+
+fn parse_iso(s: &str) -> Result<f64> {
+    let v: f64 = s.trim().parse().map_err(|_| anyhow!("--iso {s:?}: not a number"))?;
+    if !v.is_finite() {
+        bail!("--iso {s:?}: must be a finite number");
+    }
+    Ok(v)
+}
+
+fn parse_inside(s: &str) -> Result<Inside> {
+    match s {
+        "below" => Ok(Inside::Below),
+        "above" => Ok(Inside::Above),
+        s => bail!("--inside {s:?}: must be below or above"),
+    }
+}
+
+pub struct ContourConfig {
+    pub input: InputConfig,
+    pub iso: Iso,
+    pub axis: usize,
+    pub slice: Option<u32>,
+    pub saddle: Saddle,
+    pub output: PathBuf,
+    pub format: ContourFormat,
+    pub json: bool,
+}
+
+impl ContourConfig {
+    pub fn from_args(a: &ContourArgs) -> Result<Self> {
+        let input = InputConfig::from_args(&a.input_args())?;
+        if matches!(input.source, Source::Field(_)) {
+            bail!("{}: contour reads images and volume files; mesh fields with `isoforge extract`", a.input);
+        }
+        let format = ContourFormat::from_path(&a.output).ok_or_else(|| {
+            anyhow!("{}: unknown contour format (expected .svg, .geojson, .json or .csv)", a.output.display())
+        })?;
+        let axis = match a.axis.as_str() {
+            "x" => 0,
+            "y" => 1,
+            "z" => 2,
+            s => bail!("--axis {s:?}: must be x, y or z"),
+        };
+        let saddle = match a.saddle.as_str() {
+            "decider" => Saddle::Decider,
+            "join-inside" => Saddle::JoinInside,
+            "join-outside" => Saddle::JoinOutside,
+            s => bail!("--saddle {s:?}: must be decider, join-inside or join-outside"),
+        };
+        Ok(ContourConfig {
+            input,
+            iso: Iso { value: parse_iso(&a.iso)?, inside: parse_inside(&a.inside)? },
+            axis,
+            slice: a.slice,
+            saddle,
+            output: a.output.clone(),
+            format,
+            json: a.json,
         })
     }
 }

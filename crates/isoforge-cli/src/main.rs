@@ -18,6 +18,13 @@ use args::{Args, Command};
 use run::Outcome;
 
 fn main() -> ExitCode {
+    // Like other command-line tools, stop quietly when the reader of stdout goes away
+    // (`isoforge info x.nrrd | head`) instead of panicking on a broken pipe.
+    #[cfg(unix)]
+    // SAFETY: restoring the default disposition of SIGPIPE before any thread starts.
+    unsafe {
+        libc::signal(libc::SIGPIPE, libc::SIG_DFL);
+    }
     let args = match Args::try_parse() {
         Ok(a) => a,
         Err(e) => {
@@ -42,6 +49,7 @@ fn main() -> ExitCode {
         Command::Info(a) => config::InputConfig::from_args(&a.input_args()).and_then(|c| run::info(&c, a.json)),
         Command::Check(a) => config::CheckConfig::from_args(a).and_then(|c| run::check(&c)),
         Command::Demo(a) => config::DemoConfig::from_args(a).and_then(|c| run::demo(&c)),
+        Command::Contour(a) => config::ContourConfig::from_args(a).and_then(|c| run::contour(&c)),
     };
     let _ = std::io::stdout().flush();
     match result {

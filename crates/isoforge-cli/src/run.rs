@@ -15,7 +15,7 @@ use isoforge_io::write::ply::PlyStream;
 use isoforge_io::{Limits, MeshFormat, VolumeReader};
 use serde_json::json;
 
-use crate::config::{CheckConfig, DemoConfig, ExtractConfig, InputConfig, Source};
+use crate::config::{CheckConfig, ContourConfig, DemoConfig, ExtractConfig, InputConfig, Source};
 use crate::progress::Bar;
 use crate::report;
 
@@ -329,4 +329,71 @@ pub fn demo(c: &DemoConfig) -> Result<Outcome> {
         print!("{}", report::mesh_text(&rep));
     }
     Ok(if rep.is_watertight() { Outcome::Success } else { Outcome::CheckFailed })
+}
+
+/// The image of slice `k` along `axis` of `grid` (the axes that remain, in order, x fastest).
+fn slice_of(grid: &AnyGrid, axis: usize, k: u32) -> ([u32; 2], Vec<f64>) {
+    let d = grid.lattice().dims();
+    let (u, v) = match axis {
+        0 => (1, 2),
+        1 => (0, 2),
+        _ => (0, 1),
+    };
+    let mut values = Vec::with_capacity(d[u] as usize * d[v] as usize);
+    for b in 0..d[v] {
+        for a in 0..d[u] {
+            let mut p = [0u32; 3];
+            p[axis] = k;
+            p[u] = a;
+            p[v] = b;
+            values.push(grid.get_f64(p));
+        }
+    }
+    ([d[u], d[v]], values)
+}
+
+pub fn contour(c: &ContourConfig) -> Result<Outcome> {
+    let name = input_name(&c.input);
+    let Loaded::Grid(grid) = load(&c.input)? else { bail!("{name}: contour needs an image or a volume file") };
+    let dims = grid.lattice().dims();
+    let axis_name = ["x", "y", "z"][c.axis];
+    let k = match c.slice {
+        Some(k) if k >= dims[c.axis] => {
+            bail!("{name}: --slice {k} is outside 0..{} along {axis_name}", dims[c.axis])
+        }
+        Some(k) => k,
+        None => dims[c.axis] / 2,
+    };
+    let (size, values) = slice_of(&grid, c.axis, k);
+    let (lo, hi) = values.iter().fold((f64::INFINITY, f64::NEG_INFINITY), |(a, b), &v| (a.min(v), b.max(v)));
+    if c.iso.value < lo || c.iso.value > hi {
+        bail!("{name}: iso {} is outside the value range [{lo}, {hi}] of slice {axis_name} = {k}", c.iso.value);
+    }
+    let start = Instant::now();
+    let lines = isoforge::extract::marching_squares(size, &values, c.iso, c.saddle);
+    let seconds = start.elapsed().as_secs_f64();
+    isoforge_io::write::contour::write_contour_file(&c.output, &lines, c.format, size, c.iso.value)?;
+    let closed = lines.iter().filter(|l| l.closed).count();
+    let length: f64 = lines.iter().map(|l| l.length()).sum::<f64>() + 0.0; // no "-0" for no contour
+    let points: usize = lines.iter().map(|l| l.points.len()).sum();
+    if c.json {
+        let v = json!({
+            "input": name, "axis": axis_name, "slice": k, "size": size, "iso": c.iso.value,
+            "contours": lines.len(), "closed": closed, "open": lines.len() - closed,
+            "points": points, "length": length, "seconds": seconds,
+        });
+        println!("{v}");
+    } else {
+        println!(
+            "{}: {} contours ({closed} closed, {} open), {points} points, total length {length:.3} px \
+             (slice {axis_name} = {k} of {name}, {} x {}, iso {})",
+            c.output.display(),
+            lines.len(),
+            lines.len() - closed,
+            size[0],
+            size[1],
+            c.iso.value
+        );
+    }
+    Ok(Outcome::Success)
 }

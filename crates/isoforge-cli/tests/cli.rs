@@ -392,3 +392,79 @@ fn streamed_mesh_equals_in_memory_mesh() {
         &out,
     );
 }
+
+/// Runs `contour --json` and returns its summary.
+fn contour_summary(args: &[&str]) -> serde_json::Value {
+    let o = isoforge(args);
+    assert_eq!(o.status.code(), Some(0), "{args:?}: {}", stderr(&o));
+    serde_json::from_slice(&o.stdout).expect("contour --json prints JSON")
+}
+
+#[test]
+fn contours_agree_with_scikit_image_on_real_slices() {
+    // testdata/images/skimage.json: find_contours on the same PNGs (make_images.py). Its
+    // fully_connected='low' joins the low (inside = below) corners of saddle cells, 'high' the
+    // others; the same fixed rules here must give the same contours.
+    let dir = tempfile::tempdir().unwrap();
+    let images = testdata().join("images");
+    let reference: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(images.join("skimage.json")).unwrap()).unwrap();
+    let rows = reference["rows"].as_array().unwrap();
+    assert!(rows.len() >= 12);
+    for row in rows {
+        let file = images.join(row["file"].as_str().unwrap());
+        let level = row["level"].as_f64().unwrap().to_string();
+        let rule = if row["fully_connected"] == "low" { "join-inside" } else { "join-outside" };
+        let out = dir.path().join("c.geojson");
+        let s = contour_summary(&["contour", p(&file), "--iso", &level, "--saddle", rule, "-o", p(&out), "--json"]);
+        let (want_n, want_len) = (row["contours"].as_u64().unwrap(), row["length"].as_f64().unwrap());
+        assert_eq!(s["contours"].as_u64().unwrap(), want_n, "{row}");
+        assert_eq!(s["closed"].as_u64().unwrap(), row["closed"].as_u64().unwrap(), "{row}");
+        let len = s["length"].as_f64().unwrap();
+        assert!((len - want_len).abs() <= 1e-3 * want_len, "{row}: length {len}");
+        // The GeoJSON holds those contours.
+        let g: serde_json::Value = serde_json::from_str(&std::fs::read_to_string(&out).unwrap()).unwrap();
+        assert_eq!(g["features"].as_array().unwrap().len() as u64, want_n);
+    }
+}
+
+#[test]
+fn contour_reads_png_tiff_and_volume_slices_alike() {
+    let dir = tempfile::tempdir().unwrap();
+    let images = testdata().join("images");
+    let out = dir.path().join("c.csv");
+    let o = p(&out);
+    let png =
+        contour_summary(&["contour", p(&images.join("bunny_z180_u16.png")), "--iso", "32768.5", "-o", o, "--json"]);
+    let tif =
+        contour_summary(&["contour", p(&images.join("bunny_z180_u16.tif")), "--iso", "32768.5", "-o", o, "--json"]);
+    assert_eq!(png["length"], tif["length"]);
+    assert_eq!(png["contours"], tif["contours"]);
+    // Page 1 of the 3-page stack is engine_z64.png; the middle slice is the default.
+    let page = contour_summary(&["contour", p(&images.join("stack3.tif")), "--iso", "150.5", "-o", o, "--json"]);
+    let single = contour_summary(&["contour", p(&images.join("engine_z64.png")), "--iso", "150.5", "-o", o, "--json"]);
+    assert_eq!(page["slice"], 1);
+    assert_eq!(page["length"], single["length"]);
+    // The decider closes every contour of the engine slice (its surface stays inside the image).
+    assert_eq!(single["open"], 0);
+    // A y-slice of a volume; CSV rows = points.
+    let vol = testdata().join("volumes/u8_raw.nrrd");
+    let s = contour_summary(&["contour", p(&vol), "--iso", "10.5", "--axis", "y", "--slice", "1", "-o", o, "--json"]);
+    let rows = std::fs::read_to_string(&out).unwrap().lines().count() as u64;
+    assert_eq!(rows, s["points"].as_u64().unwrap() + 1);
+}
+
+#[test]
+fn contour_rejects_bad_requests() {
+    let dir = tempfile::tempdir().unwrap();
+    let out = dir.path().join("c.svg");
+    let o = p(&out);
+    let png = testdata().join("images/cthead_z50.png");
+    fails(&["contour", p(&png), "--iso", "1000", "-o", o], "outside the value range", &out);
+    fails(&["contour", p(&png), "--iso", "50", "--slice", "3", "-o", o], "--slice 3 is outside 0..1", &out);
+    fails(&["contour", p(&png), "--iso", "50", "--saddle", "maybe", "-o", o], "--saddle \"maybe\"", &out);
+    fails(&["contour", p(&png), "--iso", "50", "-o", p(&dir.path().join("c.pdf"))], "unknown contour format", &out);
+    let bad = dir.path().join("bad.png");
+    std::fs::write(&bad, b"\x89PNG\r\n\x1a\nnot really").unwrap();
+    fails(&["contour", p(&bad), "--iso", "50", "-o", o], "bad.png", &out);
+}

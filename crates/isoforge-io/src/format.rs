@@ -14,6 +14,10 @@ pub enum VolumeFormat {
     Nifti,
     /// MetaImage (`.mha`, `.mhd`).
     MetaImage,
+    /// PNG image (`.png`): one slice.
+    Png,
+    /// TIFF image or multi-page stack (`.tif`, `.tiff`).
+    Tiff,
 }
 
 /// A mesh file format.
@@ -46,6 +50,10 @@ impl VolumeFormat {
             VolumeFormat::Nifti
         } else if n.ends_with(".mha") || n.ends_with(".mhd") {
             VolumeFormat::MetaImage
+        } else if n.ends_with(".png") {
+            VolumeFormat::Png
+        } else if n.ends_with(".tif") || n.ends_with(".tiff") {
+            VolumeFormat::Tiff
         } else if n.ends_with(".raw") {
             VolumeFormat::Raw
         } else {
@@ -60,6 +68,8 @@ impl VolumeFormat {
             VolumeFormat::Nrrd => "NRRD",
             VolumeFormat::Nifti => "NIfTI-1",
             VolumeFormat::MetaImage => "MetaImage",
+            VolumeFormat::Png => "PNG",
+            VolumeFormat::Tiff => "TIFF",
         }
     }
 }

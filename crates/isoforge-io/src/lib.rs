@@ -54,11 +54,15 @@ pub fn open_volume(path: &Path, limits: &Limits) -> Result<VolumeReader> {
         Some(VolumeFormat::Nifti) => read::nifti::open_nifti(path, limits),
         #[cfg(feature = "metaimage")]
         Some(VolumeFormat::MetaImage) => read::metaimage::open_metaimage(path, limits),
+        #[cfg(feature = "png")]
+        Some(VolumeFormat::Png) => read::png::open_png(path, limits),
+        #[cfg(feature = "tiff")]
+        Some(VolumeFormat::Tiff) => read::tiff::open_tiff(path, limits),
         Some(VolumeFormat::Raw) => unsupported("raw volumes need their layout: pass --dims X,Y,Z and --dtype"),
         #[allow(unreachable_patterns)]
         Some(f) => unsupported(&format!("{} support is not compiled in", f.name())),
         None => unsupported(
-            "unknown volume format (expected .nrrd, .nhdr, .nii, .nii.gz, .mha, .mhd, or .raw with --dims/--dtype)",
+            "unknown volume format (expected .nrrd, .nhdr, .nii, .nii.gz, .mha, .mhd, .png, .tif, .tiff, or .raw with --dims/--dtype)",
         ),
     }
 }

@@ -13,10 +13,14 @@ pub mod nrrd;
 pub mod obj;
 #[cfg(feature = "off")]
 pub mod off;
-#[cfg(feature = "ply")]
 pub mod ply;
+#[cfg(feature = "ply")]
+#[cfg(feature = "png")]
+pub mod png;
 #[cfg(feature = "raw")]
 pub mod raw;
 #[cfg(feature = "stl")]
 pub mod stl;
 pub mod stream;
+#[cfg(feature = "tiff")]
+pub mod tiff;

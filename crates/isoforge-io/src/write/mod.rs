@@ -1,6 +1,7 @@
-//! Mesh writers: PLY (binary or ASCII), OBJ, binary STL, OFF. All go through
-//! [`write_atomic`](crate::write_atomic): a failed write leaves no file.
+//! Mesh writers: PLY (binary or ASCII), OBJ, binary STL, OFF; contour writers (SVG, GeoJSON,
+//! CSV). All go through [`write_atomic`](crate::write_atomic): a failed write leaves no file.
 
+pub mod contour;
 #[cfg(feature = "obj")]
 pub mod obj;
 #[cfg(feature = "off")]

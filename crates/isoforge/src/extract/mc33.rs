@@ -100,7 +100,7 @@ pub(crate) fn face_centre_inside(d: &[f32; 8], f: usize) -> bool {
 /// For a square with values p, q, r, s counter-clockwise and an ambiguous sign pattern (p, r on
 /// one side, q, s on the other): is the bilinear saddle value `(pr − qs) / (p + r − q − s)` < 0?
 #[inline]
-fn saddle_inside(p: f64, q: f64, r: f64, s: f64) -> bool {
+pub(crate) fn saddle_inside(p: f64, q: f64, r: f64, s: f64) -> bool {
     let num = p * r - q * s;
     // The denominator is < 0 when p, r are inside and > 0 when q, s are.
     if p < 0.0 {

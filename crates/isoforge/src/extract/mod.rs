@@ -10,10 +10,12 @@
 pub mod cube;
 pub mod marching_cubes;
 pub mod mc33;
+pub mod squares;
 pub mod tetrahedra;
 
 pub use marching_cubes::MarchingCubes;
 pub use mc33::MarchingCubes33;
+pub use squares::{marching_squares, Polyline, Saddle};
 pub use tetrahedra::{Decomposition, MarchingTetrahedra};
 
 use crate::walk::Cell;
