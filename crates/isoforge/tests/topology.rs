@@ -409,7 +409,13 @@ const CATALOGUE: &[(&str, [f32; 8], usize, i64)] = &[
         4,
     ),
     (
-        "12.2 / 12.3: one face joins",
+        "12.2: one face joins (x = 1 when the inside is {0, 1, 2, 7})",
+        [-0.48580158, 0.72556686, 0.8404759, -0.8957728, -0.65527225, -0.33243382, 0.34166586, 0.26762402],
+        1,
+        2,
+    ),
+    (
+        "12.3: one face joins, the mirror image of 12.2 (y = 1)",
         [-0.89965534, 0.4764744, 0.8197322, -0.50111914, 0.7964233, 0.9393649, -0.33486974, -0.19444704],
         1,
         2,
@@ -516,8 +522,7 @@ fn mc33_catalogue_has_the_expected_topology_in_every_rotation() {
         classes.insert(class_of(set, &rots));
     }
     assert_eq!(classes.len(), 15, "every one of the 15 sign configurations is in the catalogue");
-    // Chernyaev's 33 configurations and subcases, each at least once (12.2 and 12.3 share a row,
-    // their topology being the same; complemented rows are extra).
+    // Chernyaev's 33 configurations and subcases, each at least once (complemented rows are extra).
     assert!(CATALOGUE.len() >= 33);
 }
 
@@ -622,7 +627,11 @@ fn print_catalogue() {
         // MC33 finds the distinct topologies fast; each representative is then checked
         // against the refined oracle.
         let r = topo::check(&extract(&single_cell(&v), &mut MarchingCubes33));
-        seen.entry((class, joined, arrangement(&v), r.components.len(), r.euler)).or_insert(v);
+        let mut arr = arrangement(&v);
+        if class == 12 && joined == 1 {
+            arr += 100 * chirality_12(&v, set, &rots);
+        }
+        seen.entry((class, joined, arr, r.components.len(), r.euler)).or_insert(v);
     }
     for ((class, joined, arr, comps, chi), v) in &seen {
         let o = topo::check(&oracle_mesh(&single_cell(v), 48));
@@ -647,6 +656,23 @@ fn arrangement(v: &[f32; 8]) -> u8 {
     let touched = degree.iter().filter(|&&d| d > 0).count() as u8;
     let max = *degree.iter().max().unwrap();
     max + if edges >= 3 && touched == edges { 10 } else { 0 }
+}
+
+/// Case 12 with one face joined comes in two mirror images (no rotation maps one to the other):
+/// rotated so that the inside corners are {0, 1, 2, 7}, the joined face is x = 1 (corners 1–7:
+/// returns 1, "12.2") or y = 1 (corners 2–7: returns 2, "12.3").
+fn chirality_12(v: &[f32; 8], set: u8, rots: &[[u8; 8]]) -> u8 {
+    const CANON: u8 = 0b1000_0111;
+    let r = rots
+        .iter()
+        .find(|r| (0..8).filter(|&c| set >> c & 1 == 1).map(|c| 1u8 << r[c]).sum::<u8>() == CANON)
+        .expect("a class-12 set rotates onto {0, 1, 2, 7}");
+    let w = rotate(v, r);
+    if face_joins_inside(&w, 1) {
+        1
+    } else {
+        2
+    }
 }
 
 fn face_joins_inside(v: &[f32; 8], f: usize) -> bool {
