@@ -92,6 +92,45 @@ def main():
     w("mha_missing_external.mhd", mha + "ElementDataFile = nowhere.raw\n")
     w("mha_bad_spacing.mha", mha + "ElementSpacing = 1 0 1\nElementDataFile = LOCAL\n" + "\0" * 64)
     w("mha_no_equals.mha", "ObjectType Image\n")
+    # MRC / CCP4
+    def mrc_header(nx=4, ny=4, nz=4, mode=2, stamp=b"DD\0\0", nsymbt=0, mapcrs=(1, 2, 3)):
+        h = bytearray(1024)
+        struct.pack_into("<4i", h, 0, nx, ny, nz, mode)
+        struct.pack_into("<3i", h, 28, nx, ny, nz)
+        struct.pack_into("<3f", h, 40, float(nx), float(ny), float(nz))
+        struct.pack_into("<3i", h, 64, *mapcrs)
+        struct.pack_into("<i", h, 92, nsymbt)
+        h[208:212] = b"MAP "
+        h[212:216] = stamp
+        return bytes(h)
+    w("mrc_short_header.mrc", mrc_header()[:500])
+    w("mrc_negative_nx.mrc", mrc_header(nx=-4) + bytes(256))
+    w("mrc_complex_mode.mrc", mrc_header(mode=4) + bytes(512))
+    w("mrc_unknown_mode.mrc", mrc_header(mode=9) + bytes(256))
+    w("mrc_truncated_data.mrc", mrc_header() + bytes(100))
+    w("mrc_permuted_axes.mrc", mrc_header(mapcrs=(3, 1, 2)) + bytes(256))
+    w("mrc_huge.mrc", mrc_header(nx=100000, ny=100000, nz=100000))
+    w("mrc_nan.mrc", mrc_header(nx=2, ny=2, nz=2) + struct.pack("<8f", 0, 0, 0, float("nan"), 0, 0, 0, 0))
+    w("mrc_negative_nsymbt.mrc", mrc_header(nsymbt=-5) + bytes(256))
+    # VTK legacy
+    vtk_head = "# vtk DataFile Version 3.0\ntest\n{enc}\nDATASET {ds}\nDIMENSIONS {dims}\nSPACING 1 1 1\nORIGIN 0 0 0\nPOINT_DATA {n}\nSCALARS v {ty}\nLOOKUP_TABLE default\n"
+    def vtkf(enc="ASCII", ds="STRUCTURED_POINTS", dims="2 2 2", n=8, ty="float"):
+        return vtk_head.format(enc=enc, ds=ds, dims=dims, n=n, ty=ty)
+    w("vtk_bad_magic.vtk", "# not vtk\n")
+    w("vtk_polydata.vtk", vtkf(ds="POLYDATA") + "0 " * 8)
+    w("vtk_bad_dims.vtk", vtkf(dims="2 -2 2") + "0 " * 8)
+    w("vtk_point_count_mismatch.vtk", vtkf(n=9) + "0 " * 8)
+    w("vtk_short_ascii.vtk", vtkf() + "0 1 2")
+    w("vtk_bad_number.vtk", vtkf() + "0 1 x 3 4 5 6 7")
+    w("vtk_truncated_binary.vtk", vtkf(enc="BINARY").encode() + bytes(10))
+    w("vtk_unknown_type.vtk", vtkf(ty="bit") + "0 " * 8)
+    w("vtk_no_lookup_table.vtk", "# vtk DataFile Version 3.0\nt\nASCII\nDATASET STRUCTURED_POINTS\nDIMENSIONS 2 2 2\n")
+    w("vtk_nan.vtk", vtkf() + "0 0 0 nan 0 0 0 0")
+    # Images
+    w("png_truncated.png", b"\x89PNG\r\n\x1a\n\x00\x00\x00\rIHDR\x00\x00\x01\x00")
+    w("png_not_png.png", b"GIF89a not a png at all")
+    w("tiff_bad_magic.tif", b"II\x2b\x00garbage")
+    w("tiff_truncated.tif", b"II\x2a\x00\x08\x00\x00\x00\x05\x00")
     # Meshes
     w("ply_bad_magic.ply", "plx\nformat ascii 1.0\nend_header\n")
     w("ply_no_end_header.ply", "ply\nformat ascii 1.0\nelement vertex 3\n")

@@ -28,6 +28,8 @@ pub enum Command {
     /// Isolines of a 2D image (PNG, TIFF) or of one slice of a volume (marching squares), written
     /// as SVG, GeoJSON or CSV.
     Contour(ContourArgs),
+    /// Convert a volume to NRRD (.nrrd) or NIfTI-1 (.nii, .nii.gz), keeping type and geometry.
+    Convert(ConvertArgs),
 }
 
 /// Where the volume comes from (`extract -i INPUT`).
@@ -153,6 +155,24 @@ pub struct ContourArgs {
 }
 
 impl ContourArgs {
+    pub fn input_args(&self) -> InputArgs {
+        InputArgs { input: self.input.clone(), layout: self.layout.clone() }
+    }
+}
+
+#[derive(Debug, ClapArgs)]
+pub struct ConvertArgs {
+    /// Volume or image file (as for `extract -i`; raw with --dims/--dtype).
+    #[arg(value_name = "INPUT")]
+    pub input: String,
+    /// Output volume (.nrrd .nii .nii.gz).
+    #[arg(value_name = "OUTPUT")]
+    pub output: PathBuf,
+    #[command(flatten)]
+    pub layout: LayoutArgs,
+}
+
+impl ConvertArgs {
     pub fn input_args(&self) -> InputArgs {
         InputArgs { input: self.input.clone(), layout: self.layout.clone() }
     }

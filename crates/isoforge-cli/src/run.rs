@@ -397,3 +397,12 @@ pub fn contour(c: &ContourConfig) -> Result<Outcome> {
     }
     Ok(Outcome::Success)
 }
+
+pub fn convert(input: &InputConfig, output: &Path) -> Result<Outcome> {
+    let name = input_name(input);
+    let Loaded::Grid(grid) = load(input)? else { bail!("{name}: convert reads volume and image files, not fields") };
+    isoforge_io::write_volume(output, &grid)?;
+    let d = grid.lattice().dims();
+    eprintln!("{}: {} x {} x {} {} samples from {name}", output.display(), d[0], d[1], d[2], grid.dtype());
+    Ok(Outcome::Success)
+}

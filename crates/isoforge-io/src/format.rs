@@ -14,6 +14,10 @@ pub enum VolumeFormat {
     Nifti,
     /// MetaImage (`.mha`, `.mhd`).
     MetaImage,
+    /// MRC2014 / CCP4 map (`.mrc`, `.map`, `.ccp4`, `.mrcs`).
+    Mrc,
+    /// VTK legacy structured points (`.vtk`).
+    VtkLegacy,
     /// PNG image (`.png`): one slice.
     Png,
     /// TIFF image or multi-page stack (`.tif`, `.tiff`).
@@ -50,6 +54,10 @@ impl VolumeFormat {
             VolumeFormat::Nifti
         } else if n.ends_with(".mha") || n.ends_with(".mhd") {
             VolumeFormat::MetaImage
+        } else if n.ends_with(".mrc") || n.ends_with(".map") || n.ends_with(".ccp4") || n.ends_with(".mrcs") {
+            VolumeFormat::Mrc
+        } else if n.ends_with(".vtk") {
+            VolumeFormat::VtkLegacy
         } else if n.ends_with(".png") {
             VolumeFormat::Png
         } else if n.ends_with(".tif") || n.ends_with(".tiff") {
@@ -68,6 +76,8 @@ impl VolumeFormat {
             VolumeFormat::Nrrd => "NRRD",
             VolumeFormat::Nifti => "NIfTI-1",
             VolumeFormat::MetaImage => "MetaImage",
+            VolumeFormat::Mrc => "MRC",
+            VolumeFormat::VtkLegacy => "VTK legacy",
             VolumeFormat::Png => "PNG",
             VolumeFormat::Tiff => "TIFF",
         }

@@ -54,6 +54,10 @@ pub fn open_volume(path: &Path, limits: &Limits) -> Result<VolumeReader> {
         Some(VolumeFormat::Nifti) => read::nifti::open_nifti(path, limits),
         #[cfg(feature = "metaimage")]
         Some(VolumeFormat::MetaImage) => read::metaimage::open_metaimage(path, limits),
+        #[cfg(feature = "mrc")]
+        Some(VolumeFormat::Mrc) => read::mrc::open_mrc(path, limits),
+        #[cfg(feature = "vtk")]
+        Some(VolumeFormat::VtkLegacy) => read::vtk::open_vtk(path, limits),
         #[cfg(feature = "png")]
         Some(VolumeFormat::Png) => read::png::open_png(path, limits),
         #[cfg(feature = "tiff")]
@@ -62,8 +66,34 @@ pub fn open_volume(path: &Path, limits: &Limits) -> Result<VolumeReader> {
         #[allow(unreachable_patterns)]
         Some(f) => unsupported(&format!("{} support is not compiled in", f.name())),
         None => unsupported(
-            "unknown volume format (expected .nrrd, .nhdr, .nii, .nii.gz, .mha, .mhd, .png, .tif, .tiff, or .raw with --dims/--dtype)",
+            "unknown volume format (expected .nrrd, .nhdr, .nii, .nii.gz, .mha, .mhd, .mrc, .map, .ccp4, .vtk, .png, .tif, .tiff, or .raw with --dims/--dtype)",
         ),
+    }
+}
+
+/// Writes a volume, choosing the format by extension: `.nrrd` (gzip-encoded), `.nii`, `.nii.gz`.
+/// Atomic: a failed write leaves no file.
+///
+/// # Errors
+/// [`Error::Unsupported`] for another extension, or NIfTI-1 dims above 32767;
+/// [`Error::Io`] when the file cannot be written.
+#[cfg(all(feature = "nrrd", feature = "nifti"))]
+pub fn write_volume(path: &Path, grid: &AnyGrid) -> Result<()> {
+    let unsupported = |detail: String| Err(Error::Unsupported { path: path.to_path_buf(), detail });
+    match VolumeFormat::from_path(path) {
+        Some(VolumeFormat::Nrrd) => write_atomic(path, |w| write::volume::write_nrrd(w, grid, true)),
+        Some(VolumeFormat::Nifti) => {
+            let dims = grid.lattice().dims();
+            if dims.iter().any(|&d| d > i16::MAX as u32) {
+                return unsupported(format!("dims {dims:?}: NIfTI-1 stores dims as 16-bit integers (at most 32767)"));
+            }
+            let name = path.to_string_lossy().to_ascii_lowercase();
+            if name.ends_with(".hdr") {
+                return unsupported("write a single-file .nii or .nii.gz (not .hdr/.img pairs)".into());
+            }
+            write_atomic(path, |w| write::volume::write_nifti(w, grid, name.ends_with(".gz")))
+        }
+        _ => unsupported("volumes are written as .nrrd, .nii or .nii.gz".into()),
     }
 }
 

@@ -63,6 +63,19 @@ fn messages_name_the_field_and_value() {
     assert!(msg("nrrd_nan.nrrd").contains("sample (1, 1, 0) is NaN"), "{}", msg("nrrd_nan.nrrd"));
     assert!(msg("nifti_complex_datatype.nii").contains("datatype 32"));
     assert!(msg("ply_index_out_of_range.ply").contains("face 0: vertex index 7"));
+    assert!(msg("mrc_negative_nx.mrc").contains("NX = -4"));
+    assert!(msg("mrc_complex_mode.mrc").contains("MODE 4"));
+    assert!(msg("mrc_permuted_axes.mrc").contains("MAPC MAPR MAPS = [3, 1, 2]"));
+    assert!(
+        msg("mrc_truncated_data.mrc").contains("map data ends after 100 of the 256 bytes"),
+        "{}",
+        msg("mrc_truncated_data.mrc")
+    );
+    assert!(msg("mrc_nan.mrc").contains("sample (1, 1, 0) is NaN"), "{}", msg("mrc_nan.mrc"));
+    assert!(msg("vtk_point_count_mismatch.vtk").contains("POINT_DATA 9"));
+    assert!(msg("vtk_bad_number.vtk").contains("value 3 \"x\""), "{}", msg("vtk_bad_number.vtk"));
+    assert!(msg("vtk_polydata.vtk").contains("DATASET POLYDATA"));
+    assert!(msg("vtk_bad_dims.vtk").contains("line 5: DIMENSIONS"));
 }
 
 /// Every prefix of each small valid file: an error or a value, never a panic.

@@ -111,3 +111,39 @@ pub(crate) fn split_axes(axes: [[f64; 3]; 3]) -> Option<([f64; 3], [[f64; 3]; 3]
     }
     Some((spacing, dir))
 }
+
+/// Parses whitespace- or comma-separated ASCII samples into little-endian bytes of `dtype`.
+pub(crate) fn ascii_to_bytes(ctx: Ctx, data: &[u8], dims: [u32; 3], dtype: DType) -> Result<Vec<u8>> {
+    let text =
+        std::str::from_utf8(data).map_err(|e| ctx.bad(format!("ASCII data: byte {} is not text", e.valid_up_to())))?;
+    let n = dims.iter().map(|&d| d as usize).product::<usize>();
+    let mut out = Vec::with_capacity(n * dtype.size());
+    let mut count = 0usize;
+    for tok in text.split(|c: char| c.is_whitespace() || c == ',').filter(|t| !t.is_empty()) {
+        if count == n {
+            break;
+        }
+        let bad = || ctx.bad(format!("ASCII data: value {} {tok:?} is not a {dtype}", count + 1));
+        macro_rules! put {
+            ($t:ty) => {{
+                let v: $t = tok.parse().map_err(|_| bad())?;
+                out.extend_from_slice(&v.to_le_bytes());
+            }};
+        }
+        match dtype {
+            DType::U8 => put!(u8),
+            DType::I8 => put!(i8),
+            DType::U16 => put!(u16),
+            DType::I16 => put!(i16),
+            DType::U32 => put!(u32),
+            DType::I32 => put!(i32),
+            DType::F32 => put!(f32),
+            _ => put!(f64),
+        }
+        count += 1;
+    }
+    if count < n {
+        return Err(ctx.bad(format!("ASCII data has {count} values, the header declares {n}")));
+    }
+    Ok(out)
+}

@@ -5,6 +5,8 @@ pub(crate) mod decode;
 mod mesh_text;
 #[cfg(feature = "metaimage")]
 pub mod metaimage;
+#[cfg(feature = "mrc")]
+pub mod mrc;
 #[cfg(feature = "nifti")]
 pub mod nifti;
 #[cfg(feature = "nrrd")]
@@ -13,8 +15,8 @@ pub mod nrrd;
 pub mod obj;
 #[cfg(feature = "off")]
 pub mod off;
-pub mod ply;
 #[cfg(feature = "ply")]
+pub mod ply;
 #[cfg(feature = "png")]
 pub mod png;
 #[cfg(feature = "raw")]
@@ -24,3 +26,5 @@ pub mod stl;
 pub mod stream;
 #[cfg(feature = "tiff")]
 pub mod tiff;
+#[cfg(feature = "vtk")]
+pub mod vtk;

@@ -10,3 +10,5 @@ pub mod off;
 pub mod ply;
 #[cfg(feature = "stl")]
 pub mod stl;
+#[cfg(all(feature = "nrrd", feature = "nifti"))]
+pub mod volume;

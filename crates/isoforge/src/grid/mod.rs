@@ -12,4 +12,4 @@ pub use dense::{AnyGrid, DenseGrid, NonFinite, ValueRange};
 pub use histogram::Histogram;
 pub use lattice::{Lattice, IDENTITY};
 pub use resample::upsample_trilinear;
-pub use sample::{as_bytes_mut, DType, Sample, Threshold};
+pub use sample::{as_bytes, as_bytes_mut, DType, Sample, Threshold};

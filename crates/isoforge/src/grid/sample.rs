@@ -145,6 +145,14 @@ pub fn as_bytes_mut<S: Sample>(samples: &mut [S]) -> &mut [u8] {
     unsafe { std::slice::from_raw_parts_mut(samples.as_mut_ptr().cast::<u8>(), len) }
 }
 
+/// Views samples as bytes (native byte order), to write them to files.
+pub fn as_bytes<S: Sample>(samples: &[S]) -> &[u8] {
+    let len = std::mem::size_of_val(samples);
+    // SAFETY: as for `as_bytes_mut`: primitive types without padding, alignment 1 for `u8`, the
+    // same memory and length, read-only.
+    unsafe { std::slice::from_raw_parts(samples.as_ptr().cast::<u8>(), len) }
+}
+
 #[inline(always)]
 fn classify_generic<S: Sample>(row: &[S], th: Threshold<S>, out: &mut [u64]) {
     let fill = match th {
