@@ -76,9 +76,24 @@ pub struct ExtractArgs {
     /// Output mesh (.ply .obj .stl .off).
     #[arg(short = 'o', long = "output", value_name = "OUTPUT")]
     pub output: PathBuf,
-    /// Iso value (required for volume files; built-in fields have a default).
-    #[arg(long, value_name = "V", allow_hyphen_values = true)]
+    /// Iso value, or several separated by commas (`--iso 300,1200`: one mesh per value, written to
+    /// OUT-300.ply, OUT-1200.ply…). Required for volume files; built-in fields have a default.
+    #[arg(long, value_name = "V[,V…]", allow_hyphen_values = true)]
     pub iso: Option<String>,
+    /// Only the half-open index box i0:i1,j0:j1,k0:k1 of the volume (empty bounds take the whole
+    /// axis, e.g. `:,:,100:200`).
+    #[arg(long, value_name = "I0:I1,J0:J1,K0:K1")]
+    pub roi: Option<String>,
+    /// Only the lattice points inside this world box (x0:x1,y0:y1,z0:z1, in the file's units).
+    #[arg(long, value_name = "X0:X1,Y0:Y1,Z0:Z1", conflicts_with = "roi", allow_hyphen_values = true)]
+    pub roi_world: Option<String>,
+    /// Pad the volume with one layer of outside points so surfaces touching its faces are closed.
+    #[arg(long)]
+    pub close: bool,
+    /// Coordinates of the written vertices: world (spacing, origin and direction of the file) or
+    /// index (voxel indices of the input volume).
+    #[arg(long, value_name = "world|index", default_value = "world")]
+    pub space: String,
     /// Which side of iso is inside: below (value < iso, default for files) or above.
     #[arg(long, value_name = "below|above")]
     pub inside: Option<String>,

@@ -31,7 +31,9 @@ pub struct ExtractConfig {
     pub input: InputConfig,
     pub output: PathBuf,
     pub format: MeshFormat,
-    pub iso: Option<f64>,
+    /// Iso values (empty: the field's default).
+    pub isos: Vec<f64>,
+    pub region: Region,
     pub inside: Option<Inside>,
     pub options: Options,
     pub time_json: Option<PathBuf>,
@@ -166,8 +168,11 @@ impl ExtractConfig {
     pub fn from_args(a: &ExtractArgs) -> Result<Self> {
         let input = InputConfig::from_args(&a.input)?;
         let format = output_format(&a.output, a.ascii)?;
-        let iso = a.iso.as_deref().map(parse_iso).transpose()?;
-        if iso.is_none() && matches!(input.source, Source::File { .. }) {
+        let isos: Vec<f64> = match a.iso.as_deref() {
+            Some(list) => list.split(',').map(parse_iso).collect::<Result<_>>()?,
+            None => Vec::new(),
+        };
+        if isos.is_empty() && matches!(input.source, Source::File { .. }) {
             bail!("--iso is required for volume files (see `isoforge info {}` for a suggestion)", a.input.input);
         }
         let inside = a.inside.as_deref().map(parse_inside).transpose()?;
@@ -184,7 +189,8 @@ impl ExtractConfig {
             input,
             output: a.output.clone(),
             format,
-            iso,
+            isos,
+            region: Region::from_args(a)?,
             inside,
             options: Options { method, normals, threads: None },
             time_json: a.time_json.clone(),
@@ -193,6 +199,81 @@ impl ExtractConfig {
             max_memory: a.max_memory.as_deref().map(|m| bytes_for("--max-memory", m)).transpose()?,
         })
     }
+}
+
+/// Where to cut and how to place the volume before extraction.
+#[derive(Debug, Clone, Default)]
+pub struct Region {
+    pub roi: Option<Roi>,
+    pub close: bool,
+    pub index_space: bool,
+}
+
+#[derive(Debug, Clone)]
+pub enum Roi {
+    /// Half-open index ranges; `None` bounds take the whole axis.
+    Index([(Option<u32>, Option<u32>); 3]),
+    /// A world box, per axis.
+    World([(f64, f64); 3]),
+}
+
+impl Region {
+    fn from_args(a: &ExtractArgs) -> Result<Self> {
+        let roi = match (&a.roi, &a.roi_world) {
+            (Some(s), _) => {
+                let axes = split3("--roi", s)?;
+                let mut r = [(None, None); 3];
+                for (k, (lo, hi)) in axes.iter().enumerate() {
+                    let num = |t: &str| -> Result<Option<u32>> {
+                        if t.trim().is_empty() {
+                            return Ok(None);
+                        }
+                        t.trim().parse().map(Some).map_err(|_| anyhow!("--roi {s:?}: {t:?} is not a point index"))
+                    };
+                    r[k] = (num(lo)?, num(hi)?);
+                }
+                Some(Roi::Index(r))
+            }
+            (None, Some(s)) => {
+                let axes = split3("--roi-world", s)?;
+                let mut r = [(0.0, 0.0); 3];
+                for (k, (lo, hi)) in axes.iter().enumerate() {
+                    let num = |t: &str| -> Result<f64> {
+                        t.trim()
+                            .parse::<f64>()
+                            .ok()
+                            .filter(|v| v.is_finite())
+                            .ok_or_else(|| anyhow!("--roi-world {s:?}: {t:?} is not a finite number"))
+                    };
+                    r[k] = (num(lo)?, num(hi)?);
+                }
+                Some(Roi::World(r))
+            }
+            (None, None) => None,
+        };
+        let index_space = match a.space.as_str() {
+            "world" => false,
+            "index" => true,
+            s => bail!("--space {s:?}: must be world or index"),
+        };
+        Ok(Region { roi, close: a.close, index_space })
+    }
+
+    pub fn is_identity(&self) -> bool {
+        self.roi.is_none() && !self.close && !self.index_space
+    }
+}
+
+/// Splits `a:b,c:d,e:f` into three (lo, hi) text pairs.
+fn split3<'a>(flag: &str, s: &'a str) -> Result<Vec<(&'a str, &'a str)>> {
+    let parts: Vec<&str> = s.split(',').collect();
+    if parts.len() != 3 {
+        bail!("{flag} {s:?}: expected three ranges lo:hi separated by commas");
+    }
+    parts
+        .into_iter()
+        .map(|p| p.split_once(':').ok_or_else(|| anyhow!("{flag} {s:?}: range {p:?} has no ':'")))
+        .collect()
 }
 
 fn parse_iso(s: &str) -> Result<f64> {

@@ -15,11 +15,12 @@ use isoforge_io::write::ply::PlyStream;
 use isoforge_io::{Limits, MeshFormat, VolumeReader};
 use serde_json::json;
 
-use crate::config::{CheckConfig, ContourConfig, DemoConfig, ExtractConfig, InputConfig, Source};
+use crate::config::{CheckConfig, ContourConfig, DemoConfig, ExtractConfig, InputConfig, Region, Roi, Source};
 use crate::progress::Bar;
 use crate::report;
 
 /// What the process exits with when the command itself succeeded.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
 pub enum Outcome {
     /// Everything asked for holds.
     Success,
@@ -150,39 +151,135 @@ pub fn extract(c: &ExtractConfig) -> Result<Outcome> {
         Loaded::Field(b) => b.iso,
         Loaded::Grid(_) | Loaded::Stream(_) => Iso::below(0.0),
     };
-    let iso = Iso { value: c.iso.unwrap_or(default_iso.value), inside: c.inside.unwrap_or(default_iso.inside) };
-    if let Loaded::Grid(g) = &loaded {
-        let r = g.value_range().ok_or_else(|| anyhow!("{name}: the volume has no samples"))?;
-        if iso.value < r.min || iso.value > r.max {
-            bail!(
-                "{name}: iso {} is outside the value range [{}, {}] (see `isoforge info {name}`)",
-                iso.value,
-                r.min,
-                r.max
-            );
-        }
-    }
+    let inside = c.inside.unwrap_or(default_iso.inside);
+    let isos: Vec<Iso> = if c.isos.is_empty() {
+        vec![Iso { value: default_iso.value, inside }]
+    } else {
+        c.isos.iter().map(|&value| Iso { value, inside }).collect()
+    };
     let bar = Bar::new("extracting");
     let loaded = match loaded {
         Loaded::Stream(_) if c.repeat > 1 => bail!("--repeat: out-of-core extraction (--max-memory) runs once"),
-        Loaded::Stream(reader) => return extract_streaming(c, reader, iso, &name, &bar),
-        in_memory => in_memory,
+        Loaded::Stream(_) if isos.len() > 1 => bail!("--iso with several values: out-of-core extraction runs one"),
+        Loaded::Stream(_) if !c.region.is_identity() => {
+            bail!("--roi, --close and --space index need the volume in memory (drop --max-memory)")
+        }
+        Loaded::Stream(reader) => return extract_streaming(c, reader, isos[0], &name, &bar),
+        Loaded::Field(_) if !c.region.is_identity() => {
+            bail!("--roi, --close and --space index apply to volume files (a field has its own lattice)")
+        }
+        Loaded::Grid(g) => {
+            let r = g.value_range().ok_or_else(|| anyhow!("{name}: the volume has no samples"))?;
+            for iso in &isos {
+                if iso.value < r.min || iso.value > r.max {
+                    bail!(
+                        "{name}: iso {} is outside the value range [{}, {}] (see `isoforge info {name}`)",
+                        iso.value,
+                        r.min,
+                        r.max
+                    );
+                }
+            }
+            // Padding outside every iso: the range's end on the outside side (ties are outside).
+            let outside = if inside == Inside::Below { r.max } else { r.min };
+            Loaded::Grid(apply_region(g, &c.region, outside, &name)?)
+        }
+        field => field,
     };
+    let mut outcome = Outcome::Success;
+    for &iso in &isos {
+        let (output, time_json) = if isos.len() == 1 {
+            (c.output.clone(), c.time_json.clone())
+        } else {
+            (with_suffix(&c.output, iso.value), c.time_json.as_ref().map(|t| with_suffix(t, iso.value)))
+        };
+        let o = extract_one(c, &loaded, iso, &output, time_json.as_deref(), &name, &bar)?;
+        if o != Outcome::Success {
+            outcome = o;
+        }
+    }
+    bar.finish();
+    Ok(outcome)
+}
+
+/// `out.ply` → `out-300.ply` for iso 300.
+fn with_suffix(path: &Path, iso: f64) -> std::path::PathBuf {
+    let name = path.file_name().map(|n| n.to_string_lossy().into_owned()).unwrap_or_default();
+    let (stem, ext) = match name.split_once('.') {
+        Some((s, e)) => (s.to_string(), format!(".{e}")),
+        None => (name.clone(), String::new()),
+    };
+    path.with_file_name(format!("{stem}-{iso}{ext}"))
+}
+
+/// Crops (`--roi`), pads (`--close`) and re-places (`--space index`) a grid.
+fn apply_region(mut g: AnyGrid, region: &Region, outside: f64, name: &str) -> Result<AnyGrid> {
+    let dims = g.lattice().dims();
+    // Index-space position of the current grid's first point in the input volume.
+    let mut first = [0.0f64; 3];
+    if let Some(roi) = &region.roi {
+        let (lo, hi) = match roi {
+            Roi::Index(r) => {
+                let lo = [0, 1, 2].map(|a| r[a].0.unwrap_or(0));
+                let hi = [0, 1, 2].map(|a| r[a].1.unwrap_or(dims[a]));
+                (lo, hi)
+            }
+            Roi::World(r) => {
+                // The lattice points inside the box: its corners in index space, rounded inwards.
+                let l = g.lattice();
+                let (mut lo, mut hi) = ([f64::INFINITY; 3], [f64::NEG_INFINITY; 3]);
+                for c in 0..8 {
+                    let w = [0, 1, 2].map(|a| if c >> a & 1 == 1 { r[a].1 } else { r[a].0 });
+                    let p = l.to_index(w);
+                    for a in 0..3 {
+                        lo[a] = lo[a].min(p[a]);
+                        hi[a] = hi[a].max(p[a]);
+                    }
+                }
+                let eps = 1e-9;
+                let lo = [0, 1, 2].map(|a| (lo[a] - eps).ceil().clamp(0.0, dims[a] as f64) as u32);
+                let hi = [0, 1, 2].map(|a| ((hi[a] + eps).floor() + 1.0).clamp(0.0, dims[a] as f64) as u32);
+                (lo, hi)
+            }
+        };
+        g = g.crop(lo, hi).with_context(|| format!("{name}: --roi"))?;
+        first = lo.map(f64::from);
+    }
+    if region.close {
+        g = g.pad(1, outside).with_context(|| format!("{name}: --close"))?;
+        first = first.map(|x| x - 1.0);
+    }
+    if region.index_space {
+        let lattice = isoforge::grid::Lattice::with_geometry(g.lattice().dims(), [1.0; 3], first)?;
+        g = g.with_lattice(lattice)?;
+    }
+    Ok(g)
+}
+
+/// One extraction of an in-memory input at `iso`, written to `output`.
+fn extract_one(
+    c: &ExtractConfig,
+    loaded: &Loaded,
+    iso: Iso,
+    output: &Path,
+    time_json: Option<&Path>,
+    name: &str,
+    bar: &Bar,
+) -> Result<Outcome> {
     let mut runs = Vec::with_capacity(c.repeat as usize);
     let mut last: Option<Extraction> = None;
     for _ in 0..c.repeat {
         drop(last.take()); // as a warm loop elsewhere: the previous mesh is freed before the next run
         let start = Instant::now();
-        last = Some(match &loaded {
-            Loaded::Grid(g) => pipeline::extract_grid(g, iso, &c.options, Some(&bar))?,
-            Loaded::Field(b) => pipeline::extract_builtin(b, iso, &c.options, Some(&bar))?,
+        last = Some(match loaded {
+            Loaded::Grid(g) => pipeline::extract_grid(g, iso, &c.options, Some(bar))?,
+            Loaded::Field(b) => pipeline::extract_builtin(b, iso, &c.options, Some(bar))?,
             Loaded::Stream(_) => bail!("internal: streamed input reached the in-memory path"),
         });
         runs.push(start.elapsed().as_secs_f64());
     }
     let out = last.ok_or_else(|| anyhow!("internal: --repeat ran no extraction"))?;
     let seconds = runs.last().copied().unwrap_or_default();
-    bar.finish();
     let s = out.stats;
     if s.cells > 0 && (s.cells_outside == s.cells || s.cells_inside == s.cells) {
         let side = if s.cells_outside == s.cells { "outside" } else { "inside" };
@@ -192,8 +289,8 @@ pub fn extract(c: &ExtractConfig) -> Result<Outcome> {
             if iso.inside == Inside::Below { "below" } else { "above" }
         );
     }
-    isoforge_io::write_mesh(&c.output, &out.mesh, c.format)?;
-    if let Some(t) = &c.time_json {
+    isoforge_io::write_mesh(output, &out.mesh, c.format)?;
+    if let Some(t) = time_json {
         let body = json!({
             "seconds": seconds,
             "runs": runs,
@@ -204,7 +301,7 @@ pub fn extract(c: &ExtractConfig) -> Result<Outcome> {
     }
     eprintln!(
         "{}: {} vertices, {} triangles ({} method, iso {}, extraction {:.3} s)",
-        c.output.display(),
+        output.display(),
         out.mesh.num_vertices(),
         out.mesh.num_triangles(),
         c.options.method.name(),
@@ -216,7 +313,7 @@ pub fn extract(c: &ExtractConfig) -> Result<Outcome> {
     }
     let rep = topo::check(&out.mesh);
     print!("{}", report::mesh_text(&rep));
-    Ok(verdict(&c.output, &rep, &c.require))
+    Ok(verdict(output, &rep, &c.require))
 }
 
 pub fn info(input: &InputConfig, json_out: bool) -> Result<Outcome> {

@@ -468,3 +468,73 @@ fn contour_rejects_bad_requests() {
     std::fs::write(&bad, b"\x89PNG\r\n\x1a\nnot really").unwrap();
     fails(&["contour", p(&bad), "--iso", "50", "-o", o], "bad.png", &out);
 }
+
+#[test]
+fn several_isos_roi_close_and_index_space() {
+    let dir = tempfile::tempdir().unwrap();
+    let vol = testdata().join("volumes/u8_raw.nrrd"); // 6 x 5 x 7 u8, spacing 0.5 0.75 2, origin 10 -20 5.5
+    let v = p(&vol);
+    let out = |n: &str| dir.path().join(n);
+    let run = |args: &[&str]| {
+        let o = isoforge(args);
+        assert_eq!(o.status.code(), Some(0), "{args:?}: {}", stderr(&o));
+    };
+    // Several isos: one file per value, each equal to its single-iso run.
+    run(&["extract", "-i", v, "--iso", "5.5,10.5", "-o", p(&out("m.ply"))]);
+    for iso in ["5.5", "10.5"] {
+        run(&["extract", "-i", v, "--iso", iso, "-o", p(&out("single.ply"))]);
+        let many = std::fs::read(out(&format!("m-{iso}.ply"))).unwrap();
+        assert_eq!(many, std::fs::read(out("single.ply")).unwrap(), "iso {iso}");
+    }
+    // --close: the surface touches the volume's faces, so only the padded one is watertight.
+    let c_ply = out("c.ply");
+    let check = |extra: &[&str]| {
+        let mut a = vec!["extract", "-i", v, "--iso", "10.5", "-o", p(&c_ply), "--require", "watertight"];
+        a.extend_from_slice(extra);
+        isoforge(&a).status.code()
+    };
+    assert_eq!(check(&[]), Some(1));
+    assert_eq!(check(&["--close"]), Some(0));
+    // --roi in index units and --roi-world covering the same points give the same mesh.
+    run(&["extract", "-i", v, "--iso", "10.5", "--roi", "1:4,:,2:", "-o", p(&out("ri.ply"))]);
+    run(&["extract", "-i", v, "--iso", "10.5", "--roi-world", "10.4:11.6,-20:-17,9.5:17.5", "-o", p(&out("rw.ply"))]);
+    assert_eq!(std::fs::read(out("ri.ply")).unwrap(), std::fs::read(out("rw.ply")).unwrap());
+    // --space index: the same surface in voxel indices of the input volume.
+    run(&["extract", "-i", v, "--iso", "10.5", "--roi", "1:4,:,2:", "--space", "index", "-o", p(&out("ix.ply"))]);
+    let world = isoforge_io::read_mesh(&out("ri.ply"), &isoforge_io::Limits::default()).unwrap();
+    let index = isoforge_io::read_mesh(&out("ix.ply"), &isoforge_io::Limits::default()).unwrap();
+    assert_eq!(world.triangles, index.triangles);
+    for (w, x) in world.positions.iter().zip(&index.positions) {
+        let back = [10.0 + 0.5 * x[0] as f64, -20.0 + 0.75 * x[1] as f64, 5.5 + 2.0 * x[2] as f64];
+        for a in 0..3 {
+            assert!((back[a] - w[a] as f64).abs() < 1e-4, "{x:?} ↦ {back:?}, written {w:?}");
+        }
+        assert!(x[0] >= 1.0 && x[0] <= 3.0 && x[2] >= 2.0, "{x:?} outside the ROI");
+    }
+    // Bad requests: one line, exit 2, no file.
+    let o = out("bad.ply");
+    fails(&["extract", "-i", v, "--iso", "10.5", "--roi", "1:9,:,:", "-o", p(&o)], "must satisfy lo < hi <= 6", &o);
+    fails(&["extract", "-i", v, "--iso", "10.5", "--roi", "1:2,:", "-o", p(&o)], "expected three ranges", &o);
+    fails(&["extract", "-i", v, "--iso", "10.5", "--space", "voxel", "-o", p(&o)], "--space \"voxel\"", &o);
+    fails(&["extract", "-i", v, "--iso", "5.5,99", "-o", p(&o)], "iso 99 is outside the value range", &o);
+    fails(&["extract", "-i", "field:sphere", "--close", "-o", p(&o)], "apply to volume files", &o);
+}
+
+#[test]
+fn convert_keeps_samples_and_geometry() {
+    let dir = tempfile::tempdir().unwrap();
+    let src = testdata().join("volumes/i16_gzip.nrrd");
+    for ext in ["nrrd", "nii.gz"] {
+        let out = dir.path().join(format!("c.{ext}"));
+        let o = isoforge(&["convert", p(&src), p(&out)]);
+        assert_eq!(o.status.code(), Some(0), "{}", stderr(&o));
+        let info = |f: &Path| String::from_utf8(isoforge(&["info", p(f), "--json"]).stdout).unwrap();
+        let (a, b): (serde_json::Value, serde_json::Value) =
+            (serde_json::from_str(&info(&src)).unwrap(), serde_json::from_str(&info(&out)).unwrap());
+        for key in ["dims", "type", "value_range", "mean"] {
+            assert_eq!(a[key], b[key], "{ext}: {key}");
+        }
+    }
+    let bad = dir.path().join("c.stl");
+    fails(&["convert", p(&src), p(&bad)], "volumes are written as .nrrd, .nii or .nii.gz", &bad);
+}

@@ -50,6 +50,12 @@ impl<S: Sample> DenseGrid<S> {
         DenseGrid { lattice, data }
     }
 
+    /// The lattice and the samples, taken apart without copying.
+    #[inline]
+    pub fn into_parts(self) -> (Lattice, Vec<S>) {
+        (self.lattice, self.data)
+    }
+
     /// The sampling lattice.
     #[inline]
     pub fn lattice(&self) -> &Lattice {

@@ -5,6 +5,7 @@
 mod dense;
 mod histogram;
 mod lattice;
+mod region;
 mod resample;
 mod sample;
 
