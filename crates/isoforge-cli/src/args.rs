@@ -18,7 +18,7 @@ pub struct Args {
 #[derive(Debug, Subcommand)]
 pub enum Command {
     /// Extract an isosurface from a volume file or a built-in field and write a mesh.
-    Extract(ExtractArgs),
+    Extract(Box<ExtractArgs>),
     /// Describe a volume: dims, type, geometry, value range, histogram, suggested iso.
     Info(InfoArgs),
     /// Check a mesh: boundary, manifoldness, orientation, components, Euler characteristic, genus.
@@ -90,6 +90,20 @@ pub struct ExtractArgs {
     /// Pad the volume with one layer of outside points so surfaces touching its faces are closed.
     #[arg(long)]
     pub close: bool,
+    /// Sample a co-registered volume at every vertex (trilinear, in world coordinates) and write
+    /// it as vertex attribute NAME (PLY property, glTF `_NAME`); repeatable.
+    #[arg(long, value_name = "NAME=VOLUME")]
+    pub attribute: Vec<String>,
+    /// Colour vertices by attribute NAME through --colormap (PLY red/green/blue, glTF COLOR_0,
+    /// OBJ vertex colours).
+    #[arg(long, value_name = "NAME")]
+    pub color_by: Option<String>,
+    /// Colour map for --color-by: viridis, gray, hot, coolwarm.
+    #[arg(long, value_name = "MAP", default_value = "viridis")]
+    pub colormap: String,
+    /// Attribute values mapped to the colour map's ends (default: the attribute's range on the mesh).
+    #[arg(long, value_name = "LO:HI", allow_hyphen_values = true)]
+    pub color_range: Option<String>,
     /// Coordinates of the written vertices: world (spacing, origin and direction of the file) or
     /// index (voxel indices of the input volume).
     #[arg(long, value_name = "world|index", default_value = "world")]

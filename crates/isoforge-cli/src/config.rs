@@ -5,6 +5,7 @@ use std::path::PathBuf;
 use anyhow::{anyhow, bail, Context, Result};
 use isoforge::extract::Saddle;
 use isoforge::grid::DType;
+use isoforge::mesh::colormap::Colormap;
 use isoforge::pipeline::{Method, Normals, Options};
 use isoforge::topo::Guarantee;
 use isoforge::volume::catalog::{self, Builtin};
@@ -33,6 +34,10 @@ pub struct ExtractConfig {
     pub format: MeshFormat,
     /// Iso values (empty: the field's default).
     pub isos: Vec<f64>,
+    /// Volumes sampled at the vertices, by attribute name.
+    pub attributes: Vec<(String, InputConfig)>,
+    /// Vertex colours: attribute name, map, optional value range.
+    pub color: Option<ColorBy>,
     pub region: Region,
     pub inside: Option<Inside>,
     pub options: Options,
@@ -155,11 +160,13 @@ fn guarantees(list: &[String]) -> Result<Vec<Guarantee>> {
 }
 
 pub fn output_format(path: &std::path::Path, ascii: bool) -> Result<MeshFormat> {
-    let f = MeshFormat::from_path(path)
-        .with_context(|| format!("{}: unknown output format (use .ply, .obj, .stl or .off)", path.display()))?;
+    let f = MeshFormat::from_path(path).with_context(|| {
+        format!("{}: unknown output format (use .ply, .obj, .stl, .off, .glb or .gltf)", path.display())
+    })?;
     Ok(match (f, ascii) {
         (MeshFormat::Ply, true) => MeshFormat::PlyAscii,
-        (_, true) => bail!("--ascii applies to PLY output only"),
+        (MeshFormat::Stl, true) => MeshFormat::StlAscii,
+        (_, true) => bail!("--ascii applies to PLY and STL output only"),
         (f, false) => f,
     })
 }
@@ -191,6 +198,8 @@ impl ExtractConfig {
             format,
             isos,
             region: Region::from_args(a)?,
+            attributes: attributes(a)?,
+            color: color(a)?,
             inside,
             options: Options { method, normals, threads: None },
             time_json: a.time_json.clone(),
@@ -199,6 +208,71 @@ impl ExtractConfig {
             max_memory: a.max_memory.as_deref().map(|m| bytes_for("--max-memory", m)).transpose()?,
         })
     }
+}
+
+fn attributes(a: &ExtractArgs) -> Result<Vec<(String, InputConfig)>> {
+    let mut out: Vec<(String, InputConfig)> = Vec::new();
+    for spec in &a.attribute {
+        let (name, path) = spec.split_once('=').ok_or_else(|| anyhow!("--attribute {spec:?}: expected NAME=VOLUME"))?;
+        if name.is_empty() || !name.chars().all(|c| c.is_ascii_alphanumeric() || c == '_') {
+            bail!("--attribute {spec:?}: the name must be letters, digits or _");
+        }
+        if out.iter().any(|(n, _)| n == name) {
+            bail!("--attribute {spec:?}: {name} is given twice");
+        }
+        let input = InputConfig::from_args(&InputArgs { input: path.to_string(), layout: a.input.layout.clone() })?;
+        if matches!(input.source, Source::Field(_)) {
+            bail!("--attribute {spec:?}: attributes are sampled from volume files");
+        }
+        out.push((name.to_string(), input));
+    }
+    if !out.is_empty() && a.space == "index" {
+        bail!("--attribute samples in world coordinates: drop --space index");
+    }
+    Ok(out)
+}
+
+/// `--color-by NAME --colormap MAP [--color-range LO:HI]`.
+pub struct ColorBy {
+    pub attribute: String,
+    pub map: Colormap,
+    pub range: Option<(f64, f64)>,
+}
+
+fn color(a: &ExtractArgs) -> Result<Option<ColorBy>> {
+    let Some(name) = &a.color_by else {
+        if a.color_range.is_some() {
+            bail!("--color-range needs --color-by");
+        }
+        return Ok(None);
+    };
+    if !a.attribute.iter().any(|s| s.split_once('=').is_some_and(|(n, _)| n == name)) {
+        bail!("--color-by {name:?}: no --attribute {name}=VOLUME is given");
+    }
+    let map = Colormap::parse(&a.colormap).ok_or_else(|| {
+        let names: Vec<&str> = Colormap::ALL.iter().map(|(_, n)| *n).collect();
+        anyhow!("--colormap {:?}: unknown (available: {})", a.colormap, names.join(", "))
+    })?;
+    let range = match &a.color_range {
+        Some(s) => {
+            let (lo, hi) = s.split_once(':').ok_or_else(|| anyhow!("--color-range {s:?}: expected LO:HI"))?;
+            let (lo, hi) = (parse_number("--color-range", lo)?, parse_number("--color-range", hi)?);
+            if hi <= lo {
+                bail!("--color-range {s:?}: HI must be above LO");
+            }
+            Some((lo, hi))
+        }
+        None => None,
+    };
+    Ok(Some(ColorBy { attribute: name.clone(), map, range }))
+}
+
+fn parse_number(flag: &str, s: &str) -> Result<f64> {
+    s.trim()
+        .parse::<f64>()
+        .ok()
+        .filter(|v| v.is_finite())
+        .ok_or_else(|| anyhow!("{flag}: {s:?} is not a finite number"))
 }
 
 /// Where to cut and how to place the volume before extraction.

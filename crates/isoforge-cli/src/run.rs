@@ -186,20 +186,78 @@ pub fn extract(c: &ExtractConfig) -> Result<Outcome> {
         }
         field => field,
     };
+    let attribute_grids = load_attributes(c)?;
+    // glTF holds several meshes: one file with a node per iso; other formats get a file per iso.
+    let one_gltf = isos.len() > 1 && matches!(c.format, MeshFormat::Glb | MeshFormat::Gltf);
     let mut outcome = Outcome::Success;
+    let mut meshes = Vec::new();
     for &iso in &isos {
-        let (output, time_json) = if isos.len() == 1 {
+        let (output, time_json) = if isos.len() == 1 || one_gltf {
             (c.output.clone(), c.time_json.clone())
         } else {
             (with_suffix(&c.output, iso.value), c.time_json.as_ref().map(|t| with_suffix(t, iso.value)))
         };
-        let o = extract_one(c, &loaded, iso, &output, time_json.as_deref(), &name, &bar)?;
+        let target = if one_gltf { None } else { Some(output.as_path()) };
+        let job = Job { c, loaded: &loaded, name: &name, bar: &bar, attributes: &attribute_grids };
+        let (o, mesh, data) = extract_one(&job, iso, target, time_json.as_deref())?;
         if o != Outcome::Success {
             outcome = o;
         }
+        if one_gltf {
+            meshes.push((format!("iso {}", iso.value), mesh, data));
+        }
+    }
+    if one_gltf {
+        let named: Vec<isoforge_io::NamedMesh> =
+            meshes.iter().map(|(n, m, d)| isoforge_io::NamedMesh { name: n, mesh: m, data: d }).collect();
+        isoforge_io::write_gltf(&c.output, &named, c.format == MeshFormat::Glb)?;
+        eprintln!("{}: {} meshes (one node per iso value)", c.output.display(), named.len());
     }
     bar.finish();
     Ok(outcome)
+}
+
+/// The `--attribute` volumes, read once.
+fn load_attributes(c: &ExtractConfig) -> Result<Vec<(String, AnyGrid)>> {
+    let mut out = Vec::new();
+    for (name, input) in &c.attributes {
+        let Loaded::Grid(g) = load(input)? else { bail!("--attribute {name}: not a volume file") };
+        out.push((name.clone(), g));
+    }
+    Ok(out)
+}
+
+/// Samples the attribute volumes at the mesh's (world) vertices and colours them.
+fn vertex_data(c: &ExtractConfig, mesh: &isoforge::mesh::Mesh, grids: &[(String, AnyGrid)]) -> isoforge_io::VertexData {
+    let mut data = isoforge_io::VertexData::default();
+    for (name, g) in grids {
+        let mut outside = 0usize;
+        let values: Vec<f32> = mesh
+            .positions
+            .iter()
+            .map(|p| {
+                let (v, inside) = g.value_at_world(p.map(f64::from));
+                outside += usize::from(!inside);
+                v as f32
+            })
+            .collect();
+        if outside > 0 {
+            eprintln!(
+                "--attribute {name}: {outside} of {} vertices lie outside its volume (given the nearest value)",
+                values.len()
+            );
+        }
+        data.scalars.push((name.clone(), values));
+    }
+    if let Some(by) = &c.color {
+        if let Some((_, values)) = data.scalars.iter().find(|(n, _)| *n == by.attribute) {
+            let (lo, hi) = by.range.unwrap_or_else(|| {
+                values.iter().fold((f64::INFINITY, f64::NEG_INFINITY), |(a, b), &v| (a.min(v as f64), b.max(v as f64)))
+            });
+            data.colors = Some(by.map.colors(values, lo, hi));
+        }
+    }
+    data
 }
 
 /// `out.ply` → `out-300.ply` for iso 300.
@@ -256,16 +314,25 @@ fn apply_region(mut g: AnyGrid, region: &Region, outside: f64, name: &str) -> Re
     Ok(g)
 }
 
-/// One extraction of an in-memory input at `iso`, written to `output`.
+/// What every iso of one `extract` run shares.
+#[derive(Clone, Copy)]
+struct Job<'a> {
+    c: &'a ExtractConfig,
+    loaded: &'a Loaded,
+    name: &'a str,
+    bar: &'a Bar,
+    attributes: &'a [(String, AnyGrid)],
+}
+
+/// One extraction of an in-memory input at `iso`, written to `output` when given; returns the
+/// mesh too (for files holding several).
 fn extract_one(
-    c: &ExtractConfig,
-    loaded: &Loaded,
+    job: &Job,
     iso: Iso,
-    output: &Path,
+    output: Option<&Path>,
     time_json: Option<&Path>,
-    name: &str,
-    bar: &Bar,
-) -> Result<Outcome> {
+) -> Result<(Outcome, isoforge::mesh::Mesh, isoforge_io::VertexData)> {
+    let Job { c, loaded, name, bar, attributes } = *job;
     let mut runs = Vec::with_capacity(c.repeat as usize);
     let mut last: Option<Extraction> = None;
     for _ in 0..c.repeat {
@@ -289,7 +356,10 @@ fn extract_one(
             if iso.inside == Inside::Below { "below" } else { "above" }
         );
     }
-    isoforge_io::write_mesh(output, &out.mesh, c.format)?;
+    let data = vertex_data(c, &out.mesh, attributes);
+    if let Some(output) = output {
+        isoforge_io::write_mesh_with(output, &out.mesh, &data, c.format)?;
+    }
     if let Some(t) = time_json {
         let body = json!({
             "seconds": seconds,
@@ -299,9 +369,10 @@ fn extract_one(
         });
         isoforge_io::write_atomic(t, |w| w.write_all(body.to_string().as_bytes()))?;
     }
+    let shown = output.unwrap_or(&c.output);
     eprintln!(
         "{}: {} vertices, {} triangles ({} method, iso {}, extraction {:.3} s)",
-        output.display(),
+        shown.display(),
         out.mesh.num_vertices(),
         out.mesh.num_triangles(),
         c.options.method.name(),
@@ -309,11 +380,11 @@ fn extract_one(
         seconds
     );
     if c.require.is_empty() {
-        return Ok(Outcome::Success);
+        return Ok((Outcome::Success, out.mesh, data));
     }
     let rep = topo::check(&out.mesh);
     print!("{}", report::mesh_text(&rep));
-    Ok(verdict(output, &rep, &c.require))
+    Ok((verdict(shown, &rep, &c.require), out.mesh, data))
 }
 
 pub fn info(input: &InputConfig, json_out: bool) -> Result<Outcome> {

@@ -538,3 +538,153 @@ fn convert_keeps_samples_and_geometry() {
     let bad = dir.path().join("c.stl");
     fails(&["convert", p(&src), p(&bad)], "volumes are written as .nrrd, .nii or .nii.gz", &bad);
 }
+
+/// Vertex rows of an ASCII PLY: every number of each vertex line.
+fn ascii_ply_vertices(path: &Path) -> (Vec<String>, Vec<Vec<f64>>) {
+    let text = std::fs::read_to_string(path).unwrap();
+    let (head, body) = text.split_once("end_header\n").unwrap();
+    let props: Vec<String> = head
+        .lines()
+        .skip_while(|l| !l.starts_with("element vertex"))
+        .skip(1)
+        .take_while(|l| l.starts_with("property"))
+        .map(|l| l.rsplit(' ').next().unwrap().to_string())
+        .collect();
+    let n: usize = head.lines().find(|l| l.starts_with("element vertex")).unwrap()[15..].trim().parse().unwrap();
+    let rows = body.lines().take(n).map(|l| l.split_whitespace().map(|t| t.parse().unwrap()).collect()).collect();
+    (props, rows)
+}
+
+#[test]
+fn attributes_are_trilinear_samples_of_a_co_registered_volume() {
+    let dir = tempfile::tempdir().unwrap();
+    let vol = testdata().join("volumes/u8_raw.nrrd"); // spacing 0.5 0.75 2, origin 10 -20 5.5
+    let src = isoforge_io::read_volume(&vol, &isoforge_io::Limits::default()).unwrap();
+    // Two co-registered volumes whose trilinear interpolant is exact: a linear and a trilinear
+    // function of world position.
+    let lin = |w: [f64; 3]| 2.0 * w[0] - 3.0 * w[1] + 0.5 * w[2] + 7.0;
+    let tri = |w: [f64; 3]| (w[0] - 11.0) * (w[1] + 18.0) * (w[2] - 9.0);
+    for (name, f) in [("lin.nrrd", &lin as &dyn Fn([f64; 3]) -> f64), ("tri.nrrd", &tri)] {
+        let l = src.lattice().clone();
+        let g = isoforge::grid::DenseGrid::from_fn(l.clone(), |p| f(l.to_world(p.map(f64::from))) as f32);
+        isoforge_io::write_volume(&dir.path().join(name), &g.into()).unwrap();
+    }
+    let out = dir.path().join("a.ply");
+    let lin_path = dir.path().join("lin.nrrd");
+    let tri_path = dir.path().join("tri.nrrd");
+    let (la, ta) = (format!("lin={}", p(&lin_path)), format!("tri={}", p(&tri_path)));
+    let args = ["extract", "-i", p(&vol), "--iso", "5.5,10.5", "--close", "-o", p(&out), "--ascii"];
+    let mut all = args.to_vec();
+    all.extend_from_slice(&["--attribute", &la, "--attribute", &ta, "--color-by", "lin", "--colormap", "gray"]);
+    let o = isoforge(&all);
+    assert_eq!(o.status.code(), Some(0), "{}", stderr(&o));
+    let mut checked = 0;
+    for iso in ["5.5", "10.5"] {
+        let (props, rows) = ascii_ply_vertices(&dir.path().join(format!("a-{iso}.ply")));
+        assert_eq!(props, ["x", "y", "z", "red", "green", "blue", "lin", "tri"]);
+        let (lo, hi) = rows.iter().fold((f64::INFINITY, f64::NEG_INFINITY), |(a, b), r| (a.min(r[6]), b.max(r[6])));
+        for r in &rows {
+            let w = [r[0], r[1], r[2]];
+            // --close puts some vertices in the padding, outside the attribute volume (they get
+            // the nearest value); the rest must be exact.
+            let inside =
+                (10.0..=12.5).contains(&w[0]) && (-20.0..=-17.0).contains(&w[1]) && (5.5..=17.5).contains(&w[2]);
+            let grey = ((r[6] - lo) / (hi - lo) * 255.0).round();
+            assert!(r[3] == r[4] && r[4] == r[5] && (r[3] - grey).abs() <= 1.0, "colour {r:?}");
+            if !inside {
+                continue;
+            }
+            assert!((r[6] - lin(w)).abs() < 1e-3 * (1.0 + lin(w).abs()), "lin at {w:?}: {} vs {}", r[6], lin(w));
+            assert!((r[7] - tri(w)).abs() < 1e-3 * (1.0 + tri(w).abs()), "tri at {w:?}: {} vs {}", r[7], tri(w));
+            checked += 1;
+        }
+    }
+    assert!(checked >= 300, "only {checked} vertices checked");
+    // Bad requests.
+    let bad = dir.path().join("b.ply");
+    fails(
+        &["extract", "-i", p(&vol), "--iso", "5.5", "--color-by", "x", "-o", p(&bad)],
+        "no --attribute x=VOLUME",
+        &bad,
+    );
+    fails(
+        &["extract", "-i", p(&vol), "--iso", "5.5", "--attribute", "lin", "-o", p(&bad)],
+        "expected NAME=VOLUME",
+        &bad,
+    );
+    let missing = format!("m={}", p(&dir.path().join("none.nrrd")));
+    fails(&["extract", "-i", p(&vol), "--iso", "5.5", "--attribute", &missing, "-o", p(&bad)], "none.nrrd", &bad);
+}
+
+#[test]
+fn gltf_output_passes_the_khronos_validator() {
+    let tool = testdata().join("../tools/gltf-validator");
+    if !tool.join("node_modules/gltf-validator").exists() {
+        assert!(
+            std::env::var_os("ISOFORGE_REQUIRE_GLTF_VALIDATOR").is_none(),
+            "tools/gltf-validator is not installed (cd tools/gltf-validator && npm ci)"
+        );
+        eprintln!("skipped: tools/gltf-validator not installed (cd tools/gltf-validator && npm ci)");
+        return;
+    }
+    let dir = tempfile::tempdir().unwrap();
+    let vol = testdata().join("volumes/u8_raw.nrrd");
+    let v = p(&vol);
+    let attr = format!("self={v}");
+    let glb = dir.path().join("multi.glb");
+    let gltf = dir.path().join("field.gltf");
+    let colored = dir.path().join("colored.glb");
+    for args in [
+        vec!["extract", "-i", v, "--iso", "5.5,10.5", "--close", "-o", p(&glb)],
+        vec!["extract", "-i", "field:gyroid?n=24", "--normals", "gradient", "-o", p(&gltf)],
+        vec!["extract", "-i", v, "--iso", "10.5", "--attribute", &attr, "--color-by", "self", "-o", p(&colored)],
+    ] {
+        let o = isoforge(&args);
+        assert_eq!(o.status.code(), Some(0), "{args:?}: {}", stderr(&o));
+    }
+    assert!(dir.path().join("field.bin").exists(), ".gltf writes its buffer beside it");
+    let o = Command::new("node").arg(tool.join("validate.mjs")).args([&glb, &gltf, &colored]).output().expect("node");
+    let report = String::from_utf8_lossy(&o.stdout);
+    assert!(o.status.success(), "validator: {report}{}", stderr(&o));
+    for line in report.lines() {
+        let r: serde_json::Value = serde_json::from_str(line).unwrap();
+        assert_eq!(r["numErrors"], 0, "{line}");
+        assert_eq!(r["numWarnings"], 0, "{line}");
+    }
+    assert_eq!(report.lines().count(), 3);
+}
+
+#[test]
+fn a_ct_sampled_at_its_own_isosurface_gives_the_iso_value() {
+    // Every vertex lies on a lattice edge where linear interpolation equals iso; the trilinear
+    // sample of the same volume there is that interpolation. Needs ../shared/data.
+    let ct = testdata().join("../../shared/data/volumes/cthead_8bit_256x256x99.nrrd");
+    if !ct.exists() {
+        eprintln!("skipped: {} is absent", ct.display());
+        return;
+    }
+    let dir = tempfile::tempdir().unwrap();
+    let out = dir.path().join("head.ply");
+    let attr = format!("ct={}", p(&ct));
+    let o = isoforge(&[
+        "extract",
+        "-i",
+        p(&ct),
+        "--iso",
+        "70.5",
+        "--attribute",
+        &attr,
+        "--color-by",
+        "ct",
+        "-o",
+        p(&out),
+        "--ascii",
+    ]);
+    assert_eq!(o.status.code(), Some(0), "{}", stderr(&o));
+    let (props, rows) = ascii_ply_vertices(&out);
+    assert_eq!(props.last().unwrap(), "ct");
+    assert!(rows.len() > 100_000);
+    for r in rows.iter().step_by(97) {
+        assert!((r[6] - 70.5).abs() < 1e-3, "vertex {r:?}");
+    }
+}

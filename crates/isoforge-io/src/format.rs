@@ -34,6 +34,12 @@ pub enum MeshFormat {
     PlyAscii,
     /// Wavefront OBJ.
     Obj,
+    /// glTF 2.0 binary (`.glb`).
+    Glb,
+    /// glTF 2.0 JSON with an external `.bin` buffer (`.gltf`).
+    Gltf,
+    /// STL written as ASCII.
+    StlAscii,
     /// STL; written binary.
     Stl,
     /// OFF.
@@ -92,6 +98,8 @@ impl MeshFormat {
         Some(match ext {
             "ply" => MeshFormat::Ply,
             "obj" => MeshFormat::Obj,
+            "glb" => MeshFormat::Glb,
+            "gltf" => MeshFormat::Gltf,
             "stl" => MeshFormat::Stl,
             "off" => MeshFormat::Off,
             _ => return None,
@@ -105,7 +113,10 @@ impl MeshFormat {
             MeshFormat::PlyAscii => "PLY (ASCII)",
             MeshFormat::Obj => "OBJ",
             MeshFormat::Stl => "STL",
+            MeshFormat::StlAscii => "STL (ASCII)",
             MeshFormat::Off => "OFF",
+            MeshFormat::Glb => "glTF (binary)",
+            MeshFormat::Gltf => "glTF",
         }
     }
 }

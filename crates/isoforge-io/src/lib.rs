@@ -7,6 +7,7 @@
 #![cfg_attr(not(test), deny(clippy::unwrap_used, clippy::expect_used))]
 
 mod atomic;
+pub mod attributes;
 pub mod error;
 pub mod format;
 pub mod limits;
@@ -16,6 +17,7 @@ pub mod write;
 use std::path::Path;
 
 pub use atomic::write_atomic;
+pub use attributes::{NamedMesh, VertexData};
 pub use error::{Error, Result};
 pub use format::{MeshFormat, VolumeFormat};
 pub use limits::Limits;
@@ -129,21 +131,60 @@ pub fn read_mesh(path: &Path, limits: &Limits) -> Result<Mesh> {
 /// # Errors
 /// [`Error::Io`] naming `path`; [`Error::Unsupported`] when the format is not compiled in.
 pub fn write_mesh(path: &Path, mesh: &Mesh, format: MeshFormat) -> Result<()> {
+    write_mesh_with(path, mesh, &VertexData::default(), format)
+}
+
+/// [`write_mesh`] with per-vertex data (colours and scalars where the format has room for them:
+/// PLY and glTF both, OBJ colours; STL and OFF positions only).
+///
+/// # Errors
+/// As [`write_mesh`]; [`Error::InvalidInput`] when the data does not have one entry per vertex.
+pub fn write_mesh_with(path: &Path, mesh: &Mesh, data: &VertexData, format: MeshFormat) -> Result<()> {
+    if !data.fits(mesh) {
+        return Err(Error::InvalidInput(format!("{}: vertex data does not match the mesh", path.display())));
+    }
     match format {
         #[cfg(feature = "ply")]
-        MeshFormat::Ply => write_atomic(path, |w| write::ply::write_ply(w, mesh, false)),
+        MeshFormat::Ply => write_atomic(path, |w| write::ply::write_ply_with(w, mesh, data, false)),
         #[cfg(feature = "ply")]
-        MeshFormat::PlyAscii => write_atomic(path, |w| write::ply::write_ply(w, mesh, true)),
+        MeshFormat::PlyAscii => write_atomic(path, |w| write::ply::write_ply_with(w, mesh, data, true)),
         #[cfg(feature = "obj")]
-        MeshFormat::Obj => write_atomic(path, |w| write::obj::write_obj(w, mesh)),
+        MeshFormat::Obj => write_atomic(path, |w| write::obj::write_obj_with(w, mesh, data)),
         #[cfg(feature = "stl")]
         MeshFormat::Stl => write_atomic(path, |w| write::stl::write_stl(w, mesh)),
+        #[cfg(feature = "stl")]
+        MeshFormat::StlAscii => write_atomic(path, |w| write::stl::write_stl_ascii(w, mesh)),
         #[cfg(feature = "off")]
         MeshFormat::Off => write_atomic(path, |w| write::off::write_off(w, mesh)),
+        MeshFormat::Glb | MeshFormat::Gltf => {
+            write_gltf(path, &[NamedMesh { name: "isosurface", mesh, data }], format == MeshFormat::Glb)
+        }
         #[allow(unreachable_patterns)]
         f => Err(Error::Unsupported {
             path: path.to_path_buf(),
             detail: format!("{} support is not compiled in", f.name()),
         }),
     }
+}
+
+/// Writes several meshes into one glTF file (`binary`: .glb; else .gltf beside a .bin of the same
+/// stem), one mesh and node each. Both files are written atomically, the buffer first.
+///
+/// # Errors
+/// [`Error::Io`] when a file cannot be written; [`Error::InvalidInput`] for an empty mesh.
+pub fn write_gltf(path: &Path, meshes: &[NamedMesh], binary: bool) -> Result<()> {
+    if let Some(m) = meshes.iter().find(|m| m.mesh.positions.is_empty() || !m.data.fits(m.mesh)) {
+        return Err(Error::InvalidInput(format!(
+            "{}: mesh {:?} is empty or its vertex data does not match",
+            path.display(),
+            m.name
+        )));
+    }
+    if binary {
+        return write_atomic(path, |w| write::gltf::write_glb(w, meshes));
+    }
+    let bin = path.with_extension("bin");
+    let uri = bin.file_name().map(|n| n.to_string_lossy().into_owned()).unwrap_or_default();
+    write_atomic(&bin, |w| write::gltf::write_gltf_bin(w, meshes))?;
+    write_atomic(path, |w| write::gltf::write_gltf_json(w, meshes, &uri))
 }

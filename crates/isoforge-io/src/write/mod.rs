@@ -2,6 +2,7 @@
 //! CSV). All go through [`write_atomic`](crate::write_atomic): a failed write leaves no file.
 
 pub mod contour;
+pub mod gltf;
 #[cfg(feature = "obj")]
 pub mod obj;
 #[cfg(feature = "off")]

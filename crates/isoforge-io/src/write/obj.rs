@@ -4,11 +4,28 @@ use std::io::{self, Write};
 
 use isoforge::mesh::Mesh;
 
+use crate::attributes::VertexData;
+
 /// Writes `mesh` as OBJ.
 pub fn write_obj(w: &mut dyn Write, mesh: &Mesh) -> io::Result<()> {
+    write_obj_with(w, mesh, &VertexData::default())
+}
+
+/// Writes `mesh` as OBJ with vertex colours (`v x y z r g b`, the common extension read by
+/// MeshLab, Blender and trimesh). Scalar attributes have no OBJ form and are not written.
+pub fn write_obj_with(w: &mut dyn Write, mesh: &Mesh, data: &VertexData) -> io::Result<()> {
+    if !data.fits(mesh) {
+        return Err(io::Error::other("vertex data does not have one entry per vertex"));
+    }
     writeln!(w, "# isoforge {}", env!("CARGO_PKG_VERSION"))?;
-    for p in &mesh.positions {
-        writeln!(w, "v {} {} {}", p[0], p[1], p[2])?;
+    for (i, p) in mesh.positions.iter().enumerate() {
+        match &data.colors {
+            Some(c) => {
+                let [r, g, b] = c[i].map(|x| x as f32 / 255.0);
+                writeln!(w, "v {} {} {} {r} {g} {b}", p[0], p[1], p[2])?
+            }
+            None => writeln!(w, "v {} {} {}", p[0], p[1], p[2])?,
+        }
     }
     for n in &mesh.normals {
         writeln!(w, "vn {} {} {}", n[0], n[1], n[2])?;

@@ -4,14 +4,32 @@ use std::io::{self, Write};
 
 use isoforge::mesh::Mesh;
 
+use crate::attributes::VertexData;
+
 /// Writes `mesh` as PLY.
 pub fn write_ply(w: &mut dyn Write, mesh: &Mesh, ascii: bool) -> io::Result<()> {
+    write_ply_with(w, mesh, &VertexData::default(), ascii)
+}
+
+/// Writes `mesh` as PLY with extra vertex properties: `red green blue` (uchar) for colours, then
+/// one `float NAME` per scalar attribute.
+pub fn write_ply_with(w: &mut dyn Write, mesh: &Mesh, data: &VertexData, ascii: bool) -> io::Result<()> {
+    if !data.fits(mesh) {
+        return Err(io::Error::other("vertex data does not have one entry per vertex"));
+    }
     let normals = !mesh.normals.is_empty();
     let format = if ascii { "ascii" } else { "binary_little_endian" };
     write!(w, "ply\nformat {format} 1.0\ncomment isoforge {}\nelement vertex {}\nproperty float x\nproperty float y\nproperty float z\n",
         env!("CARGO_PKG_VERSION"), mesh.positions.len())?;
     if normals {
         w.write_all(b"property float nx\nproperty float ny\nproperty float nz\n")?;
+    }
+    if data.colors.is_some() {
+        w.write_all(b"property uchar red\nproperty uchar green\nproperty uchar blue\n")?;
+    }
+    for (name, _) in &data.scalars {
+        let name: String = name.chars().map(|c| if c.is_ascii_alphanumeric() || c == '_' { c } else { '_' }).collect();
+        writeln!(w, "property float {name}")?;
     }
     write!(w, "element face {}\nproperty list uchar int vertex_indices\nend_header\n", mesh.triangles.len())?;
     if ascii {
@@ -20,6 +38,12 @@ pub fn write_ply(w: &mut dyn Write, mesh: &Mesh, ascii: bool) -> io::Result<()> 
             if normals {
                 let n = mesh.normals[i];
                 write!(w, " {} {} {}", n[0], n[1], n[2])?;
+            }
+            if let Some(c) = &data.colors {
+                write!(w, " {} {} {}", c[i][0], c[i][1], c[i][2])?;
+            }
+            for (_, v) in &data.scalars {
+                write!(w, " {}", v[i])?;
             }
             w.write_all(b"\n")?;
         }
@@ -36,6 +60,12 @@ pub fn write_ply(w: &mut dyn Write, mesh: &Mesh, ascii: bool) -> io::Result<()> 
                 for c in mesh.normals[i] {
                     buf.extend_from_slice(&c.to_le_bytes());
                 }
+            }
+            if let Some(c) = &data.colors {
+                buf.extend_from_slice(&c[i]);
+            }
+            for (_, v) in &data.scalars {
+                buf.extend_from_slice(&v[i].to_le_bytes());
             }
             if buf.len() >= 1 << 16 {
                 w.write_all(&buf)?;

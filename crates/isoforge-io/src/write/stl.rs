@@ -36,3 +36,26 @@ pub fn write_stl(w: &mut dyn Write, mesh: &Mesh) -> io::Result<()> {
     }
     w.write_all(&buf)
 }
+
+/// Writes `mesh` as ASCII STL (`solid … endsolid`), facet normals from the winding.
+pub fn write_stl_ascii(w: &mut dyn Write, mesh: &Mesh) -> io::Result<()> {
+    writeln!(w, "solid isoforge")?;
+    let mut out = io::BufWriter::with_capacity(1 << 16, w);
+    for t in &mesh.triangles {
+        let [a, b, c] = t.map(|v| mesh.positions[v as usize]);
+        let u = [b[0] - a[0], b[1] - a[1], b[2] - a[2]];
+        let v = [c[0] - a[0], c[1] - a[1], c[2] - a[2]];
+        let mut n = [u[1] * v[2] - u[2] * v[1], u[2] * v[0] - u[0] * v[2], u[0] * v[1] - u[1] * v[0]];
+        let len = (n[0] * n[0] + n[1] * n[1] + n[2] * n[2]).sqrt();
+        if len > 0.0 {
+            n = n.map(|x| x / len);
+        }
+        writeln!(out, "  facet normal {} {} {}\n    outer loop", n[0], n[1], n[2])?;
+        for p in [a, b, c] {
+            writeln!(out, "      vertex {} {} {}", p[0], p[1], p[2])?;
+        }
+        writeln!(out, "    endloop\n  endfacet")?;
+    }
+    writeln!(out, "endsolid isoforge")?;
+    out.flush()
+}

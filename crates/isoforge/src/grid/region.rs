@@ -91,6 +91,18 @@ impl AnyGrid {
         crate::with_grid!(self, g => g.pad(width, Sample::from_f64(value)).map(AnyGrid::from))
     }
 
+    /// The trilinear interpolant at world point `w`, and whether `w` lies inside the lattice's box
+    /// (outside points take the value at the nearest point of the box).
+    pub fn value_at_world(&self, w: [f64; 3]) -> (f64, bool) {
+        let l = self.lattice();
+        let p = l.to_index(w);
+        let dims = l.dims();
+        let tol = 1e-6;
+        let inside = (0..3).all(|a| p[a] >= -tol && p[a] <= (dims[a] - 1) as f64 + tol);
+        let v = crate::with_grid!(self, g => super::blend(dims, p, |q| [g.get(q).to_f64()])[0]);
+        (v, inside)
+    }
+
     /// [`DenseGrid::with_lattice`] for any sample type.
     ///
     /// # Errors

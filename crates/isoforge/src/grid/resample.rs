@@ -3,6 +3,40 @@
 use super::{DenseGrid, Lattice, Sample};
 use crate::error::{Error, Result};
 
+/// The cell holding index point `p` (clamped to the lattice) and `p`'s coordinates inside it.
+#[inline]
+fn cell_of(dims: [u32; 3], p: [f64; 3]) -> ([u32; 3], [f64; 3]) {
+    let mut cell = [0u32; 3];
+    let mut local = [0.0; 3];
+    for a in 0..3 {
+        let max = dims[a].saturating_sub(2) as f64;
+        let x = p[a].clamp(0.0, (dims[a] - 1) as f64);
+        let c = x.floor().min(max).max(0.0);
+        cell[a] = c as u32;
+        local[a] = if dims[a] < 2 { 0.0 } else { x - c };
+    }
+    (cell, local)
+}
+
+/// Blends a quantity known at the eight corners of `p`'s cell with trilinear weights.
+#[inline]
+pub(crate) fn blend<const N: usize>(dims: [u32; 3], p: [f64; 3], at: impl Fn([u32; 3]) -> [f64; N]) -> [f64; N] {
+    let (cell, l) = cell_of(dims, p);
+    let mut out = [0.0; N];
+    for c in 0..8u32 {
+        let o = [c & 1, (c >> 1) & 1, (c >> 2) & 1];
+        let q = [0, 1, 2].map(|a| (cell[a] + o[a]).min(dims[a] - 1));
+        let w: f64 = (0..3).map(|a| if o[a] == 1 { l[a] } else { 1.0 - l[a] }).product();
+        if w != 0.0 {
+            let v = at(q);
+            for (o, x) in out.iter_mut().zip(v) {
+                *o += w * x;
+            }
+        }
+    }
+    out
+}
+
 /// The grid refined `factor` times along each axis, values from the trilinear interpolant
 /// (lattice points of the original keep their exact values). The result covers the same world
 /// box: spacing divided by `factor`, same origin and direction. Used to reconstruct the trilinear

@@ -3,6 +3,8 @@
 //! Positions are `f32` world coordinates; normals (when present) are unit vectors pointing from
 //! inside (low values) to outside; triangles are wound counter-clockwise seen from outside.
 
+pub mod colormap;
+
 use crate::error::{Error, Result};
 
 /// Index of a mesh vertex.
