@@ -80,6 +80,10 @@ pub struct ExtractArgs {
     /// OUT-300.ply, OUT-1200.ply…). Required for volume files; built-in fields have a default.
     #[arg(long, value_name = "V[,V…]", allow_hyphen_values = true)]
     pub iso: Option<String>,
+    /// Label volume: one closed surface per label (`all` = every non-zero value, or a list such
+    /// as 1,4,7), triangles tagged by label (PLY face property `label`; one glTF mesh per label).
+    #[arg(long, value_name = "all|L,L…", conflicts_with = "iso", allow_hyphen_values = true)]
+    pub labels: Option<String>,
     /// Only the half-open index box i0:i1,j0:j1,k0:k1 of the volume (empty bounds take the whole
     /// axis, e.g. `:,:,100:200`).
     #[arg(long, value_name = "I0:I1,J0:J1,K0:K1")]

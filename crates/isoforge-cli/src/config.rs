@@ -6,7 +6,7 @@ use anyhow::{anyhow, bail, Context, Result};
 use isoforge::extract::Saddle;
 use isoforge::grid::DType;
 use isoforge::mesh::colormap::Colormap;
-use isoforge::pipeline::{Method, Normals, Options};
+use isoforge::pipeline::{Labels, Method, Normals, Options};
 use isoforge::topo::Guarantee;
 use isoforge::volume::catalog::{self, Builtin};
 use isoforge::volume::{Inside, Iso};
@@ -34,6 +34,8 @@ pub struct ExtractConfig {
     pub format: MeshFormat,
     /// Iso values (empty: the field's default).
     pub isos: Vec<f64>,
+    /// `--labels`: one surface per label instead of isosurfaces.
+    pub labels: Option<Labels>,
     /// Volumes sampled at the vertices, by attribute name.
     pub attributes: Vec<(String, InputConfig)>,
     /// Vertex colours: attribute name, map, optional value range.
@@ -179,7 +181,14 @@ impl ExtractConfig {
             Some(list) => list.split(',').map(parse_iso).collect::<Result<_>>()?,
             None => Vec::new(),
         };
-        if isos.is_empty() && matches!(input.source, Source::File { .. }) {
+        let labels = match a.labels.as_deref() {
+            None => None,
+            Some("all") => Some(Labels::All),
+            Some(list) => {
+                Some(Labels::These(list.split(',').map(|t| parse_number("--labels", t)).collect::<Result<Vec<f64>>>()?))
+            }
+        };
+        if isos.is_empty() && labels.is_none() && matches!(input.source, Source::File { .. }) {
             bail!("--iso is required for volume files (see `isoforge info {}` for a suggestion)", a.input.input);
         }
         let inside = a.inside.as_deref().map(parse_inside).transpose()?;
@@ -198,6 +207,7 @@ impl ExtractConfig {
             format,
             isos,
             region: Region::from_args(a)?,
+            labels,
             attributes: attributes(a)?,
             color: color(a)?,
             inside,

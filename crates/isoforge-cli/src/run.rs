@@ -158,6 +158,9 @@ pub fn extract(c: &ExtractConfig) -> Result<Outcome> {
         c.isos.iter().map(|&value| Iso { value, inside }).collect()
     };
     let bar = Bar::new("extracting");
+    if let Some(labels) = &c.labels {
+        return extract_labels(c, loaded, labels, &name);
+    }
     let loaded = match loaded {
         Loaded::Stream(_) if c.repeat > 1 => bail!("--repeat: out-of-core extraction (--max-memory) runs once"),
         Loaded::Stream(_) if isos.len() > 1 => bail!("--iso with several values: out-of-core extraction runs one"),
@@ -217,6 +220,62 @@ pub fn extract(c: &ExtractConfig) -> Result<Outcome> {
     Ok(outcome)
 }
 
+/// `--labels`: a closed surface per label, written as one file (triangles tagged by label).
+fn extract_labels(c: &ExtractConfig, loaded: Loaded, labels: &pipeline::Labels, name: &str) -> Result<Outcome> {
+    let Loaded::Grid(g) = loaded else { bail!("{name}: --labels needs a label volume file in memory") };
+    let g = apply_region(g, &Region { close: false, ..c.region.clone() }, 0.0, name)?;
+    let start = Instant::now();
+    let surfaces = pipeline::extract_labels(&g, labels, &c.options).with_context(|| format!("{name}: --labels"))?;
+    let seconds = start.elapsed().as_secs_f64();
+    let mut report_rows = Vec::new();
+    if matches!(c.format, MeshFormat::Glb | MeshFormat::Gltf) {
+        let data = isoforge_io::MeshData::default();
+        let names: Vec<String> = surfaces.iter().map(|(l, _)| format!("label {l}")).collect();
+        let named: Vec<isoforge_io::NamedMesh> = surfaces
+            .iter()
+            .zip(&names)
+            .map(|((_, e), n)| isoforge_io::NamedMesh { name: n, mesh: &e.mesh, data: &data })
+            .collect();
+        isoforge_io::write_gltf(&c.output, &named, c.format == MeshFormat::Glb)?;
+    } else {
+        // One mesh, each triangle tagged with its label.
+        let mut mesh = isoforge::mesh::Mesh::default();
+        let mut tags = Vec::new();
+        for (label, e) in &surfaces {
+            let base = mesh.positions.len() as u32;
+            mesh.positions.extend_from_slice(&e.mesh.positions);
+            mesh.normals.extend_from_slice(&e.mesh.normals);
+            mesh.triangles.extend(e.mesh.triangles.iter().map(|t| t.map(|v| v + base)));
+            tags.extend(std::iter::repeat_n(*label as i32, e.mesh.triangles.len()));
+        }
+        let data = isoforge_io::MeshData { triangle_labels: Some(tags), ..Default::default() };
+        isoforge_io::write_mesh_with(&c.output, &mesh, &data, c.format)?;
+    }
+    let mut outcome = Outcome::Success;
+    for (label, e) in &surfaces {
+        let rep = topo::check(&e.mesh);
+        report_rows.push(format!(
+            "label {label}: {} vertices, {} triangles, closed {}, manifold {}, components {}",
+            e.mesh.num_vertices(),
+            e.mesh.num_triangles(),
+            rep.is_closed(),
+            rep.is_manifold(),
+            rep.components.len()
+        ));
+        if verdict(&c.output, &rep, &c.require) != Outcome::Success {
+            outcome = Outcome::CheckFailed;
+        }
+    }
+    eprintln!(
+        "{}: {} label surfaces ({:.3} s)\n  {}",
+        c.output.display(),
+        surfaces.len(),
+        seconds,
+        report_rows.join("\n  ")
+    );
+    Ok(outcome)
+}
+
 /// The `--attribute` volumes, read once.
 fn load_attributes(c: &ExtractConfig) -> Result<Vec<(String, AnyGrid)>> {
     let mut out = Vec::new();
@@ -228,8 +287,8 @@ fn load_attributes(c: &ExtractConfig) -> Result<Vec<(String, AnyGrid)>> {
 }
 
 /// Samples the attribute volumes at the mesh's (world) vertices and colours them.
-fn vertex_data(c: &ExtractConfig, mesh: &isoforge::mesh::Mesh, grids: &[(String, AnyGrid)]) -> isoforge_io::VertexData {
-    let mut data = isoforge_io::VertexData::default();
+fn vertex_data(c: &ExtractConfig, mesh: &isoforge::mesh::Mesh, grids: &[(String, AnyGrid)]) -> isoforge_io::MeshData {
+    let mut data = isoforge_io::MeshData::default();
     for (name, g) in grids {
         let mut outside = 0usize;
         let values: Vec<f32> = mesh
@@ -331,7 +390,7 @@ fn extract_one(
     iso: Iso,
     output: Option<&Path>,
     time_json: Option<&Path>,
-) -> Result<(Outcome, isoforge::mesh::Mesh, isoforge_io::VertexData)> {
+) -> Result<(Outcome, isoforge::mesh::Mesh, isoforge_io::MeshData)> {
     let Job { c, loaded, name, bar, attributes } = *job;
     let mut runs = Vec::with_capacity(c.repeat as usize);
     let mut last: Option<Extraction> = None;

@@ -634,7 +634,9 @@ fn gltf_output_passes_the_khronos_validator() {
     let glb = dir.path().join("multi.glb");
     let gltf = dir.path().join("field.gltf");
     let colored = dir.path().join("colored.glb");
+    let labels = dir.path().join("labels.glb");
     for args in [
+        vec!["extract", "-i", v, "--labels", "5,10", "-o", p(&labels)],
         vec!["extract", "-i", v, "--iso", "5.5,10.5", "--close", "-o", p(&glb)],
         vec!["extract", "-i", "field:gyroid?n=24", "--normals", "gradient", "-o", p(&gltf)],
         vec!["extract", "-i", v, "--iso", "10.5", "--attribute", &attr, "--color-by", "self", "-o", p(&colored)],
@@ -643,7 +645,11 @@ fn gltf_output_passes_the_khronos_validator() {
         assert_eq!(o.status.code(), Some(0), "{args:?}: {}", stderr(&o));
     }
     assert!(dir.path().join("field.bin").exists(), ".gltf writes its buffer beside it");
-    let o = Command::new("node").arg(tool.join("validate.mjs")).args([&glb, &gltf, &colored]).output().expect("node");
+    let o = Command::new("node")
+        .arg(tool.join("validate.mjs"))
+        .args([&glb, &gltf, &colored, &labels])
+        .output()
+        .expect("node");
     let report = String::from_utf8_lossy(&o.stdout);
     assert!(o.status.success(), "validator: {report}{}", stderr(&o));
     for line in report.lines() {
@@ -651,7 +657,7 @@ fn gltf_output_passes_the_khronos_validator() {
         assert_eq!(r["numErrors"], 0, "{line}");
         assert_eq!(r["numWarnings"], 0, "{line}");
     }
-    assert_eq!(report.lines().count(), 3);
+    assert_eq!(report.lines().count(), 4);
 }
 
 #[test]
@@ -687,4 +693,34 @@ fn a_ct_sampled_at_its_own_isosurface_gives_the_iso_value() {
     for r in rows.iter().step_by(97) {
         assert!((r[6] - 70.5).abs() < 1e-3, "vertex {r:?}");
     }
+}
+
+#[test]
+fn label_volumes_give_one_tagged_surface_per_label() {
+    let dir = tempfile::tempdir().unwrap();
+    let l = isoforge::grid::Lattice::new([10, 8, 6]).unwrap();
+    let g = isoforge::grid::DenseGrid::from_fn(l, |[i, j, _]| {
+        if j > 5 {
+            0u8
+        } else if i < 4 {
+            1
+        } else {
+            4
+        }
+    });
+    let vol = dir.path().join("labels.nrrd");
+    isoforge_io::write_volume(&vol, &g.into()).unwrap();
+    let ply = dir.path().join("l.ply");
+    let o =
+        isoforge(&["extract", "-i", p(&vol), "--labels", "all", "-o", p(&ply), "--ascii", "--require", "watertight"]);
+    // Each label surface is closed on its own; together they share the interface, so the
+    // combined file is checked per label (the report) and exits 0.
+    assert_eq!(o.status.code(), Some(0), "{}", stderr(&o));
+    assert!(stderr(&o).contains("2 label surfaces"), "{}", stderr(&o));
+    let text = std::fs::read_to_string(&ply).unwrap();
+    assert!(text.contains("property int label\n"));
+    let faces: Vec<&str> = text.split_once("end_header\n").unwrap().1.lines().filter(|l| l.starts_with("3 ")).collect();
+    assert!(faces.iter().any(|f| f.ends_with(" 1")) && faces.iter().any(|f| f.ends_with(" 4")));
+    let bad = dir.path().join("bad.ply");
+    fails(&["extract", "-i", p(&vol), "--labels", "2", "-o", p(&bad)], "label 2 does not occur", &bad);
 }

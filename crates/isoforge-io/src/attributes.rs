@@ -1,27 +1,31 @@
-//! Per-vertex data written beside a mesh's positions and normals: named scalar attributes
-//! (sampled volumes, `--attribute`) and colours (`--color-by`).
+//! Data written beside a mesh's positions and normals: per-vertex named scalar attributes
+//! (sampled volumes, `--attribute`) and colours (`--color-by`), per-triangle labels (`--labels`).
 
 use isoforge::mesh::Mesh;
 
-/// Extra per-vertex data; every vector has one entry per mesh vertex.
+/// Extra mesh data; vertex arrays have one entry per vertex, `triangle_labels` one per triangle.
 #[derive(Debug, Clone, Default, PartialEq)]
-pub struct VertexData {
+pub struct MeshData {
     /// Named scalars, written as PLY `float NAME`, glTF `_NAME` attributes.
     pub scalars: Vec<(String, Vec<f32>)>,
     /// sRGB colours, written as PLY `red green blue`, glTF `COLOR_0`, OBJ `v x y z r g b`.
     pub colors: Option<Vec<[u8; 3]>>,
+    /// The label each triangle bounds (PLY face property `label`).
+    pub triangle_labels: Option<Vec<i32>>,
 }
 
-impl VertexData {
+impl MeshData {
     /// True when there is nothing to write.
     pub fn is_empty(&self) -> bool {
-        self.scalars.is_empty() && self.colors.is_none()
+        self.scalars.is_empty() && self.colors.is_none() && self.triangle_labels.is_none()
     }
 
     /// Checks that every array has one entry per vertex of `mesh`.
     pub fn fits(&self, mesh: &Mesh) -> bool {
         let n = mesh.positions.len();
-        self.scalars.iter().all(|(_, v)| v.len() == n) && self.colors.as_ref().is_none_or(|c| c.len() == n)
+        self.scalars.iter().all(|(_, v)| v.len() == n)
+            && self.colors.as_ref().is_none_or(|c| c.len() == n)
+            && self.triangle_labels.as_ref().is_none_or(|l| l.len() == mesh.triangles.len())
     }
 }
 
@@ -33,5 +37,5 @@ pub struct NamedMesh<'a> {
     /// The mesh.
     pub mesh: &'a Mesh,
     /// Its per-vertex data.
-    pub data: &'a VertexData,
+    pub data: &'a MeshData,
 }

@@ -17,7 +17,7 @@ pub mod write;
 use std::path::Path;
 
 pub use atomic::write_atomic;
-pub use attributes::{NamedMesh, VertexData};
+pub use attributes::{MeshData, NamedMesh};
 pub use error::{Error, Result};
 pub use format::{MeshFormat, VolumeFormat};
 pub use limits::Limits;
@@ -131,7 +131,7 @@ pub fn read_mesh(path: &Path, limits: &Limits) -> Result<Mesh> {
 /// # Errors
 /// [`Error::Io`] naming `path`; [`Error::Unsupported`] when the format is not compiled in.
 pub fn write_mesh(path: &Path, mesh: &Mesh, format: MeshFormat) -> Result<()> {
-    write_mesh_with(path, mesh, &VertexData::default(), format)
+    write_mesh_with(path, mesh, &MeshData::default(), format)
 }
 
 /// [`write_mesh`] with per-vertex data (colours and scalars where the format has room for them:
@@ -139,7 +139,7 @@ pub fn write_mesh(path: &Path, mesh: &Mesh, format: MeshFormat) -> Result<()> {
 ///
 /// # Errors
 /// As [`write_mesh`]; [`Error::InvalidInput`] when the data does not have one entry per vertex.
-pub fn write_mesh_with(path: &Path, mesh: &Mesh, data: &VertexData, format: MeshFormat) -> Result<()> {
+pub fn write_mesh_with(path: &Path, mesh: &Mesh, data: &MeshData, format: MeshFormat) -> Result<()> {
     if !data.fits(mesh) {
         return Err(Error::InvalidInput(format!("{}: vertex data does not match the mesh", path.display())));
     }

@@ -159,6 +159,55 @@ pub fn extract_grid(grid: &AnyGrid, iso: Iso, opts: &Options, progress: Option<&
     out
 }
 
+/// Which labels of a label volume to mesh.
+#[derive(Debug, Clone, PartialEq)]
+pub enum Labels {
+    /// Every value present except 0 (the background).
+    All,
+    /// These values.
+    These(Vec<f64>),
+}
+
+/// The labels present in `grid` (every distinct value but 0), ascending.
+pub fn labels_present(grid: &AnyGrid) -> Vec<f64> {
+    let mut v: Vec<f64> = grid.values_f64().filter(|&x| x != 0.0).collect();
+    v.sort_by(f64::total_cmp);
+    v.dedup();
+    v
+}
+
+/// One closed surface per label of a label volume: the boundary of the points equal to the label,
+/// meshed with marching cubes at 0.5 on the label's indicator, padded with one outside layer so
+/// every surface is closed even where the label touches the volume's faces. Neighbouring labels
+/// get two coincident, independently closed surfaces.
+///
+/// # Errors
+/// [`Error::InvalidInput`] when a label does not occur or more than 4096 labels are asked for; as
+/// [`extract_grid`] otherwise.
+pub fn extract_labels(grid: &AnyGrid, labels: &Labels, opts: &Options) -> Result<Vec<(f64, Extraction)>> {
+    const MAX_LABELS: usize = 4096;
+    let present = labels_present(grid);
+    let wanted = match labels {
+        Labels::All => present.clone(),
+        Labels::These(v) => v.clone(),
+    };
+    if wanted.len() > MAX_LABELS {
+        return Err(Error::InvalidInput(format!("{} labels: at most {MAX_LABELS} surfaces in one run", wanted.len())));
+    }
+    if let Some(l) = wanted.iter().find(|l| !present.contains(l)) {
+        return Err(Error::InvalidInput(format!("label {l} does not occur in the volume")));
+    }
+    let mut out = Vec::with_capacity(wanted.len());
+    for &label in &wanted {
+        let lattice = grid.lattice().clone();
+        let data: Vec<u8> = grid.values_f64().map(|v| u8::from(v == label)).collect();
+        let indicator = DenseGrid::new(lattice, data)?.pad(1, 0)?;
+        let o = Options { method: opts.method, ..opts.clone() };
+        out.push((label, extract_grid(&AnyGrid::U8(indicator), Iso::above(0.5), &o, None)?));
+    }
+    Ok(out)
+}
+
 /// Runs `f` on a pool of `threads` workers (rayon's global pool when `None`).
 fn in_pool<R: Send>(threads: Option<usize>, f: impl FnOnce() -> R + Send) -> Result<R> {
     #[cfg(feature = "parallel")]

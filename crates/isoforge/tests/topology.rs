@@ -695,3 +695,40 @@ fn single_cell(v: &[f32; 8]) -> DenseGrid<f32> {
         }
     })
 }
+
+#[test]
+fn every_label_surface_is_closed_and_manifold() {
+    use isoforge::grid::AnyGrid;
+    use isoforge::pipeline::{extract_labels, labels_present, Labels, Options};
+    // Adjacent labels touching each other and the volume's faces, a label inside another, and
+    // a one-voxel label.
+    let l = Lattice::with_geometry([14, 11, 9], [0.8, 1.0, 1.5], [-3.0, 2.0, 0.0]).unwrap();
+    let g = DenseGrid::from_fn(l, |[i, j, k]| {
+        let d2 = (i as f64 - 9.0).powi(2) + (j as f64 - 5.0).powi(2) + (k as f64 - 4.0).powi(2);
+        if [i, j, k] == [2, 2, 2] {
+            7u16
+        } else if d2 < 5.0 {
+            3
+        } else if j >= 8 {
+            0
+        } else if i < 6 {
+            1
+        } else {
+            2
+        }
+    });
+    let grid = AnyGrid::U16(g);
+    assert_eq!(labels_present(&grid), vec![1.0, 2.0, 3.0, 7.0]);
+    let surfaces = extract_labels(&grid, &Labels::All, &Options::default()).unwrap();
+    assert_eq!(surfaces.len(), 4);
+    for (label, e) in &surfaces {
+        let r = topo::check(&e.mesh);
+        assert!(r.is_watertight(), "label {label}: not watertight");
+        assert!(r.volume > 0.0, "label {label}: inside out");
+        assert!(r.components.iter().all(|c| c.genus == Some(0)), "label {label}: genus {:?}", r.genus());
+    }
+    // The single-voxel label is one closed octahedron-like blob: 6 vertices, 8 triangles.
+    let seven = &surfaces.iter().find(|(l, _)| *l == 7.0).unwrap().1.mesh;
+    assert_eq!((seven.positions.len(), seven.triangles.len()), (6, 8));
+    assert!(extract_labels(&grid, &Labels::These(vec![5.0]), &Options::default()).is_err());
+}

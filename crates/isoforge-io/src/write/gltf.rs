@@ -1,6 +1,6 @@
 //! glTF 2.0 writer: `.glb` (one binary file) or `.gltf` + `.bin`. One mesh and node per
 //! [`NamedMesh`]: POSITION (with its bounds), NORMAL when present, COLOR_0 (normalised unsigned
-//! bytes) and `_NAME` float attributes from [`VertexData`], u32 indices, triangles. Units are the
+//! bytes) and `_NAME` float attributes from [`MeshData`], u32 indices, triangles. Units are the
 //! mesh's (millimetres for medical volumes; glTF viewers assume metres, so scale in the viewer).
 
 use std::io::{self, Write};

@@ -4,16 +4,16 @@ use std::io::{self, Write};
 
 use isoforge::mesh::Mesh;
 
-use crate::attributes::VertexData;
+use crate::attributes::MeshData;
 
 /// Writes `mesh` as OBJ.
 pub fn write_obj(w: &mut dyn Write, mesh: &Mesh) -> io::Result<()> {
-    write_obj_with(w, mesh, &VertexData::default())
+    write_obj_with(w, mesh, &MeshData::default())
 }
 
 /// Writes `mesh` as OBJ with vertex colours (`v x y z r g b`, the common extension read by
 /// MeshLab, Blender and trimesh). Scalar attributes have no OBJ form and are not written.
-pub fn write_obj_with(w: &mut dyn Write, mesh: &Mesh, data: &VertexData) -> io::Result<()> {
+pub fn write_obj_with(w: &mut dyn Write, mesh: &Mesh, data: &MeshData) -> io::Result<()> {
     if !data.fits(mesh) {
         return Err(io::Error::other("vertex data does not have one entry per vertex"));
     }

@@ -4,16 +4,16 @@ use std::io::{self, Write};
 
 use isoforge::mesh::Mesh;
 
-use crate::attributes::VertexData;
+use crate::attributes::MeshData;
 
 /// Writes `mesh` as PLY.
 pub fn write_ply(w: &mut dyn Write, mesh: &Mesh, ascii: bool) -> io::Result<()> {
-    write_ply_with(w, mesh, &VertexData::default(), ascii)
+    write_ply_with(w, mesh, &MeshData::default(), ascii)
 }
 
 /// Writes `mesh` as PLY with extra vertex properties: `red green blue` (uchar) for colours, then
 /// one `float NAME` per scalar attribute.
-pub fn write_ply_with(w: &mut dyn Write, mesh: &Mesh, data: &VertexData, ascii: bool) -> io::Result<()> {
+pub fn write_ply_with(w: &mut dyn Write, mesh: &Mesh, data: &MeshData, ascii: bool) -> io::Result<()> {
     if !data.fits(mesh) {
         return Err(io::Error::other("vertex data does not have one entry per vertex"));
     }
@@ -31,7 +31,11 @@ pub fn write_ply_with(w: &mut dyn Write, mesh: &Mesh, data: &VertexData, ascii: 
         let name: String = name.chars().map(|c| if c.is_ascii_alphanumeric() || c == '_' { c } else { '_' }).collect();
         writeln!(w, "property float {name}")?;
     }
-    write!(w, "element face {}\nproperty list uchar int vertex_indices\nend_header\n", mesh.triangles.len())?;
+    write!(w, "element face {}\nproperty list uchar int vertex_indices\n", mesh.triangles.len())?;
+    if data.triangle_labels.is_some() {
+        w.write_all(b"property int label\n")?;
+    }
+    w.write_all(b"end_header\n")?;
     if ascii {
         for (i, p) in mesh.positions.iter().enumerate() {
             write!(w, "{} {} {}", p[0], p[1], p[2])?;
@@ -47,8 +51,11 @@ pub fn write_ply_with(w: &mut dyn Write, mesh: &Mesh, data: &VertexData, ascii: 
             }
             w.write_all(b"\n")?;
         }
-        for t in &mesh.triangles {
-            writeln!(w, "3 {} {} {}", t[0], t[1], t[2])?;
+        for (k, t) in mesh.triangles.iter().enumerate() {
+            match &data.triangle_labels {
+                Some(l) => writeln!(w, "3 {} {} {} {}", t[0], t[1], t[2], l[k])?,
+                None => writeln!(w, "3 {} {} {}", t[0], t[1], t[2])?,
+            }
         }
     } else {
         let mut buf = Vec::with_capacity(1 << 16);
@@ -72,10 +79,13 @@ pub fn write_ply_with(w: &mut dyn Write, mesh: &Mesh, data: &VertexData, ascii: 
                 buf.clear();
             }
         }
-        for t in &mesh.triangles {
+        for (k, t) in mesh.triangles.iter().enumerate() {
             buf.push(3);
             for v in t {
                 buf.extend_from_slice(&(*v as i32).to_le_bytes());
+            }
+            if let Some(l) = &data.triangle_labels {
+                buf.extend_from_slice(&l[k].to_le_bytes());
             }
             if buf.len() >= 1 << 16 {
                 w.write_all(&buf)?;
