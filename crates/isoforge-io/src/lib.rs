@@ -49,6 +49,12 @@ pub fn open_volume(path: &Path, limits: &Limits) -> Result<VolumeReader> {
         });
     }
     let unsupported = |detail: &str| Err(Error::Unsupported { path: path.to_path_buf(), detail: detail.to_string() });
+    if path.is_dir() {
+        #[cfg(feature = "dicom")]
+        return read::dicom::open_dicom_dir(path, limits);
+        #[cfg(not(feature = "dicom"))]
+        return unsupported("a folder is read as a DICOM series, and DICOM support is not compiled in");
+    }
     match VolumeFormat::from_path(path) {
         #[cfg(feature = "nrrd")]
         Some(VolumeFormat::Nrrd) => read::nrrd::open_nrrd(path, limits),

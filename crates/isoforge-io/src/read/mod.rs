@@ -1,6 +1,8 @@
 //! Readers: volumes (raw, NRRD, NIfTI-1, MetaImage) and meshes (PLY, OBJ, STL, OFF).
 
 pub(crate) mod decode;
+#[cfg(feature = "dicom")]
+pub mod dicom;
 #[cfg(any(feature = "ply", feature = "obj", feature = "stl", feature = "off"))]
 mod mesh_text;
 #[cfg(feature = "metaimage")]
