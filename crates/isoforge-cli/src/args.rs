@@ -91,6 +91,10 @@ pub struct ExtractArgs {
     /// Only the lattice points inside this world box (x0:x1,y0:y1,z0:z1, in the file's units).
     #[arg(long, value_name = "X0:X1,Y0:Y1,Z0:Z1", conflicts_with = "roi", allow_hyphen_values = true)]
     pub roi_world: Option<String>,
+    /// Only cells whose eight corners are non-zero in this volume (same dims as the input; cropped
+    /// and padded along with it). Surfaces end, open, at the mask's boundary.
+    #[arg(long, value_name = "MASKVOLUME")]
+    pub mask: Option<String>,
     /// Pad the volume with one layer of outside points so surfaces touching its faces are closed.
     #[arg(long)]
     pub close: bool,

@@ -16,6 +16,7 @@ use isoforge_io::{Limits, MeshFormat, RawSpec};
 use crate::args::{CheckArgs, ContourArgs, DemoArgs, ExtractArgs, InputArgs};
 
 /// Where values come from.
+#[derive(Clone)]
 pub enum Source {
     /// A volume file; `raw` carries the layout of headerless files.
     File { path: PathBuf, raw: Option<RawSpec> },
@@ -23,17 +24,21 @@ pub enum Source {
     Field(Builtin),
 }
 
+#[derive(Clone)]
 pub struct InputConfig {
     pub source: Source,
     pub limits: Limits,
 }
 
+#[derive(Clone)]
 pub struct ExtractConfig {
     pub input: InputConfig,
     pub output: PathBuf,
     pub format: MeshFormat,
     /// Iso values (empty: the field's default).
     pub isos: Vec<f64>,
+    /// `--mask`: the mask volume.
+    pub mask: Option<InputConfig>,
     /// `--labels`: one surface per label instead of isosurfaces.
     pub labels: Option<Labels>,
     /// Volumes sampled at the vertices, by attribute name.
@@ -208,10 +213,15 @@ impl ExtractConfig {
             isos,
             region: Region::from_args(a)?,
             labels,
+            mask: a
+                .mask
+                .as_ref()
+                .map(|m| InputConfig::from_args(&InputArgs { input: m.clone(), layout: a.input.layout.clone() }))
+                .transpose()?,
             attributes: attributes(a)?,
             color: color(a)?,
             inside,
-            options: Options { method, normals, threads: None },
+            options: Options { method, normals, threads: None, mask: None },
             time_json: a.time_json.clone(),
             repeat: a.repeat,
             require: guarantees(&a.require)?,
@@ -243,6 +253,7 @@ fn attributes(a: &ExtractArgs) -> Result<Vec<(String, InputConfig)>> {
 }
 
 /// `--color-by NAME --colormap MAP [--color-range LO:HI]`.
+#[derive(Clone)]
 pub struct ColorBy {
     pub attribute: String,
     pub map: Colormap,

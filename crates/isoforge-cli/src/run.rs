@@ -158,6 +158,7 @@ pub fn extract(c: &ExtractConfig) -> Result<Outcome> {
         c.isos.iter().map(|&value| Iso { value, inside }).collect()
     };
     let bar = Bar::new("extracting");
+    let mut mask = None;
     if let Some(labels) = &c.labels {
         return extract_labels(c, loaded, labels, &name);
     }
@@ -185,10 +186,16 @@ pub fn extract(c: &ExtractConfig) -> Result<Outcome> {
             }
             // Padding outside every iso: the range's end on the outside side (ties are outside).
             let outside = if inside == Inside::Below { r.max } else { r.min };
+            if let Some(m) = &c.mask {
+                mask = Some(load_mask(m, g.lattice().dims(), &c.region)?);
+            }
             Loaded::Grid(apply_region(g, &c.region, outside, &name)?)
         }
+        Loaded::Field(_) if c.mask.is_some() => bail!("--mask applies to volume files"),
         field => field,
     };
+    let options = isoforge::pipeline::Options { mask: mask.map(std::sync::Arc::new), ..c.options.clone() };
+    let c = &ExtractConfig { options, ..c.clone() };
     let attribute_grids = load_attributes(c)?;
     // glTF holds several meshes: one file with a node per iso; other formats get a file per iso.
     let one_gltf = isos.len() > 1 && matches!(c.format, MeshFormat::Glb | MeshFormat::Gltf);
@@ -218,6 +225,19 @@ pub fn extract(c: &ExtractConfig) -> Result<Outcome> {
     }
     bar.finish();
     Ok(outcome)
+}
+
+/// The `--mask` volume as point flags on the (cropped, padded) input lattice.
+fn load_mask(input: &InputConfig, dims: [u32; 3], region: &Region) -> Result<isoforge::extract::PointMask> {
+    let name = input_name(input);
+    let Loaded::Grid(m) = load(input)? else { bail!("--mask {name}: not a volume file") };
+    if m.lattice().dims() != dims {
+        bail!("--mask {name}: dims {:?} differ from the input's {dims:?}", m.lattice().dims());
+    }
+    // Cropped like the input; a --close border counts as inside the mask (it only adds outside points).
+    let m = apply_region(m, &Region { index_space: false, ..region.clone() }, 1.0, &name)?;
+    let flags: Vec<bool> = m.values_f64().map(|v| v != 0.0).collect();
+    Ok(isoforge::extract::PointMask::new(m.lattice().dims(), flags)?)
 }
 
 /// `--labels`: a closed surface per label, written as one file (triangles tagged by label).

@@ -771,3 +771,58 @@ fn world_bounds_match_nibabel_and_pynrrd() {
     assert!(checked >= 7, "only {checked} volumes checked");
     eprintln!("world bounds: {checked} volumes, largest difference {worst:.2e} voxel");
 }
+
+/// The triangles of a mesh file as sorted position triples (vertex numbering aside).
+fn triangle_set(path: &Path) -> Vec<[[u32; 3]; 3]> {
+    let m = isoforge_io::read_mesh(path, &isoforge_io::Limits::default()).unwrap();
+    let mut t: Vec<[[u32; 3]; 3]> = m
+        .triangles
+        .iter()
+        .map(|t| {
+            let mut v = t.map(|i| m.positions[i as usize].map(f32::to_bits));
+            let r = (0..3).min_by_key(|&k| v[k]).unwrap();
+            v.rotate_left(r);
+            v
+        })
+        .collect();
+    t.sort();
+    t
+}
+
+#[test]
+fn a_mask_keeps_the_cells_whose_corners_are_all_in_it() {
+    let dir = tempfile::tempdir().unwrap();
+    let vol = testdata().join("volumes/u8_raw.nrrd"); // 6 x 5 x 7
+    let v = p(&vol);
+    let src = isoforge_io::read_volume(&vol, &isoforge_io::Limits::default()).unwrap();
+    let l = src.lattice().clone();
+    let write_mask = |name: &str, f: &dyn Fn([u32; 3]) -> bool| {
+        let g = isoforge::grid::DenseGrid::from_fn(l.clone(), |p| u8::from(f(p)));
+        let path = dir.path().join(name);
+        isoforge_io::write_volume(&path, &g.into()).unwrap();
+        path
+    };
+    let all = write_mask("all.nrrd", &|_| true);
+    let boxed = write_mask("box.nrrd", &|[i, j, k]| (1..4).contains(&i) && (0..5).contains(&j) && (2..7).contains(&k));
+    let run = |extra: &[&str], out: &str| {
+        let o = dir.path().join(out);
+        let mut a = vec!["extract", "-i", v, "--iso", "10.5", "-o", p(&o)];
+        a.extend_from_slice(extra);
+        let r = isoforge(&a);
+        assert_eq!(r.status.code(), Some(0), "{a:?}: {}", stderr(&r));
+        o
+    };
+    let plain = run(&[], "plain.ply");
+    let masked_all = run(&["--mask", p(&all)], "all.ply");
+    assert_eq!(triangle_set(&plain), triangle_set(&masked_all), "a full mask changes nothing");
+    // Cells with all corners in the box i 1..4, k 2..7 are exactly the cells of that ROI.
+    let masked_box = run(&["--mask", p(&boxed)], "box.ply");
+    let roi = run(&["--roi", "1:4,:,2:7"], "roi.ply");
+    assert_eq!(triangle_set(&masked_box), triangle_set(&roi));
+    assert!(triangle_set(&masked_box).len() < triangle_set(&plain).len());
+    let bad = dir.path().join("bad.ply");
+    let small = dir.path().join("small.nrrd");
+    let g = isoforge::grid::DenseGrid::from_fn(isoforge::grid::Lattice::new([3, 3, 3]).unwrap(), |_| 1u8);
+    isoforge_io::write_volume(&small, &g.into()).unwrap();
+    fails(&["extract", "-i", v, "--iso", "10.5", "--mask", p(&small), "-o", p(&bad)], "differ from the input's", &bad);
+}

@@ -4,7 +4,7 @@
 //! the same generic walk, monomorphised for its volume and extractor.
 
 use crate::error::{Error, Result};
-use crate::extract::{Decomposition, MarchingCubes, MarchingCubes33, MarchingTetrahedra};
+use crate::extract::{Decomposition, MarchingCubes, MarchingCubes33, MarchingTetrahedra, Masked, PointMask};
 use crate::grid::{AnyGrid, DenseGrid, Sample};
 use crate::mesh::{Mesh, MeshBuilder};
 use crate::volume::catalog::Builtin;
@@ -86,6 +86,8 @@ pub struct Options {
     /// Worker threads for grid extraction; `None` uses rayon's global pool (all cores). The mesh
     /// is identical for every thread count.
     pub threads: Option<usize>,
+    /// Only cells whose eight corners are in this mask (any method; runs on the slab walker).
+    pub mask: Option<std::sync::Arc<PointMask>>,
 }
 
 /// A mesh and what the walk saw.
@@ -124,10 +126,27 @@ pub fn extract_with_progress<V: Volume>(
     if let Some(p) = progress {
         walker = walker.with_progress(p);
     }
-    let stats = match (opts.method, opts.method.decomposition()) {
-        (_, Some(decomposition)) => walker.walk(vol, iso, &mut MarchingTetrahedra { decomposition }, &mut out)?,
-        (Method::MarchingCubes33, _) => walker.walk(vol, iso, &mut MarchingCubes33, &mut out)?,
-        _ => walker.walk(vol, iso, &mut MarchingCubes, &mut out)?,
+    if let Some(mask) = &opts.mask {
+        if mask.dims() != vol.lattice().dims() {
+            return Err(Error::InvalidInput(format!(
+                "mask dims {:?} differ from the volume's {:?}",
+                mask.dims(),
+                vol.lattice().dims()
+            )));
+        }
+    }
+    let stats = match (opts.method, opts.method.decomposition(), &opts.mask) {
+        (_, Some(decomposition), None) => walker.walk(vol, iso, &mut MarchingTetrahedra { decomposition }, &mut out)?,
+        (_, Some(decomposition), Some(m)) => {
+            let mut x = Masked { inner: MarchingTetrahedra { decomposition }, mask: m };
+            walker.walk(vol, iso, &mut x, &mut out)?
+        }
+        (Method::MarchingCubes33, _, None) => walker.walk(vol, iso, &mut MarchingCubes33, &mut out)?,
+        (Method::MarchingCubes33, _, Some(m)) => {
+            walker.walk(vol, iso, &mut Masked { inner: MarchingCubes33, mask: m }, &mut out)?
+        }
+        (_, _, None) => walker.walk(vol, iso, &mut MarchingCubes, &mut out)?,
+        (_, _, Some(m)) => walker.walk(vol, iso, &mut Masked { inner: MarchingCubes, mask: m }, &mut out)?,
     };
     Ok(Extraction { mesh: out.finish()?, stats })
 }
@@ -141,8 +160,8 @@ pub fn extract_with_progress<V: Volume>(
 pub fn extract_grid(grid: &AnyGrid, iso: Iso, opts: &Options, progress: Option<&dyn Progress>) -> Result<Extraction> {
     fn go<S: Sample>(g: &DenseGrid<S>, iso: Iso, opts: &Options) -> Result<Extraction> {
         let normals = opts.normals == Normals::Gradient;
-        if opts.method != Method::MarchingCubes {
-            // The other methods run on the serial slab walker.
+        if opts.method != Method::MarchingCubes || opts.mask.is_some() {
+            // The other methods and masks run on the serial slab walker.
             return extract(&GridVolume::new(g), iso, opts);
         }
         let (mesh, stats) = flying_edges(g, iso, &MarchingCubes, normals)?;

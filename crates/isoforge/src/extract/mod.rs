@@ -9,11 +9,13 @@
 
 pub mod cube;
 pub mod marching_cubes;
+pub mod masked;
 pub mod mc33;
 pub mod squares;
 pub mod tetrahedra;
 
 pub use marching_cubes::MarchingCubes;
+pub use masked::{Masked, PointMask};
 pub use mc33::MarchingCubes33;
 pub use squares::{marching_squares, Polyline, Saddle};
 pub use tetrahedra::{Decomposition, MarchingTetrahedra};
