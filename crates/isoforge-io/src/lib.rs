@@ -50,6 +50,18 @@ pub fn open_volume(path: &Path, limits: &Limits) -> Result<VolumeReader> {
     }
     let unsupported = |detail: &str| Err(Error::Unsupported { path: path.to_path_buf(), detail: detail.to_string() });
     if path.is_dir() {
+        // Image slices (PNG, TIFF) make a numbered stack; anything else is a DICOM series.
+        #[cfg(any(feature = "png", feature = "tiff"))]
+        {
+            let images: Vec<std::path::PathBuf> = std::fs::read_dir(path)
+                .map_err(|e| Error::Io { path: path.to_path_buf(), source: e })?
+                .filter_map(|e| e.ok().map(|e| e.path()))
+                .filter(|p| p.is_file() && read::stack::is_image(p))
+                .collect();
+            if !images.is_empty() {
+                return read::stack::open_image_stack(path, images, limits);
+            }
+        }
         #[cfg(feature = "dicom")]
         return read::dicom::open_dicom_dir(path, limits);
         #[cfg(not(feature = "dicom"))]

@@ -79,3 +79,29 @@ fn unsupported_targets_are_refused_without_a_file() {
         assert!(!out.exists());
     }
 }
+
+#[test]
+fn a_folder_of_numbered_images_is_a_volume_in_number_order() {
+    let images = PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("../../testdata/images");
+    let dir = tempfile::tempdir().unwrap();
+    // 9 < 10 < 11 as numbers, not as text.
+    for (name, src) in [("slice_9.png", "cthead_z50.png"), ("slice_10.png", "engine_z64.png"), ("slice_11.png", "cthead_z50.png")] {
+        std::fs::copy(images.join(src), dir.path().join(name)).unwrap();
+    }
+    let g = read_volume(dir.path(), &Limits::default()).unwrap();
+    assert_eq!(g.lattice().dims(), [256, 256, 3]);
+    let engine = read_volume(&images.join("engine_z64.png"), &Limits::default()).unwrap();
+    let cthead = read_volume(&images.join("cthead_z50.png"), &Limits::default()).unwrap();
+    for (i, j) in [(0, 0), (100, 37), (255, 255), (128, 200)] {
+        assert_eq!(g.get_f64([i, j, 0]), cthead.get_f64([i, j, 0]));
+        assert_eq!(g.get_f64([i, j, 1]), engine.get_f64([i, j, 0]));
+        assert_eq!(g.get_f64([i, j, 2]), cthead.get_f64([i, j, 0]));
+    }
+    // A missing number, and a slice of another size, are errors naming the files.
+    std::fs::remove_file(dir.path().join("slice_10.png")).unwrap();
+    let e = read_volume(dir.path(), &Limits::default()).unwrap_err().to_string();
+    assert!(e.contains("jump from 9 (slice_9.png) to 11 (slice_11.png)"), "{e}");
+    std::fs::copy(images.join("bunny_z180_u16.png"), dir.path().join("slice_10.png")).unwrap();
+    let e = read_volume(dir.path(), &Limits::default()).unwrap_err().to_string();
+    assert!(e.contains("slice_10.png") && e.contains("512 x 512 x 1 u16 differs"), "{e}");
+}

@@ -25,6 +25,8 @@ pub mod png;
 pub mod raw;
 #[cfg(feature = "stl")]
 pub mod stl;
+#[cfg(any(feature = "png", feature = "tiff"))]
+pub mod stack;
 pub mod stream;
 #[cfg(feature = "tiff")]
 pub mod tiff;
