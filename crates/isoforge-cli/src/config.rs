@@ -9,6 +9,7 @@ use isoforge::mesh::colormap::Colormap;
 use isoforge::pipeline::{Labels, Method, Normals, Options};
 use isoforge::topo::Guarantee;
 use isoforge::volume::catalog::{self, Builtin};
+use isoforge::volume::texture::SolidTexture;
 use isoforge::volume::{Inside, Iso};
 use isoforge_io::write::contour::ContourFormat;
 use isoforge_io::{Limits, MeshFormat, RawSpec};
@@ -41,8 +42,8 @@ pub struct ExtractConfig {
     pub mask: Option<InputConfig>,
     /// `--labels`: one surface per label instead of isosurfaces.
     pub labels: Option<Labels>,
-    /// Volumes sampled at the vertices, by attribute name.
-    pub attributes: Vec<(String, InputConfig)>,
+    /// What is sampled at the vertices, by attribute name.
+    pub attributes: Vec<(String, AttributeSource)>,
     /// Vertex colours: attribute name, map, optional value range.
     pub color: Option<ColorBy>,
     pub region: Region,
@@ -230,24 +231,57 @@ impl ExtractConfig {
     }
 }
 
-fn attributes(a: &ExtractArgs) -> Result<Vec<(String, InputConfig)>> {
-    let mut out: Vec<(String, InputConfig)> = Vec::new();
+/// Where an `--attribute` comes from.
+#[derive(Clone)]
+pub enum AttributeSource {
+    /// A co-registered volume, sampled trilinearly in world coordinates.
+    Volume(InputConfig),
+    /// A procedural solid texture; `scale` is its feature size in world units (default: an
+    /// eighth of the mesh's bounding-box diagonal).
+    Texture(SolidTexture, Option<f64>),
+}
+
+fn attributes(a: &ExtractArgs) -> Result<Vec<(String, AttributeSource)>> {
+    let mut out: Vec<(String, AttributeSource)> = Vec::new();
     for spec in &a.attribute {
-        let (name, path) = spec.split_once('=').ok_or_else(|| anyhow!("--attribute {spec:?}: expected NAME=VOLUME"))?;
+        let (name, src) = spec
+            .split_once('=')
+            .ok_or_else(|| anyhow!("--attribute {spec:?}: expected NAME=VOLUME or NAME=texture:KIND"))?;
         if name.is_empty() || !name.chars().all(|c| c.is_ascii_alphanumeric() || c == '_') {
             bail!("--attribute {spec:?}: the name must be letters, digits or _");
         }
         if out.iter().any(|(n, _)| n == name) {
             bail!("--attribute {spec:?}: {name} is given twice");
         }
-        let input = InputConfig::from_args(&InputArgs { input: path.to_string(), layout: a.input.layout.clone() })?;
-        if matches!(input.source, Source::Field(_)) {
-            bail!("--attribute {spec:?}: attributes are sampled from volume files");
-        }
-        out.push((name.to_string(), input));
-    }
-    if !out.is_empty() && a.space == "index" {
-        bail!("--attribute samples in world coordinates: drop --space index");
+        let source = if let Some(t) = src.strip_prefix("texture:") {
+            let (kind, query) = t.split_once('?').unwrap_or((t, ""));
+            let tex = SolidTexture::parse(kind).ok_or_else(|| {
+                let names: Vec<&str> = SolidTexture::ALL.iter().map(|(_, n)| *n).collect();
+                anyhow!("--attribute {spec:?}: unknown texture {kind:?} (available: {})", names.join(", "))
+            })?;
+            let scale = match query.strip_prefix("scale=") {
+                Some(v) => Some(parse_number("--attribute scale", v).and_then(|s| {
+                    if s > 0.0 {
+                        Ok(s)
+                    } else {
+                        bail!("--attribute {spec:?}: scale must be positive")
+                    }
+                })?),
+                None if query.is_empty() => None,
+                None => bail!("--attribute {spec:?}: unknown parameter {query:?} (scale=S)"),
+            };
+            AttributeSource::Texture(tex, scale)
+        } else {
+            let input = InputConfig::from_args(&InputArgs { input: src.to_string(), layout: a.input.layout.clone() })?;
+            if matches!(input.source, Source::Field(_)) {
+                bail!("--attribute {spec:?}: attributes are sampled from volume files or texture:KIND");
+            }
+            if a.space == "index" {
+                bail!("--attribute samples volumes in world coordinates: drop --space index");
+            }
+            AttributeSource::Volume(input)
+        };
+        out.push((name.to_string(), source));
     }
     Ok(out)
 }

@@ -15,7 +15,9 @@ use isoforge_io::write::ply::PlyStream;
 use isoforge_io::{Limits, MeshFormat, VolumeReader};
 use serde_json::json;
 
-use crate::config::{CheckConfig, ContourConfig, DemoConfig, ExtractConfig, InputConfig, Region, Roi, Source};
+use crate::config::{
+    AttributeSource, CheckConfig, ContourConfig, DemoConfig, ExtractConfig, InputConfig, Region, Roi, Source,
+};
 use crate::progress::Bar;
 use crate::report;
 
@@ -296,36 +298,66 @@ fn extract_labels(c: &ExtractConfig, loaded: Loaded, labels: &pipeline::Labels, 
     Ok(outcome)
 }
 
-/// The `--attribute` volumes, read once.
-fn load_attributes(c: &ExtractConfig) -> Result<Vec<(String, AnyGrid)>> {
+/// An `--attribute` ready to sample: a volume read once, or a texture.
+enum Attribute {
+    Volume(AnyGrid),
+    Texture(isoforge::volume::texture::SolidTexture, Option<f64>),
+}
+
+/// The `--attribute` sources, volumes read once.
+fn load_attributes(c: &ExtractConfig) -> Result<Vec<(String, Attribute)>> {
     let mut out = Vec::new();
-    for (name, input) in &c.attributes {
-        let Loaded::Grid(g) = load(input)? else { bail!("--attribute {name}: not a volume file") };
-        out.push((name.clone(), g));
+    for (name, source) in &c.attributes {
+        let a = match source {
+            AttributeSource::Volume(input) => {
+                let Loaded::Grid(g) = load(input)? else { bail!("--attribute {name}: not a volume file") };
+                Attribute::Volume(g)
+            }
+            AttributeSource::Texture(t, scale) => Attribute::Texture(*t, *scale),
+        };
+        out.push((name.clone(), a));
     }
     Ok(out)
 }
 
-/// Samples the attribute volumes at the mesh's (world) vertices and colours them.
-fn vertex_data(c: &ExtractConfig, mesh: &isoforge::mesh::Mesh, grids: &[(String, AnyGrid)]) -> isoforge_io::MeshData {
+/// Samples the attributes at the mesh's (world) vertices and colours them.
+fn vertex_data(
+    c: &ExtractConfig,
+    mesh: &isoforge::mesh::Mesh,
+    attributes: &[(String, Attribute)],
+) -> isoforge_io::MeshData {
     let mut data = isoforge_io::MeshData::default();
-    for (name, g) in grids {
-        let mut outside = 0usize;
-        let values: Vec<f32> = mesh
-            .positions
-            .iter()
-            .map(|p| {
-                let (v, inside) = g.value_at_world(p.map(f64::from));
-                outside += usize::from(!inside);
-                v as f32
-            })
-            .collect();
-        if outside > 0 {
-            eprintln!(
-                "--attribute {name}: {outside} of {} vertices lie outside its volume (given the nearest value)",
-                values.len()
-            );
-        }
+    for (name, attribute) in attributes {
+        let values: Vec<f32> = match attribute {
+            Attribute::Volume(g) => {
+                let mut outside = 0usize;
+                let v: Vec<f32> = mesh
+                    .positions
+                    .iter()
+                    .map(|p| {
+                        let (v, inside) = g.value_at_world(p.map(f64::from));
+                        outside += usize::from(!inside);
+                        v as f32
+                    })
+                    .collect();
+                if outside > 0 {
+                    eprintln!(
+                        "--attribute {name}: {outside} of {} vertices lie outside its volume (given the nearest value)",
+                        v.len()
+                    );
+                }
+                v
+            }
+            Attribute::Texture(t, scale) => {
+                let (lo, hi) =
+                    mesh.positions.iter().fold(([f32::INFINITY; 3], [f32::NEG_INFINITY; 3]), |(lo, hi), p| {
+                        ([0, 1, 2].map(|a| lo[a].min(p[a])), [0, 1, 2].map(|a| hi[a].max(p[a])))
+                    });
+                let diag = (0..3).map(|a| ((hi[a] - lo[a]) as f64).powi(2)).sum::<f64>().sqrt();
+                let s = scale.unwrap_or(if diag > 0.0 { diag / 8.0 } else { 1.0 }) as f32;
+                mesh.positions.iter().map(|p| t.at(isoforge::math::Vec3::from(*p) / s)).collect()
+            }
+        };
         data.scalars.push((name.clone(), values));
     }
     if let Some(by) = &c.color {
@@ -400,7 +432,7 @@ struct Job<'a> {
     loaded: &'a Loaded,
     name: &'a str,
     bar: &'a Bar,
-    attributes: &'a [(String, AnyGrid)],
+    attributes: &'a [(String, Attribute)],
 }
 
 /// One extraction of an in-memory input at `iso`, written to `output` when given; returns the

@@ -826,3 +826,39 @@ fn a_mask_keeps_the_cells_whose_corners_are_all_in_it() {
     isoforge_io::write_volume(&small, &g.into()).unwrap();
     fails(&["extract", "-i", v, "--iso", "10.5", "--mask", p(&small), "-o", p(&bad)], "differ from the input's", &bad);
 }
+
+#[test]
+fn solid_textures_colour_a_field() {
+    let dir = tempfile::tempdir().unwrap();
+    let out = dir.path().join("m.ply");
+    let o = isoforge(&[
+        "extract",
+        "-i",
+        "field:sphere?n=40",
+        "--attribute",
+        "marble=texture:marble?scale=0.2",
+        "--attribute",
+        "wood=texture:wood",
+        "--color-by",
+        "marble",
+        "--colormap",
+        "hot",
+        "-o",
+        p(&out),
+        "--ascii",
+    ]);
+    assert_eq!(o.status.code(), Some(0), "{}", stderr(&o));
+    let (props, rows) = ascii_ply_vertices(&out);
+    assert_eq!(props, ["x", "y", "z", "red", "green", "blue", "marble", "wood"]);
+    let marble: Vec<f64> = rows.iter().map(|r| r[6]).collect();
+    assert!(marble.iter().all(|v| (0.0..=1.0).contains(v)));
+    let spread =
+        marble.iter().cloned().fold(f64::NEG_INFINITY, f64::max) - marble.iter().cloned().fold(f64::INFINITY, f64::min);
+    assert!(spread > 0.5, "marble barely varies ({spread})");
+    let bad = dir.path().join("bad.ply");
+    fails(
+        &["extract", "-i", "field:sphere", "--attribute", "t=texture:plaid", "-o", p(&bad)],
+        "unknown texture \"plaid\"",
+        &bad,
+    );
+}

@@ -85,7 +85,9 @@ fn a_folder_of_numbered_images_is_a_volume_in_number_order() {
     let images = PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("../../testdata/images");
     let dir = tempfile::tempdir().unwrap();
     // 9 < 10 < 11 as numbers, not as text.
-    for (name, src) in [("slice_9.png", "cthead_z50.png"), ("slice_10.png", "engine_z64.png"), ("slice_11.png", "cthead_z50.png")] {
+    for (name, src) in
+        [("slice_9.png", "cthead_z50.png"), ("slice_10.png", "engine_z64.png"), ("slice_11.png", "cthead_z50.png")]
+    {
         std::fs::copy(images.join(src), dir.path().join(name)).unwrap();
     }
     let g = read_volume(dir.path(), &Limits::default()).unwrap();

@@ -23,10 +23,10 @@ pub mod ply;
 pub mod png;
 #[cfg(feature = "raw")]
 pub mod raw;
-#[cfg(feature = "stl")]
-pub mod stl;
 #[cfg(any(feature = "png", feature = "tiff"))]
 pub mod stack;
+#[cfg(feature = "stl")]
+pub mod stl;
 pub mod stream;
 #[cfg(feature = "tiff")]
 pub mod tiff;

@@ -43,7 +43,12 @@ pub fn open_image_stack(dir: &Path, files: Vec<PathBuf>, limits: &Limits) -> Res
     for w in numbered.windows(2) {
         let name = |p: &PathBuf| p.file_name().unwrap_or_default().to_string_lossy().into_owned();
         if w[1].0 == w[0].0 {
-            return Err(ctx.bad(format!("{} and {} have the same slice number {}", name(&w[0].1), name(&w[1].1), w[0].0)));
+            return Err(ctx.bad(format!(
+                "{} and {} have the same slice number {}",
+                name(&w[0].1),
+                name(&w[1].1),
+                w[0].0
+            )));
         }
         if w[1].0 != w[0].0 + 1 {
             return Err(ctx.bad(format!(
@@ -64,7 +69,14 @@ pub fn open_image_stack(dir: &Path, files: Vec<PathBuf>, limits: &Limits) -> Res
             if a != b || first.dtype() != g.dtype() {
                 return Err(Ctx::new(f, "image stack").bad(format!(
                     "{} x {} x {} {} differs from the first slice's {} x {} x {} {}",
-                    b[0], b[1], b[2], g.dtype(), a[0], a[1], a[2], first.dtype()
+                    b[0],
+                    b[1],
+                    b[2],
+                    g.dtype(),
+                    a[0],
+                    a[1],
+                    a[2],
+                    first.dtype()
                 )));
             }
         } else if g.lattice().dims()[2] != 1 {

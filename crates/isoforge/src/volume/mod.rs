@@ -12,6 +12,7 @@ mod grid_volume;
 mod oracle;
 mod sampled;
 pub mod sdf;
+pub mod texture;
 
 pub use field::{central_difference, Field, FieldVisitor};
 pub use grid_volume::{edge_gradient, point_gradient, point_gradient_at, trilinear_value, GridVolume};
