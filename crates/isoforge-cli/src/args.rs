@@ -112,6 +112,10 @@ pub struct ExtractArgs {
     /// Attribute values mapped to the colour map's ends (default: the attribute's range on the mesh).
     #[arg(long, value_name = "LO:HI", allow_hyphen_values = true)]
     pub color_range: Option<String>,
+    /// Anatomical frame of the written world coordinates: lps (DICOM, ITK) or ras (NIfTI,
+    /// FreeSurfer); default: the input file's own. Needs a file that says which it uses.
+    #[arg(long, value_name = "lps|ras")]
+    pub world: Option<String>,
     /// Coordinates of the written vertices: world (spacing, origin and direction of the file) or
     /// index (voxel indices of the input volume).
     #[arg(long, value_name = "world|index", default_value = "world")]

@@ -4,7 +4,7 @@ use std::path::PathBuf;
 
 use anyhow::{anyhow, bail, Context, Result};
 use isoforge::extract::Saddle;
-use isoforge::grid::DType;
+use isoforge::grid::{DType, WorldSpace};
 use isoforge::mesh::colormap::Colormap;
 use isoforge::pipeline::{Labels, Method, Normals, Options};
 use isoforge::topo::Guarantee;
@@ -334,6 +334,8 @@ fn parse_number(flag: &str, s: &str) -> Result<f64> {
 #[derive(Debug, Clone, Default)]
 pub struct Region {
     pub roi: Option<Roi>,
+    /// `--world`: the frame to express world coordinates in.
+    pub world: Option<WorldSpace>,
     pub close: bool,
     pub index_space: bool,
 }
@@ -385,11 +387,20 @@ impl Region {
             "index" => true,
             s => bail!("--space {s:?}: must be world or index"),
         };
-        Ok(Region { roi, close: a.close, index_space })
+        let world = match a.world.as_deref() {
+            None => None,
+            Some("lps") => Some(WorldSpace::Lps),
+            Some("ras") => Some(WorldSpace::Ras),
+            Some(s) => bail!("--world {s:?}: must be lps or ras"),
+        };
+        if world.is_some() && index_space {
+            bail!("--world and --space index exclude each other");
+        }
+        Ok(Region { roi, world, close: a.close, index_space })
     }
 
     pub fn is_identity(&self) -> bool {
-        self.roi.is_none() && !self.close && !self.index_space
+        self.roi.is_none() && self.world.is_none() && !self.close && !self.index_space
     }
 }
 

@@ -198,7 +198,11 @@ pub fn extract(c: &ExtractConfig) -> Result<Outcome> {
     };
     let options = isoforge::pipeline::Options { mask: mask.map(std::sync::Arc::new), ..c.options.clone() };
     let c = &ExtractConfig { options, ..c.clone() };
-    let attribute_grids = load_attributes(c)?;
+    let frame = match &loaded {
+        Loaded::Grid(g) => g.lattice().space(),
+        _ => None,
+    };
+    let attribute_grids = load_attributes(c, frame)?;
     // glTF holds several meshes: one file with a node per iso; other formats get a file per iso.
     let one_gltf = isos.len() > 1 && matches!(c.format, MeshFormat::Glb | MeshFormat::Gltf);
     let mut outcome = Outcome::Success;
@@ -305,12 +309,21 @@ enum Attribute {
 }
 
 /// The `--attribute` sources, volumes read once.
-fn load_attributes(c: &ExtractConfig) -> Result<Vec<(String, Attribute)>> {
+fn load_attributes(c: &ExtractConfig, frame: Option<isoforge::grid::WorldSpace>) -> Result<Vec<(String, Attribute)>> {
     let mut out = Vec::new();
     for (name, source) in &c.attributes {
         let a = match source {
             AttributeSource::Volume(input) => {
                 let Loaded::Grid(g) = load(input)? else { bail!("--attribute {name}: not a volume file") };
+                // Sample in the mesh's frame: an RAS attribute for an LPS input (or the reverse)
+                // is re-expressed first.
+                let g = match (frame, g.lattice().space()) {
+                    (Some(want), Some(have)) if want != have => {
+                        let l = g.lattice().in_space(want)?;
+                        g.with_lattice(l)?
+                    }
+                    _ => g,
+                };
                 Attribute::Volume(g)
             }
             AttributeSource::Texture(t, scale) => Attribute::Texture(*t, *scale),
@@ -422,6 +435,10 @@ fn apply_region(mut g: AnyGrid, region: &Region, outside: f64, name: &str) -> Re
         let lattice = isoforge::grid::Lattice::with_geometry(g.lattice().dims(), [1.0; 3], first)?;
         g = g.with_lattice(lattice)?;
     }
+    if let Some(target) = region.world {
+        let lattice = g.lattice().in_space(target).with_context(|| format!("{name}: --world"))?;
+        g = g.with_lattice(lattice)?;
+    }
     Ok(g)
 }
 
@@ -513,6 +530,7 @@ pub fn info(input: &InputConfig, json_out: bool) -> Result<Outcome> {
         "type": kind,
         "spacing": lattice.spacing(),
         "origin": lattice.origin(),
+        "space": lattice.space().map(|s| s.name()),
         "direction": lattice.direction(),
         "world_bounds": { "min": lo, "max": hi },
         "points": lattice.num_points(),
@@ -543,6 +561,16 @@ pub fn info(input: &InputConfig, json_out: bool) -> Result<Outcome> {
     println!("dims:        {} x {} x {} ({} points), {kind}", d[0], d[1], d[2], lattice.num_points());
     println!("spacing:     {} {} {}", s[0], s[1], s[2]);
     println!("origin:      {} {} {}", o[0], o[1], o[2]);
+    if let Some(space) = lattice.space() {
+        println!(
+            "space:       {} (world coordinates in millimetres, +x +y +z towards {})",
+            space.name(),
+            match space {
+                isoforge::grid::WorldSpace::Lps => "left, posterior, superior",
+                isoforge::grid::WorldSpace::Ras => "right, anterior, superior",
+            }
+        );
+    }
     if lattice.direction() != IDENTITY {
         println!("direction:   {:?}{}", lattice.direction(), if lattice.is_mirrored() { " (mirrored)" } else { "" });
     }

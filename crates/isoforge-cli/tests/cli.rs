@@ -862,3 +862,45 @@ fn solid_textures_colour_a_field() {
         &bad,
     );
 }
+
+#[test]
+fn world_frames_convert_between_lps_and_ras() {
+    let dir = tempfile::tempdir().unwrap();
+    let nii = testdata().join("volumes/u8_plain.nii"); // RAS
+    let (ras, lps) = (dir.path().join("ras.ply"), dir.path().join("lps.ply"));
+    for (out, extra) in [(&ras, vec![]), (&lps, vec!["--world", "lps"])] {
+        let mut a = vec!["extract", "-i", p(&nii), "--iso", "13.5", "-o", p(out)];
+        a.extend(extra);
+        let o = isoforge(&a);
+        assert_eq!(o.status.code(), Some(0), "{}", stderr(&o));
+    }
+    let read = |f: &Path| isoforge_io::read_mesh(f, &isoforge_io::Limits::default()).unwrap();
+    let (a, b) = (read(&ras), read(&lps));
+    assert_eq!(a.triangles, b.triangles);
+    for (p, q) in a.positions.iter().zip(&b.positions) {
+        assert_eq!([-p[0], -p[1], p[2]], *q);
+    }
+    // A half turn keeps the orientation: both enclose a positive volume.
+    let vol = |m: &isoforge::mesh::Mesh| isoforge::topo::check(m).volume;
+    assert!(vol(&a) > 0.0 && (vol(&a) - vol(&b)).abs() < 1e-6 * vol(&a).abs());
+    // An LPS copy of the volume as an attribute of the RAS input is re-expressed before sampling:
+    // sampling the volume at its own isosurface gives the iso value.
+    let g = isoforge_io::read_volume(&nii, &isoforge_io::Limits::default()).unwrap();
+    let l = g.lattice().in_space(isoforge::grid::WorldSpace::Lps).unwrap();
+    let lps_copy = dir.path().join("copy_lps.nrrd");
+    isoforge_io::write_volume(&lps_copy, &g.with_lattice(l).unwrap()).unwrap();
+    let out = dir.path().join("attr.ply");
+    let attr = format!("self={}", p(&lps_copy));
+    let o = isoforge(&["extract", "-i", p(&nii), "--iso", "13.5", "--attribute", &attr, "-o", p(&out), "--ascii"]);
+    assert_eq!(o.status.code(), Some(0), "{}", stderr(&o));
+    let (_, rows) = ascii_ply_vertices(&out);
+    assert!(rows.iter().all(|r| (r[3] - 13.5).abs() < 1e-3), "{:?}", rows.iter().find(|r| (r[3] - 13.5).abs() >= 1e-3));
+    // A file without a frame cannot be converted.
+    let raw = testdata().join("volumes/f64_external.raw");
+    let bad = dir.path().join("bad.ply");
+    fails(
+        &["extract", "-i", p(&raw), "--dims", "6,5,7", "--dtype", "f64", "--iso", "1", "--world", "ras", "-o", p(&bad)],
+        "does not say whether its world coordinates are LPS or RAS",
+        &bad,
+    );
+}

@@ -50,6 +50,11 @@ fn written_volumes_read_back_identically() {
             assert_eq!(samples(&a), samples(&b), "{what}: samples differ");
             // World positions of the lattice corners: exact for NRRD (shortest round-trip text),
             // within f32 rounding for NIfTI (its header stores f32).
+            // The same frame for both: NIfTI stores RAS, so LPS sources come back converted.
+            let la = match (a.lattice().space(), b.lattice().space()) {
+                (Some(x), Some(y)) if x != y => a.lattice().in_space(y).unwrap(),
+                _ => a.lattice().clone(),
+            };
             let d = a.lattice().dims().map(|n| (n - 1) as f64);
             let extent: f64 = (0..3).map(|k| d[k] * a.lattice().spacing()[k]).fold(1.0, f64::max);
             let tol = if ext == "nrrd" { 1e-12 } else { 1e-6 }
@@ -57,7 +62,7 @@ fn written_volumes_read_back_identically() {
             for c in 0..8 {
                 let p = [c & 1, (c >> 1) & 1, (c >> 2) & 1].map(|b| b as f64).map(|x| x);
                 let p = [p[0] * d[0], p[1] * d[1], p[2] * d[2]];
-                let (wa, wb) = (a.lattice().to_world(p), b.lattice().to_world(p));
+                let (wa, wb) = (la.to_world(p), b.lattice().to_world(p));
                 for k in 0..3 {
                     assert!((wa[k] - wb[k]).abs() <= tol, "{what}: corner {c}: {wa:?} vs {wb:?}");
                 }

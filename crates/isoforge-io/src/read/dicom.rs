@@ -158,7 +158,8 @@ pub fn open_dicom_dir(dir: &Path, limits: &Limits) -> Result<VolumeReader> {
     let dims = [cols, rows, n as u32];
     decode::sample_bytes(ctx, dims, isoforge::grid::DType::F32, limits)?;
     let origin = slices[0].position;
-    let lattice = decode::lattice(ctx, dims, [pixel[1], pixel[0], spacing_z], origin, Some([row, col, normal]))?;
+    let lattice = decode::lattice(ctx, dims, [pixel[1], pixel[0], spacing_z], origin, Some([row, col, normal]))?
+        .with_space(Some(isoforge::grid::WorldSpace::Lps));
     // Pixels, rescaled.
     let plane = (rows * cols) as usize;
     let mut values: Vec<f64> = Vec::with_capacity(plane * n);

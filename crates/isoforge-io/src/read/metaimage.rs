@@ -75,7 +75,8 @@ pub fn open_metaimage(path: &Path, limits: &Limits) -> Result<VolumeReader> {
         }
         None => None,
     };
-    let lattice = decode::lattice(ctx, dims, h.spacing, h.origin, direction)?;
+    let lattice =
+        decode::lattice(ctx, dims, h.spacing, h.origin, direction)?.with_space(Some(isoforge::grid::WorldSpace::Lps));
     let compression = if h.compressed { Compression::Zlib } else { Compression::None };
     if data_file.eq_ignore_ascii_case("LOCAL") {
         let start = data_start.unwrap_or(head.len()) as u64;

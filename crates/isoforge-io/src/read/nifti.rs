@@ -56,7 +56,8 @@ pub fn open_nifti(path: &Path, limits: &Limits) -> Result<VolumeReader> {
     }
     let h = Header::parse(ctx, &head)?;
     let need = decode::sample_bytes(ctx, h.dims, h.dtype, limits)? as u64;
-    let lattice = decode::lattice(ctx, h.dims, h.spacing, h.origin, Some(h.direction))?;
+    let lattice = decode::lattice(ctx, h.dims, h.spacing, h.origin, Some(h.direction))?
+        .with_space(Some(isoforge::grid::WorldSpace::Ras));
     let reader = if h.magic_pair {
         let img = path.with_extension("img");
         let ictx = Ctx::new(&img, "NIfTI image");

@@ -6,6 +6,7 @@
 
 use std::path::{Path, PathBuf};
 
+use isoforge::grid::WorldSpace;
 use isoforge::grid::{AnyGrid, DType};
 
 use std::io::Read;
@@ -40,7 +41,7 @@ pub fn open_nrrd(path: &Path, limits: &Limits) -> Result<VolumeReader> {
         .map_err(|e| ctx.bad(format!("byte {}: header is not text", e.valid_up_to())))?;
     let h = Header::parse(ctx, header_text)?;
     let need = decode::sample_bytes(ctx, h.dims, h.dtype, limits)? as u64;
-    let lattice = decode::lattice(ctx, h.dims, h.spacing, h.origin, h.direction)?;
+    let lattice = decode::lattice(ctx, h.dims, h.spacing, h.origin, h.direction)?.with_space(h.space);
 
     // The data: after the header, or in the detached file.
     let (data_path, mut offset) = match &h.data_file {
@@ -145,6 +146,7 @@ struct Header {
     data_file: Option<String>,
     byte_skip: ByteSkip,
     line_skip: usize,
+    space: Option<WorldSpace>,
 }
 
 impl Header {
@@ -161,6 +163,7 @@ impl Header {
         let (mut sizes, mut dtype, mut encoding, mut endian) = (None, None, None, None);
         let (mut spacings, mut directions, mut origin, mut data_file) = (None, None, None, None);
         let (mut byte_skip, mut line_skip) = (ByteSkip::Bytes(0), 0usize);
+        let mut space = None;
         for (no, line) in lines {
             if line.is_empty() {
                 break;
@@ -264,7 +267,14 @@ impl Header {
                     };
                 }
                 "line skip" | "lineskip" => line_skip = value.parse().map_err(|_| bad("must be a whole number"))?,
-                _ => {} // kinds, space, content, min, max, units, labels, …: not needed for meshing
+                "space" => {
+                    space = match value.to_ascii_lowercase().as_str() {
+                        "left-posterior-superior" | "lps" => Some(WorldSpace::Lps),
+                        "right-anterior-superior" | "ras" => Some(WorldSpace::Ras),
+                        _ => None, // scanner-xyz, 3D-right-handed…: no anatomical frame
+                    }
+                }
+                _ => {} // kinds, content, min, max, units, labels, …: not needed for meshing
             }
         }
         let dimension = dimension.ok_or_else(|| ctx.bad("header has no \"dimension\" field"))?;
@@ -318,6 +328,7 @@ impl Header {
             data_file,
             byte_skip,
             line_skip,
+            space,
         })
     }
 }

@@ -5,7 +5,7 @@
 
 use std::io::{self, Write};
 
-use isoforge::grid::{as_bytes, AnyGrid, DType, Lattice, Sample};
+use isoforge::grid::{as_bytes, AnyGrid, DType, Lattice, Sample, WorldSpace};
 
 /// Writes the samples in little-endian order.
 fn write_samples(w: &mut dyn Write, grid: &AnyGrid) -> io::Result<()> {
@@ -49,9 +49,14 @@ pub fn write_nrrd(w: &mut dyn Write, grid: &AnyGrid, gzip: bool) -> io::Result<(
     let ax = axes(l);
     write!(
         w,
-        "NRRD0004\n# written by isoforge\ntype: {}\ndimension: 3\nsizes: {nx} {ny} {nz}\nspace dimension: 3\n\
+        "NRRD0004\n# written by isoforge\ntype: {}\ndimension: 3\nsizes: {nx} {ny} {nz}\n{}\n\
          space directions: {} {} {}\nspace origin: {}\nendian: little\nencoding: {}\n\n",
         nrrd_type(grid.dtype()),
+        match l.space() {
+            Some(WorldSpace::Lps) => "space: left-posterior-superior",
+            Some(WorldSpace::Ras) => "space: right-anterior-superior",
+            None => "space dimension: 3",
+        },
         v(ax[0]),
         v(ax[1]),
         v(ax[2]),
@@ -82,9 +87,13 @@ fn nifti_code(t: DType) -> (i16, i16) {
 }
 
 /// Writes a single-file NIfTI-1 (`.nii`; `gzip` for `.nii.gz`) with sform and qform set to the
-/// lattice (code 2, aligned; world = the file's space as read, RAS+ for NIfTI sources).
+/// lattice (code 2, aligned), in RAS: LPS lattices (DICOM, MetaImage, LPS NRRD) are converted.
 pub fn write_nifti(w: &mut dyn Write, grid: &AnyGrid, gzip: bool) -> io::Result<()> {
-    let l = grid.lattice();
+    // NIfTI world coordinates are RAS: an LPS lattice is re-expressed.
+    let l = &match grid.lattice().space() {
+        Some(WorldSpace::Lps) => grid.lattice().in_space(WorldSpace::Ras).map_err(io::Error::other)?,
+        _ => grid.lattice().clone(),
+    };
     let mut h = vec![0u8; 352];
     let put_i32 = |h: &mut Vec<u8>, at: usize, v: i32| h[at..at + 4].copy_from_slice(&v.to_le_bytes());
     let put_i16 = |h: &mut Vec<u8>, at: usize, v: i16| h[at..at + 2].copy_from_slice(&v.to_le_bytes());

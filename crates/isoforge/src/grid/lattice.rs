@@ -15,6 +15,27 @@ pub struct Lattice {
     direction: [[f64; 3]; 3],
     /// `direction == IDENTITY`, cached: `to_world` runs once per vertex.
     axis_aligned: bool,
+    /// The anatomical frame of the world coordinates, when the file says.
+    space: Option<WorldSpace>,
+}
+
+/// The anatomical frame of world coordinates: where +x, +y, +z point on the patient.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum WorldSpace {
+    /// +x left, +y posterior, +z superior: DICOM, ITK/MetaImage, most NRRD from DICOM.
+    Lps,
+    /// +x right, +y anterior, +z superior: NIfTI, FreeSurfer, Slicer's display frame.
+    Ras,
+}
+
+impl WorldSpace {
+    /// The short name (`LPS`, `RAS`).
+    pub fn name(self) -> &'static str {
+        match self {
+            WorldSpace::Lps => "LPS",
+            WorldSpace::Ras => "RAS",
+        }
+    }
 }
 
 /// The identity direction matrix (index axes along world axes).
@@ -63,7 +84,7 @@ impl Lattice {
         if let Some(o) = origin.iter().find(|o| !o.is_finite()) {
             return Err(Error::InvalidInput(format!("lattice origin {o}: must be finite")));
         }
-        Ok(Lattice { dims, spacing, origin, direction: IDENTITY, axis_aligned: true })
+        Ok(Lattice { dims, spacing, origin, direction: IDENTITY, axis_aligned: true, space: None })
     }
 
     /// A copy with the world direction of each index axis (`direction[a]` for axis `a`).
@@ -86,6 +107,39 @@ impl Lattice {
         self.direction = direction;
         self.axis_aligned = direction == IDENTITY;
         Ok(self)
+    }
+
+    /// A copy tagged with the anatomical frame its world coordinates are in.
+    pub fn with_space(mut self, space: Option<WorldSpace>) -> Self {
+        self.space = space;
+        self
+    }
+
+    /// The anatomical frame of the world coordinates, when known.
+    pub fn space(&self) -> Option<WorldSpace> {
+        self.space
+    }
+
+    /// The same lattice expressed in `target` world coordinates: LPS ↔ RAS negates world x and
+    /// y (a half turn about z, so handedness and triangle orientation are kept).
+    ///
+    /// # Errors
+    /// [`Error::InvalidInput`] when this lattice's frame is unknown.
+    pub fn in_space(&self, target: WorldSpace) -> Result<Self> {
+        let Some(from) = self.space else {
+            return Err(Error::InvalidInput(format!(
+                "the file does not say whether its world coordinates are LPS or RAS: cannot express them in {}",
+                target.name()
+            )));
+        };
+        if from == target {
+            return Ok(self.clone());
+        }
+        let flip = |v: [f64; 3]| [-v[0], -v[1], v[2]];
+        let mut l = self.clone().with_direction(self.direction.map(flip))?;
+        l.origin = flip(self.origin);
+        l.space = Some(target);
+        Ok(l)
     }
 
     /// World direction of each index axis.
@@ -227,7 +281,7 @@ impl Lattice {
     /// # Errors
     /// As [`Lattice::new`].
     pub fn with_dims(&self, dims: [u32; 3]) -> Result<Self> {
-        Self::with_geometry(dims, self.spacing, self.origin)?.with_direction(self.direction)
+        Ok(Self::with_geometry(dims, self.spacing, self.origin)?.with_direction(self.direction)?.with_space(self.space))
     }
 }
 

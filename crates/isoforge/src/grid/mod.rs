@@ -11,7 +11,7 @@ mod sample;
 
 pub use dense::{AnyGrid, DenseGrid, NonFinite, ValueRange};
 pub use histogram::Histogram;
-pub use lattice::{Lattice, IDENTITY};
+pub use lattice::{Lattice, WorldSpace, IDENTITY};
 pub(crate) use resample::blend;
 pub use resample::upsample_trilinear;
 pub use sample::{as_bytes, as_bytes_mut, DType, Sample, Threshold};

@@ -44,7 +44,8 @@ impl<S: Sample> DenseGrid<S> {
         let dims = l.dims();
         let size = dims.map(|d| d.saturating_add(2 * width));
         let origin = l.to_world([-(width as f64); 3]);
-        let lattice = Lattice::with_geometry(size, l.spacing(), origin)?.with_direction(l.direction())?;
+        let lattice =
+            Lattice::with_geometry(size, l.spacing(), origin)?.with_direction(l.direction())?.with_space(l.space());
         let mut data = vec![value; lattice.num_points() as usize];
         for k in 0..dims[2] {
             for j in 0..dims[1] {

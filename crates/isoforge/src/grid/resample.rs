@@ -57,7 +57,8 @@ pub fn upsample_trilinear<S: Sample>(grid: &DenseGrid<S>, factor: u32) -> Result
         return Err(Error::Limit { what: "upsampled lattice points", requested: points, allowed: MAX_POINTS });
     }
     let spacing = lat.spacing().map(|s| s / factor as f64);
-    let lattice = Lattice::with_geometry(fine, spacing, lat.origin())?.with_direction(lat.direction())?;
+    let lattice =
+        Lattice::with_geometry(fine, spacing, lat.origin())?.with_direction(lat.direction())?.with_space(lat.space());
     let f = factor as usize;
     // Per-axis source cell and weight of each fine index.
     let axis = |a: usize| -> Vec<(u32, f64)> {
