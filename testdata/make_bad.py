@@ -126,6 +126,24 @@ def main():
     w("vtk_unknown_type.vtk", vtkf(ty="bit") + "0 " * 8)
     w("vtk_no_lookup_table.vtk", "# vtk DataFile Version 3.0\nt\nASCII\nDATASET STRUCTURED_POINTS\nDIMENSIONS 2 2 2\n")
     w("vtk_nan.vtk", vtkf() + "0 0 0 nan 0 0 0 0")
+    # VTK XML image data
+    vti = ('<VTKFile type="ImageData" version="0.1" byte_order="LittleEndian" header_type="UInt32"{comp}>\n'
+           '<ImageData WholeExtent="{ext}" Origin="0 0 0" Spacing="1 1 1">\n<Piece Extent="{ext}">\n'
+           '<PointData Scalars="v">\n<DataArray type="{ty}" Name="v" format="{fmt}"{extra}>\n{body}\n</DataArray>\n'
+           '</PointData>\n</Piece>\n</ImageData>\n</VTKFile>\n')
+    def vtif(ext="0 1 0 1 0 1", ty="Float32", fmt="ascii", body="0 1 2 3 4 5 6 7", comp="", extra=""):
+        return vti.format(ext=ext, ty=ty, fmt=fmt, body=body, comp=comp, extra=extra)
+    w("vti_polydata.vti", vtif().replace('type="ImageData"', 'type="PolyData"'))
+    w("vti_bad_extent.vti", vtif(ext="0 1 0 -5 0 1"))
+    w("vti_short_ascii.vti", vtif(body="0 1 2"))
+    w("vti_bad_base64.vti", vtif(fmt="binary", body="@@@@"))
+    w("vti_truncated_binary.vti", vtif(fmt="binary", body="IAAAAAAAAAA="))
+    w("vti_bad_zlib.vti", vtif(fmt="binary", comp=' compressor="vtkZLibDataCompressor"', body="AQAAAAAAAAAgAAAACAAAAA==Z2FyYmFnZSE="))
+    w("vti_lz4.vti", vtif(fmt="binary", comp=' compressor="vtkLZ4DataCompressor"', body="AAAA"))
+    w("vti_vectors.vti", vtif(extra=' NumberOfComponents="3"'))
+    w("vti_unknown_type.vti", vtif(ty="Bit"))
+    w("vti_appended_offset_past_end.vti", vtif(fmt="appended", body="", extra=' offset="999"') .replace("</ImageData>", "</ImageData>\n<AppendedData encoding=\"raw\">\n_\x00\n</AppendedData>"))
+    w("vti_nan.vti", vtif(body="0 1 2 nan 4 5 6 7"))
     # Images
     w("png_truncated.png", b"\x89PNG\r\n\x1a\n\x00\x00\x00\rIHDR\x00\x00\x01\x00")
     w("png_not_png.png", b"GIF89a not a png at all")

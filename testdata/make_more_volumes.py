@@ -87,10 +87,48 @@ def vtk_legacy(name, np_dtype, binary, spacing, origin):
     write_expect(name, back, lambda i, j, k: out.GetPoint(out.ComputePointId([i, j, k])))
 
 
+def vti(name, np_dtype, mode, compress, encode, direction=None, header64=False):
+    arr = field((7, 5, 6), np_dtype)
+    img = vtk.vtkImageData()
+    img.SetDimensions(6, 5, 7)
+    img.SetSpacing(0.5, 1.25, 2.0)
+    img.SetOrigin(-1.0, 4.0, 2.5)
+    if direction is not None:
+        img.SetDirectionMatrix(*direction)
+    a = numpy_support.numpy_to_vtk(arr.ravel(order="C"), deep=True)
+    a.SetName("density")
+    img.GetPointData().SetScalars(a)
+    other = numpy_support.numpy_to_vtk((arr.ravel() * 0).astype(np.float64), deep=True)
+    other.SetName("other")
+    img.GetPointData().AddArray(other)  # a second array: the Scalars one must be chosen
+    w = vtk.vtkXMLImageDataWriter()
+    w.SetFileName(os.path.join(OUT, name))
+    w.SetInputData(img)
+    {"ascii": w.SetDataModeToAscii, "binary": w.SetDataModeToBinary, "appended": w.SetDataModeToAppended}[mode]()
+    if not compress:
+        w.SetCompressorTypeToNone()
+    w.SetEncodeAppendedData(encode)
+    if header64:
+        w.SetHeaderTypeToUInt64()
+    w.Write()
+    r = vtk.vtkXMLImageDataReader()
+    r.SetFileName(os.path.join(OUT, name))
+    r.Update()
+    out = r.GetOutput()
+    back = numpy_support.vtk_to_numpy(out.GetPointData().GetScalars()).reshape(7, 5, 6)
+    write_expect(name, back, lambda i, j, k: out.GetPoint(out.ComputePointId([i, j, k])))
+
+
 mrc("i16_mrc2014_origin.mrc", np.int16, (0.5, 0.75, 1.25), origin=(10.0, -4.0, 2.5))
 mrc("f32_ccp4_nstart.map", np.float32, (1.5, 1.5, 2.0), nstart=(-3, 2, 4))
 mrc("u16_bigendian.mrc", np.uint16, (1.0, 2.0, 3.0), big=True)
 mrc("i8_mode0.mrc", np.int8, (1.0, 1.0, 1.0))
 vtk_legacy("f32_binary.vtk", np.float32, True, (0.5, 1.0, 2.0), (1.0, -2.0, 3.5))
 vtk_legacy("i16_ascii.vtk", np.int16, False, (1.0, 1.0, 1.0), (0.0, 0.0, 0.0))
+vti("f32_ascii.vti", np.float32, "ascii", False, False)
+vti("i16_binary_zlib.vti", np.int16, "binary", True, False)
+vti("u16_appended_raw.vti", np.uint16, "appended", False, False, header64=True)
+vti("f64_appended_base64_zlib.vti", np.float64, "appended", True, True,
+    direction=(0.0, -1.0, 0.0, 1.0, 0.0, 0.0, 0.0, 0.0, 1.0))
+vti("u8_binary.vti", np.uint8, "binary", False, False)
 print("written to", OUT)

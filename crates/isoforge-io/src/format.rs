@@ -18,6 +18,8 @@ pub enum VolumeFormat {
     Mrc,
     /// VTK legacy structured points (`.vtk`).
     VtkLegacy,
+    /// VTK XML image data (`.vti`).
+    Vti,
     /// PNG image (`.png`): one slice.
     Png,
     /// TIFF image or multi-page stack (`.tif`, `.tiff`).
@@ -64,6 +66,8 @@ impl VolumeFormat {
             VolumeFormat::Mrc
         } else if n.ends_with(".vtk") {
             VolumeFormat::VtkLegacy
+        } else if n.ends_with(".vti") {
+            VolumeFormat::Vti
         } else if n.ends_with(".png") {
             VolumeFormat::Png
         } else if n.ends_with(".tif") || n.ends_with(".tiff") {
@@ -84,6 +88,7 @@ impl VolumeFormat {
             VolumeFormat::MetaImage => "MetaImage",
             VolumeFormat::Mrc => "MRC",
             VolumeFormat::VtkLegacy => "VTK legacy",
+            VolumeFormat::Vti => "VTK image data (XML)",
             VolumeFormat::Png => "PNG",
             VolumeFormat::Tiff => "TIFF",
         }

@@ -78,6 +78,8 @@ pub fn open_volume(path: &Path, limits: &Limits) -> Result<VolumeReader> {
         Some(VolumeFormat::Mrc) => read::mrc::open_mrc(path, limits),
         #[cfg(feature = "vtk")]
         Some(VolumeFormat::VtkLegacy) => read::vtk::open_vtk(path, limits),
+        #[cfg(feature = "vtk")]
+        Some(VolumeFormat::Vti) => read::vti::open_vti(path, limits),
         #[cfg(feature = "png")]
         Some(VolumeFormat::Png) => read::png::open_png(path, limits),
         #[cfg(feature = "tiff")]
@@ -86,7 +88,7 @@ pub fn open_volume(path: &Path, limits: &Limits) -> Result<VolumeReader> {
         #[allow(unreachable_patterns)]
         Some(f) => unsupported(&format!("{} support is not compiled in", f.name())),
         None => unsupported(
-            "unknown volume format (expected .nrrd, .nhdr, .nii, .nii.gz, .mha, .mhd, .mrc, .map, .ccp4, .vtk, .png, .tif, .tiff, or .raw with --dims/--dtype)",
+            "unknown volume format (expected .nrrd, .nhdr, .nii, .nii.gz, .mha, .mhd, .mrc, .map, .ccp4, .vtk, .vti, .png, .tif, .tiff, or .raw with --dims/--dtype)",
         ),
     }
 }

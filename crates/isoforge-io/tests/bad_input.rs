@@ -76,6 +76,12 @@ fn messages_name_the_field_and_value() {
     assert!(msg("vtk_bad_number.vtk").contains("value 3 \"x\""), "{}", msg("vtk_bad_number.vtk"));
     assert!(msg("vtk_polydata.vtk").contains("DATASET POLYDATA"));
     assert!(msg("vtk_bad_dims.vtk").contains("line 5: DIMENSIONS"));
+    assert!(msg("vti_polydata.vti").contains("VTKFile type \"PolyData\""));
+    assert!(msg("vti_bad_extent.vti").contains("WholeExtent"));
+    assert!(msg("vti_lz4.vti").contains("vtkLZ4DataCompressor"));
+    assert!(msg("vti_vectors.vti").contains("3 components"));
+    assert!(msg("vti_appended_offset_past_end.vti").contains("offset 999"));
+    assert!(msg("vti_nan.vti").contains("is NaN"), "{}", msg("vti_nan.vti"));
 }
 
 /// Every prefix of each small valid file: an error or a value, never a panic.

@@ -31,4 +31,6 @@ pub mod stream;
 #[cfg(feature = "tiff")]
 pub mod tiff;
 #[cfg(feature = "vtk")]
+pub mod vti;
+#[cfg(feature = "vtk")]
 pub mod vtk;
