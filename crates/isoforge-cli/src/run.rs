@@ -203,8 +203,9 @@ pub fn extract(c: &ExtractConfig) -> Result<Outcome> {
         _ => None,
     };
     let attribute_grids = load_attributes(c, frame)?;
-    // glTF holds several meshes: one file with a node per iso; other formats get a file per iso.
-    let one_gltf = isos.len() > 1 && matches!(c.format, MeshFormat::Glb | MeshFormat::Gltf);
+    // glTF and OBJ hold several meshes: one file with a node (object) per iso; other formats
+    // get a file per iso.
+    let one_gltf = isos.len() > 1 && matches!(c.format, MeshFormat::Glb | MeshFormat::Gltf | MeshFormat::Obj);
     let mut outcome = Outcome::Success;
     let mut meshes = Vec::new();
     for &iso in &isos {
@@ -226,8 +227,12 @@ pub fn extract(c: &ExtractConfig) -> Result<Outcome> {
     if one_gltf {
         let named: Vec<isoforge_io::NamedMesh> =
             meshes.iter().map(|(n, m, d)| isoforge_io::NamedMesh { name: n, mesh: m, data: d }).collect();
-        isoforge_io::write_gltf(&c.output, &named, c.format == MeshFormat::Glb)?;
-        eprintln!("{}: {} meshes (one node per iso value)", c.output.display(), named.len());
+        if c.format == MeshFormat::Obj {
+            isoforge_io::write_obj_objects(&c.output, &named)?;
+        } else {
+            isoforge_io::write_gltf(&c.output, &named, c.format == MeshFormat::Glb)?;
+        }
+        eprintln!("{}: {} meshes (one object per iso value)", c.output.display(), named.len());
     }
     bar.finish();
     Ok(outcome)

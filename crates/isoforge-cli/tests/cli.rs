@@ -661,17 +661,25 @@ fn gltf_output_passes_the_khronos_validator() {
 }
 
 #[test]
-fn a_ct_sampled_at_its_own_isosurface_gives_the_iso_value() {
-    // Every vertex lies on a lattice edge where linear interpolation equals iso; the trilinear
-    // sample of the same volume there is that interpolation. Needs ../shared/data.
+fn a_ct_coloured_by_a_co_registered_volume_samples_it_trilinearly() {
+    // The CT head meshed at 70.5 and coloured by a second volume on the same grid, stored as
+    // NIfTI: a nonlinear function of the CT plus a trilinear one of position. Needs ../shared/data.
     let ct = testdata().join("../../shared/data/volumes/cthead_8bit_256x256x99.nrrd");
     if !ct.exists() {
         eprintln!("skipped: {} is absent", ct.display());
         return;
     }
     let dir = tempfile::tempdir().unwrap();
+    let grid = isoforge_io::read_volume(&ct, &isoforge_io::Limits::default()).unwrap();
+    let l = grid.lattice().clone();
+    let second = isoforge::grid::DenseGrid::from_fn(l.clone(), |q| {
+        let v = grid.get_f64(q);
+        ((v / 40.0).sin() * 100.0 + 0.01 * (q[0] as f64) * (q[1] as f64) - 0.3 * q[2] as f64) as f32
+    });
+    let second_path = dir.path().join("second.nii.gz");
+    isoforge_io::write_volume(&second_path, &second.clone().into()).unwrap();
     let out = dir.path().join("head.ply");
-    let attr = format!("ct={}", p(&ct));
+    let (a1, a2) = (format!("ct={}", p(&ct)), format!("second={}", p(&second_path)));
     let o = isoforge(&[
         "extract",
         "-i",
@@ -679,20 +687,43 @@ fn a_ct_sampled_at_its_own_isosurface_gives_the_iso_value() {
         "--iso",
         "70.5",
         "--attribute",
-        &attr,
+        &a1,
+        "--attribute",
+        &a2,
         "--color-by",
-        "ct",
+        "second",
         "-o",
         p(&out),
         "--ascii",
     ]);
     assert_eq!(o.status.code(), Some(0), "{}", stderr(&o));
     let (props, rows) = ascii_ply_vertices(&out);
-    assert_eq!(props.last().unwrap(), "ct");
+    assert_eq!(props[3..], ["red", "green", "blue", "ct", "second"]);
     assert!(rows.len() > 100_000);
+    // Every vertex lies on a lattice edge where the CT's linear interpolation is the iso value.
     for r in rows.iter().step_by(97) {
         assert!((r[6] - 70.5).abs() < 1e-3, "vertex {r:?}");
     }
+    // The second volume: trilinear interpolation computed here, at a few hundred vertices.
+    let trilinear = |w: [f64; 3]| {
+        let p = l.to_index(w);
+        let c = p.map(|x| x.floor());
+        let mut v = 0.0;
+        for k in 0..8u32 {
+            let o = [k & 1, (k >> 1) & 1, (k >> 2) & 1];
+            let q = [0, 1, 2].map(|a| (c[a] as u32 + o[a]).min(l.dims()[a] - 1));
+            let wgt: f64 = (0..3).map(|a| if o[a] == 1 { p[a] - c[a] } else { 1.0 - (p[a] - c[a]) }).product();
+            v += wgt * second.get(q) as f64;
+        }
+        v
+    };
+    let mut checked = 0;
+    for r in rows.iter().step_by(rows.len() / 400) {
+        let want = trilinear([r[0], r[1], r[2]]);
+        assert!((r[7] - want).abs() < 1e-3 * (1.0 + want.abs()), "vertex {r:?}: {want}");
+        checked += 1;
+    }
+    assert!(checked >= 300);
 }
 
 #[test]
@@ -903,4 +934,37 @@ fn world_frames_convert_between_lps_and_ras() {
         "does not say whether its world coordinates are LPS or RAS",
         &bad,
     );
+}
+
+#[test]
+fn several_isos_become_objects_of_one_obj_and_colours_reach_off() {
+    let dir = tempfile::tempdir().unwrap();
+    let vol = testdata().join("volumes/u8_raw.nrrd");
+    let obj = dir.path().join("two.obj");
+    let o = isoforge(&["extract", "-i", p(&vol), "--iso", "5.5,10.5", "--close", "-o", p(&obj)]);
+    assert_eq!(o.status.code(), Some(0), "{}", stderr(&o));
+    let text = std::fs::read_to_string(&obj).unwrap();
+    assert_eq!(text.lines().filter(|l| l.starts_with("o ")).collect::<Vec<_>>(), ["o iso_5.5", "o iso_10.5"]);
+    // Read back as one mesh: two closed surfaces.
+    let m = isoforge_io::read_mesh(&obj, &isoforge_io::Limits::default()).unwrap();
+    let r = isoforge::topo::check(&m);
+    assert!(r.is_watertight());
+    assert!(r.components.len() >= 2);
+    let off = dir.path().join("c.off");
+    let o = isoforge(&[
+        "extract",
+        "-i",
+        p(&vol),
+        "--iso",
+        "10.5",
+        "--attribute",
+        "n=texture:noise",
+        "--color-by",
+        "n",
+        "-o",
+        p(&off),
+    ]);
+    assert_eq!(o.status.code(), Some(0), "{}", stderr(&o));
+    assert!(std::fs::read_to_string(&off).unwrap().starts_with("COFF\n"));
+    assert!(isoforge(&["check", p(&off)]).status.success());
 }

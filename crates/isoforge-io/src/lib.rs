@@ -154,8 +154,8 @@ pub fn write_mesh(path: &Path, mesh: &Mesh, format: MeshFormat) -> Result<()> {
     write_mesh_with(path, mesh, &MeshData::default(), format)
 }
 
-/// [`write_mesh`] with per-vertex data (colours and scalars where the format has room for them:
-/// PLY and glTF both, OBJ colours; STL and OFF positions only).
+/// [`write_mesh`] with mesh data (colours and scalars where the format has room for them: PLY
+/// and glTF both, OBJ and OFF (COFF) colours, PLY triangle labels; STL positions only).
 ///
 /// # Errors
 /// As [`write_mesh`]; [`Error::InvalidInput`] when the data does not have one entry per vertex.
@@ -175,7 +175,7 @@ pub fn write_mesh_with(path: &Path, mesh: &Mesh, data: &MeshData, format: MeshFo
         #[cfg(feature = "stl")]
         MeshFormat::StlAscii => write_atomic(path, |w| write::stl::write_stl_ascii(w, mesh)),
         #[cfg(feature = "off")]
-        MeshFormat::Off => write_atomic(path, |w| write::off::write_off(w, mesh)),
+        MeshFormat::Off => write_atomic(path, |w| write::off::write_off_with(w, mesh, data)),
         MeshFormat::Glb | MeshFormat::Gltf => {
             write_gltf(path, &[NamedMesh { name: "isosurface", mesh, data }], format == MeshFormat::Glb)
         }
@@ -185,6 +185,15 @@ pub fn write_mesh_with(path: &Path, mesh: &Mesh, data: &MeshData, format: MeshFo
             detail: format!("{} support is not compiled in", f.name()),
         }),
     }
+}
+
+/// Writes several meshes into one OBJ file, one object (`o NAME`) each. Atomic.
+///
+/// # Errors
+/// As [`write_mesh`].
+#[cfg(feature = "obj")]
+pub fn write_obj_objects(path: &Path, meshes: &[NamedMesh]) -> Result<()> {
+    write_atomic(path, |w| write::obj::write_obj_objects(w, meshes))
 }
 
 /// Writes several meshes into one glTF file (`binary`: .glb; else .gltf beside a .bin of the same

@@ -21,6 +21,8 @@ pub fn read_off(path: &Path, limits: &Limits) -> Result<Mesh> {
         .map(|(n, l)| (n, l.split('#').next().unwrap_or("").trim()))
         .filter(|(_, l)| !l.is_empty());
     let (no, first) = lines.next().ok_or_else(|| ctx.bad("empty file"))?;
+    // COFF / NOFF / CNOFF carry per-vertex colours or normals after x y z: only x y z are read.
+    let first = first.trim_start_matches(['C', 'N']);
     let counts_line = match first.strip_prefix("OFF") {
         Some(rest) if rest.trim().is_empty() => lines.next().ok_or_else(|| ctx.bad("no counts line"))?,
         Some(rest) => (no, rest.trim()),

@@ -41,3 +41,42 @@ pub fn write_obj_with(w: &mut dyn Write, mesh: &Mesh, data: &MeshData) -> io::Re
     }
     Ok(())
 }
+
+/// Writes several meshes into one OBJ, each an object (`o NAME`) with its own vertices
+/// (colours as in [`write_obj_with`]); indices continue across objects as OBJ requires.
+pub fn write_obj_objects(w: &mut dyn Write, meshes: &[crate::attributes::NamedMesh]) -> io::Result<()> {
+    writeln!(w, "# isoforge {}", env!("CARGO_PKG_VERSION"))?;
+    let (mut base_v, mut base_n) = (0usize, 0usize);
+    for m in meshes {
+        if !m.data.fits(m.mesh) {
+            return Err(io::Error::other("mesh data does not match the mesh"));
+        }
+        let name: String = m.name.chars().map(|c| if c.is_whitespace() { '_' } else { c }).collect();
+        writeln!(w, "o {name}")?;
+        for (i, p) in m.mesh.positions.iter().enumerate() {
+            match &m.data.colors {
+                Some(c) => {
+                    let [r, g, b] = c[i].map(|x| x as f32 / 255.0);
+                    writeln!(w, "v {} {} {} {r} {g} {b}", p[0], p[1], p[2])?
+                }
+                None => writeln!(w, "v {} {} {}", p[0], p[1], p[2])?,
+            }
+        }
+        for n in &m.mesh.normals {
+            writeln!(w, "vn {} {} {}", n[0], n[1], n[2])?;
+        }
+        let with_n = !m.mesh.normals.is_empty();
+        for t in &m.mesh.triangles {
+            let [a, b, c] = t.map(|v| v as usize + base_v + 1);
+            if with_n {
+                let [na, nb, nc] = t.map(|v| v as usize + base_n + 1);
+                writeln!(w, "f {a}//{na} {b}//{nb} {c}//{nc}")?;
+            } else {
+                writeln!(w, "f {a} {b} {c}")?;
+            }
+        }
+        base_v += m.mesh.positions.len();
+        base_n += m.mesh.normals.len();
+    }
+    Ok(())
+}
