@@ -129,9 +129,8 @@ impl<V: Volume> Cell for RefCell<'_, V> {
         if let Some(e) = CellPoint::axis_edge(a, b) {
             return self.edge_vertex(e);
         }
-        let (vol, iso, ijk, d) = (self.vol, self.iso, self.ijk, self.d);
-        let memo = &mut self.memo;
-        let (key, d0, d1) = segment::segment_ends(ijk, a, b, |p| segment::point_value(vol, iso, ijk, &d, memo, p));
+        let (vol, iso) = (self.vol, self.iso);
+        let (key, d0, d1) = segment::cell_segment(vol, iso, self.ijk, &self.d, &mut self.memo, (a, b));
         let h = segment::segment_hermite(vol, key, d0, d1, iso, self.out.wants_normals());
         if let Some(&(id, p)) = self.seg_ids.get(&key) {
             if p.map(f32::to_bits) != h.point.map(f32::to_bits) {

@@ -166,6 +166,19 @@ pub(crate) fn point_value<V: Volume + ?Sized>(
     memo[s]
 }
 
+/// [`segment_ends`] for a walker's cell: corner values `d`, centres computed through `memo`.
+#[inline]
+pub(crate) fn cell_segment<V: Volume + ?Sized>(
+    vol: &V,
+    iso: Iso,
+    ijk: [u32; 3],
+    d: &[f32; 8],
+    memo: &mut [f32; 7],
+    (a, b): (CellPoint, CellPoint),
+) -> (SegmentKey, f32, f32) {
+    segment_ends(ijk, a, b, |p| point_value(vol, iso, ijk, d, memo, p))
+}
+
 /// Whether cell `ijk` of a lattice with `dims` points has a neighbour across `face`.
 #[inline]
 pub(crate) fn has_neighbour(dims: [u32; 3], ijk: [u32; 3], face: u8) -> bool {
