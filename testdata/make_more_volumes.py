@@ -132,3 +132,11 @@ vti("f64_appended_base64_zlib.vti", np.float64, "appended", True, True,
     direction=(0.0, -1.0, 0.0, 1.0, 0.0, 0.0, 0.0, 0.0, 1.0))
 vti("u8_binary.vti", np.uint8, "binary", False, False)
 print("written to", OUT)
+
+# An 8-bit RGB TIFF stack on the grid of u8_raw.nrrd (6 x 5 x 7): colour linear in the indices,
+# so trilinear sampling is exact (read with --color-volume).
+import tifffile  # noqa: E402
+
+k, j, i = np.indices((7, 5, 6))
+rgb = np.stack([10 * i + 3, 20 * j + 7, 30 * k + 1], axis=-1).astype(np.uint8)
+tifffile.imwrite(os.path.join(os.path.dirname(OUT), "images", "rgb_6x5x7.tif"), rgb, photometric="rgb")

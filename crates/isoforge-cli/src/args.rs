@@ -106,6 +106,10 @@ pub struct ExtractArgs {
     /// OBJ vertex colours).
     #[arg(long, value_name = "NAME")]
     pub color_by: Option<String>,
+    /// Colour vertices from an 8-bit RGB TIFF stack on the input's grid (same dims; sampled
+    /// trilinearly at each vertex's voxel position), e.g. a microscopy colour channel.
+    #[arg(long, value_name = "RGB.tif", conflicts_with = "color_by")]
+    pub color_volume: Option<PathBuf>,
     /// Colour map for --color-by: viridis, gray, hot, coolwarm.
     #[arg(long, value_name = "MAP", default_value = "viridis")]
     pub colormap: String,

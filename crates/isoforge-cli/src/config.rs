@@ -46,6 +46,8 @@ pub struct ExtractConfig {
     pub attributes: Vec<(String, AttributeSource)>,
     /// Vertex colours: attribute name, map, optional value range.
     pub color: Option<ColorBy>,
+    /// Vertex colours from an RGB volume on the input's grid.
+    pub color_volume: Option<PathBuf>,
     pub region: Region,
     pub inside: Option<Inside>,
     pub options: Options,
@@ -221,6 +223,7 @@ impl ExtractConfig {
                 .transpose()?,
             attributes: attributes(a)?,
             color: color(a)?,
+            color_volume: a.color_volume.clone(),
             inside,
             options: Options { method, normals, threads: None, mask: None },
             time_json: a.time_json.clone(),

@@ -161,6 +161,7 @@ pub fn extract(c: &ExtractConfig) -> Result<Outcome> {
     };
     let bar = Bar::new("extracting");
     let mut mask = None;
+    let mut input_lattice = None;
     if let Some(labels) = &c.labels {
         return extract_labels(c, loaded, labels, &name);
     }
@@ -191,6 +192,7 @@ pub fn extract(c: &ExtractConfig) -> Result<Outcome> {
             if let Some(m) = &c.mask {
                 mask = Some(load_mask(m, g.lattice().dims(), &c.region)?);
             }
+            input_lattice = Some(g.lattice().clone());
             Loaded::Grid(apply_region(g, &c.region, outside, &name)?)
         }
         Loaded::Field(_) if c.mask.is_some() => bail!("--mask applies to volume files"),
@@ -203,6 +205,22 @@ pub fn extract(c: &ExtractConfig) -> Result<Outcome> {
         _ => None,
     };
     let attribute_grids = load_attributes(c, frame)?;
+    let rgb = match (&c.color_volume, &input_lattice) {
+        (None, _) => None,
+        (Some(_), None) => bail!("--color-volume colours meshes of volume files"),
+        (Some(path), Some(l)) => {
+            let v = isoforge_io::read_tiff_rgb(path, &c.input.limits)?;
+            if v.dims != l.dims() {
+                bail!("--color-volume {}: dims {:?} differ from the input's {:?}", path.display(), v.dims, l.dims());
+            }
+            // Vertices back to voxel indices of the input, in whichever frame they were written.
+            let frame = match c.region.world {
+                Some(w) => l.in_space(w)?,
+                None => l.clone(),
+            };
+            Some((v, frame, c.region.index_space))
+        }
+    };
     // glTF and OBJ hold several meshes: one file with a node (object) per iso; other formats
     // get a file per iso.
     let one_gltf = isos.len() > 1 && matches!(c.format, MeshFormat::Glb | MeshFormat::Gltf | MeshFormat::Obj);
@@ -215,7 +233,7 @@ pub fn extract(c: &ExtractConfig) -> Result<Outcome> {
             (with_suffix(&c.output, iso.value), c.time_json.as_ref().map(|t| with_suffix(t, iso.value)))
         };
         let target = if one_gltf { None } else { Some(output.as_path()) };
-        let job = Job { c, loaded: &loaded, name: &name, bar: &bar, attributes: &attribute_grids };
+        let job = Job { c, loaded: &loaded, name: &name, bar: &bar, attributes: &attribute_grids, rgb: rgb.as_ref() };
         let (o, mesh, data) = extract_one(&job, iso, target, time_json.as_deref())?;
         if o != Outcome::Success {
             outcome = o;
@@ -455,6 +473,9 @@ struct Job<'a> {
     name: &'a str,
     bar: &'a Bar,
     attributes: &'a [(String, Attribute)],
+    /// `--color-volume`: the colours, the input lattice in the output frame, and whether the
+    /// vertices are already voxel indices.
+    rgb: Option<&'a (isoforge_io::RgbVolume, isoforge::grid::Lattice, bool)>,
 }
 
 /// One extraction of an in-memory input at `iso`, written to `output` when given; returns the
@@ -465,7 +486,7 @@ fn extract_one(
     output: Option<&Path>,
     time_json: Option<&Path>,
 ) -> Result<(Outcome, isoforge::mesh::Mesh, isoforge_io::MeshData)> {
-    let Job { c, loaded, name, bar, attributes } = *job;
+    let Job { c, loaded, name, bar, attributes, rgb } = *job;
     let mut runs = Vec::with_capacity(c.repeat as usize);
     let mut last: Option<Extraction> = None;
     for _ in 0..c.repeat {
@@ -489,7 +510,18 @@ fn extract_one(
             if iso.inside == Inside::Below { "below" } else { "above" }
         );
     }
-    let data = vertex_data(c, &out.mesh, attributes);
+    let mut data = vertex_data(c, &out.mesh, attributes);
+    if let Some((v, lattice, index_space)) = rgb {
+        let at = |p: [f32; 3]| {
+            let p = p.map(f64::from);
+            if *index_space {
+                p
+            } else {
+                lattice.to_index(p)
+            }
+        };
+        data.colors = Some(out.mesh.positions.iter().map(|&p| v.sample(at(p))).collect());
+    }
     if let Some(output) = output {
         isoforge_io::write_mesh_with(output, &out.mesh, &data, c.format)?;
     }

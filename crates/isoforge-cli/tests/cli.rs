@@ -968,3 +968,48 @@ fn several_isos_become_objects_of_one_obj_and_colours_reach_off() {
     assert!(std::fs::read_to_string(&off).unwrap().starts_with("COFF\n"));
     assert!(isoforge(&["check", p(&off)]).status.success());
 }
+
+#[test]
+fn an_rgb_stack_colours_the_vertices() {
+    let dir = tempfile::tempdir().unwrap();
+    let vol = testdata().join("volumes/u8_raw.nrrd"); // 6 x 5 x 7, spacing 0.5 0.75 2, origin 10 -20 5.5
+    let rgb = testdata().join("images/rgb_6x5x7.tif"); // colour = (10 i + 3, 20 j + 7, 30 k + 1)
+    for space in ["world", "index"] {
+        let out = dir.path().join(format!("c-{space}.ply"));
+        let o = isoforge(&[
+            "extract",
+            "-i",
+            p(&vol),
+            "--iso",
+            "10.5",
+            "--color-volume",
+            p(&rgb),
+            "--space",
+            space,
+            "-o",
+            p(&out),
+            "--ascii",
+        ]);
+        assert_eq!(o.status.code(), Some(0), "{}", stderr(&o));
+        let (props, rows) = ascii_ply_vertices(&out);
+        assert_eq!(props, ["x", "y", "z", "red", "green", "blue"]);
+        for r in &rows {
+            let ijk = if space == "index" {
+                [r[0], r[1], r[2]]
+            } else {
+                [(r[0] - 10.0) / 0.5, (r[1] + 20.0) / 0.75, (r[2] - 5.5) / 2.0]
+            };
+            let want = [10.0 * ijk[0] + 3.0, 20.0 * ijk[1] + 7.0, 30.0 * ijk[2] + 1.0];
+            for ch in 0..3 {
+                assert!((r[3 + ch] - want[ch].round()).abs() <= 1.0, "{space}: vertex {r:?}, want {want:?}");
+            }
+        }
+    }
+    let bad = dir.path().join("bad.ply");
+    let gray = testdata().join("images/stack3.tif");
+    fails(
+        &["extract", "-i", p(&vol), "--iso", "10.5", "--color-volume", p(&gray), "-o", p(&bad)],
+        "8-bit RGB pages are needed",
+        &bad,
+    );
+}

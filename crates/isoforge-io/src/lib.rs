@@ -24,6 +24,8 @@ pub use limits::Limits;
 #[cfg(feature = "raw")]
 pub use read::raw::RawSpec;
 pub use read::stream::VolumeReader;
+#[cfg(feature = "tiff")]
+pub use read::tiff::{read_tiff_rgb, RgbVolume};
 
 use isoforge::grid::AnyGrid;
 use isoforge::mesh::Mesh;
