@@ -30,6 +30,8 @@ pub enum Command {
     Contour(ContourArgs),
     /// Convert a volume to NRRD (.nrrd) or NIfTI-1 (.nii, .nii.gz), keeping type and geometry.
     Convert(ConvertArgs),
+    /// Render a mesh, or the isosurface of a volume or field, to a PNG (software, no GPU).
+    Render(RenderArgs),
 }
 
 /// Where the volume comes from (`extract -i INPUT`).
@@ -218,6 +220,48 @@ pub struct ConvertArgs {
 }
 
 impl ConvertArgs {
+    pub fn input_args(&self) -> InputArgs {
+        InputArgs { input: self.input.clone(), layout: self.layout.clone() }
+    }
+}
+
+#[derive(Debug, ClapArgs)]
+pub struct RenderArgs {
+    /// Mesh (.ply .obj .stl .off) or volume/field (as for `extract -i`).
+    #[arg(value_name = "INPUT")]
+    pub input: String,
+    /// Output picture (.png).
+    #[arg(short = 'o', long, value_name = "OUT.png")]
+    pub output: PathBuf,
+    #[command(flatten)]
+    pub layout: LayoutArgs,
+    /// Iso value for volumes (fields have a default).
+    #[arg(long, value_name = "V", allow_hyphen_values = true)]
+    pub iso: Option<String>,
+    /// Which side of iso is inside: below or above.
+    #[arg(long, value_name = "below|above")]
+    pub inside: Option<String>,
+    /// Extraction method for volumes and fields.
+    #[arg(long, default_value = "mc", value_name = "mc|mc33|mt5|mt6|mt-bcc")]
+    pub method: String,
+    /// Camera: iso (three-quarter), front or top.
+    #[arg(long, default_value = "iso", value_name = "iso|front|top")]
+    pub view: String,
+    /// Picture size in pixels.
+    #[arg(long, default_value = "1024x768", value_name = "WxH")]
+    pub size: String,
+    /// Face colouring: lambert (grey, lit) or normal (normal direction as RGB).
+    #[arg(long, default_value = "lambert", value_name = "lambert|normal")]
+    pub shading: String,
+    /// Draw the triangle edges.
+    #[arg(long)]
+    pub wireframe: bool,
+    /// Do not draw boundary and non-manifold edges in red.
+    #[arg(long)]
+    pub no_defects: bool,
+}
+
+impl RenderArgs {
     pub fn input_args(&self) -> InputArgs {
         InputArgs { input: self.input.clone(), layout: self.layout.clone() }
     }

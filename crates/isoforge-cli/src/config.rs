@@ -14,7 +14,7 @@ use isoforge::volume::{Inside, Iso};
 use isoforge_io::write::contour::ContourFormat;
 use isoforge_io::{Limits, MeshFormat, RawSpec};
 
-use crate::args::{CheckArgs, ContourArgs, DemoArgs, ExtractArgs, InputArgs};
+use crate::args::{CheckArgs, ContourArgs, DemoArgs, ExtractArgs, InputArgs, RenderArgs};
 
 /// Where values come from.
 #[derive(Clone)]
@@ -476,6 +476,69 @@ impl ContourConfig {
             output: a.output.clone(),
             format,
             json: a.json,
+        })
+    }
+}
+
+pub struct RenderConfig {
+    /// A mesh file, or a volume/field to extract first.
+    pub mesh: Option<PathBuf>,
+    pub input: Option<InputConfig>,
+    pub iso: Option<f64>,
+    pub inside: Option<Inside>,
+    pub options: Options,
+    pub render: isoforge_io::render::RenderOptions,
+    pub output: PathBuf,
+}
+
+impl RenderConfig {
+    pub fn from_args(a: &RenderArgs) -> Result<Self> {
+        let ext = a.output.extension().map(|e| e.to_string_lossy().to_ascii_lowercase());
+        if ext.as_deref() != Some("png") {
+            bail!("{}: render writes .png pictures", a.output.display());
+        }
+        let (w, h) = a
+            .size
+            .split_once('x')
+            .and_then(|(w, h)| Some((w.trim().parse::<u32>().ok()?, h.trim().parse::<u32>().ok()?)))
+            .filter(|&(w, h)| {
+                (1..=isoforge_io::render::MAX_SIDE).contains(&w) && (1..=isoforge_io::render::MAX_SIDE).contains(&h)
+            })
+            .ok_or_else(|| anyhow!("--size {:?}: expected WxH, each 1..={}", a.size, isoforge_io::render::MAX_SIDE))?;
+        let view = isoforge_io::render::View::parse(&a.view)
+            .ok_or_else(|| anyhow!("--view {:?}: must be iso, front or top", a.view))?;
+        let shading = match a.shading.as_str() {
+            "lambert" => isoforge_io::render::Shading::Lambert,
+            "normal" => isoforge_io::render::Shading::Normal,
+            s => bail!("--shading {s:?}: must be lambert or normal"),
+        };
+        let method = Method::parse(&a.method).ok_or_else(|| anyhow!("--method {:?}: unknown method", a.method))?;
+        let is_mesh = !a.input.starts_with("field:")
+            && MeshFormat::from_path(std::path::Path::new(&a.input)).is_some()
+            && isoforge_io::VolumeFormat::from_path(std::path::Path::new(&a.input)).is_none();
+        let (mesh, input) = if is_mesh {
+            (Some(PathBuf::from(&a.input)), None)
+        } else {
+            (None, Some(InputConfig::from_args(&a.input_args())?))
+        };
+        let iso = a.iso.as_deref().map(parse_iso).transpose()?;
+        if iso.is_none() && matches!(input.as_ref().map(|i| &i.source), Some(Source::File { .. })) {
+            bail!("--iso is required to render a volume file");
+        }
+        Ok(RenderConfig {
+            mesh,
+            input,
+            iso,
+            inside: a.inside.as_deref().map(parse_inside).transpose()?,
+            options: Options { method, ..Options::default() },
+            render: isoforge_io::render::RenderOptions {
+                size: [w, h],
+                view,
+                shading,
+                wireframe: a.wireframe,
+                defects: !a.no_defects,
+            },
+            output: a.output.clone(),
         })
     }
 }

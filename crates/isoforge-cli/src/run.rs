@@ -16,7 +16,8 @@ use isoforge_io::{Limits, MeshFormat, VolumeReader};
 use serde_json::json;
 
 use crate::config::{
-    AttributeSource, CheckConfig, ContourConfig, DemoConfig, ExtractConfig, InputConfig, Region, Roi, Source,
+    AttributeSource, CheckConfig, ContourConfig, DemoConfig, ExtractConfig, InputConfig, Region, RenderConfig, Roi,
+    Source,
 };
 use crate::progress::Bar;
 use crate::report;
@@ -748,5 +749,30 @@ pub fn convert(input: &InputConfig, output: &Path) -> Result<Outcome> {
     isoforge_io::write_volume(output, &grid)?;
     let d = grid.lattice().dims();
     eprintln!("{}: {} x {} x {} {} samples from {name}", output.display(), d[0], d[1], d[2], grid.dtype());
+    Ok(Outcome::Success)
+}
+
+pub fn render(c: &RenderConfig) -> Result<Outcome> {
+    let mesh = match (&c.mesh, &c.input) {
+        (Some(path), _) => isoforge_io::read_mesh(path, &Limits::default())?,
+        (None, Some(input)) => {
+            let name = input_name(input);
+            let loaded = load(input)?;
+            let default_iso = match &loaded {
+                Loaded::Field(b) => b.iso,
+                _ => Iso::below(0.0),
+            };
+            let iso = Iso { value: c.iso.unwrap_or(default_iso.value), inside: c.inside.unwrap_or(default_iso.inside) };
+            match &loaded {
+                Loaded::Grid(g) => pipeline::extract_grid(g, iso, &c.options, None)?.mesh,
+                Loaded::Field(b) => pipeline::extract_builtin(b, iso, &c.options, None)?.mesh,
+                Loaded::Stream(_) => bail!("{name}: too large to render in memory"),
+            }
+        }
+        (None, None) => bail!("internal: render has no input"),
+    };
+    isoforge_io::write_render(&c.output, &mesh, None, &c.render)?;
+    let [w, h] = c.render.size;
+    eprintln!("{}: {w} x {h} picture of {} triangles", c.output.display(), mesh.num_triangles());
     Ok(Outcome::Success)
 }

@@ -1013,3 +1013,34 @@ fn an_rgb_stack_colours_the_vertices() {
         &bad,
     );
 }
+
+#[test]
+fn render_writes_pictures_of_meshes_volumes_and_fields() {
+    let dir = tempfile::tempdir().unwrap();
+    let png_size = |f: &Path| {
+        let d = png::Decoder::new(std::io::BufReader::new(std::fs::File::open(f).unwrap()));
+        let r = d.read_info().unwrap();
+        (r.info().width, r.info().height)
+    };
+    let mesh = testdata().join("meshes/tetra_ascii.ply");
+    let vol = testdata().join("volumes/u8_raw.nrrd");
+    for (args, size) in [
+        (vec!["render", p(&mesh)], (1024, 768)),
+        (vec!["render", p(&vol), "--iso", "10.5", "--size", "160x90", "--view", "top", "--wireframe"], (160, 90)),
+        (vec!["render", "field:torus?n=24", "--size", "64x64", "--shading", "normal", "--method", "mc33"], (64, 64)),
+    ] {
+        let out = dir.path().join("shot.png");
+        let mut a = args.clone();
+        a.extend(["-o", p(&out)]);
+        let o = isoforge(&a);
+        assert_eq!(o.status.code(), Some(0), "{a:?}: {}", stderr(&o));
+        assert_eq!(png_size(&out), size, "{a:?}");
+        std::fs::remove_file(&out).unwrap();
+    }
+    let bad = dir.path().join("bad.png");
+    fails(&["render", p(&mesh), "--size", "0x10", "-o", p(&bad)], "--size \"0x10\"", &bad);
+    fails(&["render", p(&mesh), "--view", "side", "-o", p(&bad)], "--view \"side\"", &bad);
+    fails(&["render", p(&vol), "-o", p(&bad)], "--iso is required", &bad);
+    let jpg = dir.path().join("x.jpg");
+    fails(&["render", p(&mesh), "-o", p(&jpg)], "render writes .png", &jpg);
+}

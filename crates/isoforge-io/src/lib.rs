@@ -12,6 +12,8 @@ pub mod error;
 pub mod format;
 pub mod limits;
 pub mod read;
+#[cfg(feature = "png")]
+pub mod render;
 pub mod write;
 
 use std::path::Path;
@@ -187,6 +189,17 @@ pub fn write_mesh_with(path: &Path, mesh: &Mesh, data: &MeshData, format: MeshFo
             detail: format!("{} support is not compiled in", f.name()),
         }),
     }
+}
+
+/// Renders `mesh` into a PNG file (atomic); see [`render::render`].
+///
+/// # Errors
+/// [`Error::Io`] when the file cannot be written.
+#[cfg(feature = "png")]
+pub fn write_render(path: &Path, mesh: &Mesh, colors: Option<&[[u8; 3]]>, opts: &render::RenderOptions) -> Result<()> {
+    let img = render::render(mesh, colors, opts);
+    let size = opts.size.map(|s| s.clamp(1, render::MAX_SIDE));
+    write_atomic(path, |w| render::write_png(w, &img, size))
 }
 
 /// Writes several meshes into one OBJ file, one object (`o NAME`) each. Atomic.
