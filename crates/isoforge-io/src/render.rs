@@ -88,7 +88,7 @@ fn unit(a: V3) -> V3 {
 pub fn render(mesh: &Mesh, colors: Option<&[[u8; 3]]>, o: &RenderOptions) -> Vec<u8> {
     let [w, h] = o.size.map(|s| s.clamp(1, MAX_SIDE) as usize);
     let background = [250u8, 250, 250];
-    let mut img: Vec<u8> = background.iter().copied().cycle().take(w * h * 3).collect();
+    let img: Vec<u8> = background.iter().copied().cycle().take(w * h * 3).collect();
     if mesh.positions.is_empty() {
         return img;
     }
@@ -120,7 +120,7 @@ pub fn render(mesh: &Mesh, colors: Option<&[[u8; 3]]>, o: &RenderOptions) -> Vec
         ]
     };
     let sp: Vec<V3> = pts.iter().map(|&p| screen(p)).collect();
-    let mut depth = vec![f64::INFINITY; w * h];
+    let mut canvas = Canvas { w, h, img, depth: vec![f64::INFINITY; w * h] };
     // Light from over the viewer's left shoulder.
     let light = unit([0, 1, 2].map(|a| -forward[a] + 0.4 * up[a] - 0.3 * right[a]));
     for t in &mesh.triangles {
@@ -136,13 +136,13 @@ pub fn render(mesh: &Mesh, colors: Option<&[[u8; 3]]>, o: &RenderOptions) -> Vec
             (Shading::Lambert, None) => [200.0, 205.0, 215.0],
         };
         let rgb = base.map(|x| (x * lit).round().clamp(0.0, 255.0) as u8);
-        fill_triangle([sp[a], sp[b], sp[c]], w, h, &mut depth, &mut img, rgb);
+        canvas.fill_triangle([sp[a], sp[b], sp[c]], rgb);
     }
     if o.wireframe {
         for t in &mesh.triangles {
             for k in 0..3 {
                 let (p, q) = (sp[t[k] as usize], sp[t[(k + 1) % 3] as usize]);
-                line(p, q, w, h, Some(&depth), &mut img, [60, 60, 70], 1);
+                canvas.line(p, q, [60, 60, 70], 1);
             }
         }
     }
@@ -157,59 +157,70 @@ pub fn render(mesh: &Mesh, colors: Option<&[[u8; 3]]>, o: &RenderOptions) -> Vec
         let mut bad: Vec<(u32, u32)> = uses.into_iter().filter(|&(_, n)| n != 2).map(|(e, _)| e).collect();
         bad.sort_unstable();
         for (p, q) in bad {
-            line(sp[p as usize], sp[q as usize], w, h, Some(&depth), &mut img, [220, 20, 20], 2);
+            canvas.line(sp[p as usize], sp[q as usize], [220, 20, 20], 2);
         }
     }
-    img
+    canvas.img
 }
 
-fn fill_triangle(v: [V3; 3], w: usize, h: usize, depth: &mut [f64], img: &mut [u8], rgb: [u8; 3]) {
-    let area = (v[1][0] - v[0][0]) * (v[2][1] - v[0][1]) - (v[2][0] - v[0][0]) * (v[1][1] - v[0][1]);
-    if area == 0.0 || !area.is_finite() {
-        return;
-    }
-    let x0 = v.iter().map(|p| p[0]).fold(f64::INFINITY, f64::min).floor().max(0.0) as usize;
-    let x1 = (v.iter().map(|p| p[0]).fold(f64::NEG_INFINITY, f64::max).ceil() as usize).min(w.saturating_sub(1));
-    let y0 = v.iter().map(|p| p[1]).fold(f64::INFINITY, f64::min).floor().max(0.0) as usize;
-    let y1 = (v.iter().map(|p| p[1]).fold(f64::NEG_INFINITY, f64::max).ceil() as usize).min(h.saturating_sub(1));
-    for y in y0..=y1 {
-        for x in x0..=x1 {
-            let (px, py) = (x as f64 + 0.5, y as f64 + 0.5);
-            let e = |a: V3, b: V3| (b[0] - a[0]) * (py - a[1]) - (b[1] - a[1]) * (px - a[0]);
-            let (w0, w1, w2) = (e(v[1], v[2]) / area, e(v[2], v[0]) / area, e(v[0], v[1]) / area);
-            if w0 < 0.0 || w1 < 0.0 || w2 < 0.0 {
-                continue;
-            }
-            let z = w0 * v[0][2] + w1 * v[1][2] + w2 * v[2][2];
-            let i = y * w + x;
-            if z < depth[i] {
-                depth[i] = z;
-                img[3 * i..3 * i + 3].copy_from_slice(&rgb);
-            }
+/// The picture being drawn and its depth buffer.
+struct Canvas {
+    w: usize,
+    h: usize,
+    img: Vec<u8>,
+    depth: Vec<f64>,
+}
+
+impl Canvas {
+    fn fill_triangle(&mut self, v: [V3; 3], rgb: [u8; 3]) {
+        let (w, h) = (self.w, self.h);
+        let area = (v[1][0] - v[0][0]) * (v[2][1] - v[0][1]) - (v[2][0] - v[0][0]) * (v[1][1] - v[0][1]);
+        if area == 0.0 || !area.is_finite() {
+            return;
         }
-    }
-}
-
-/// A line of `width` pixels; with `depth`, only where it is not behind the surface.
-fn line(p: V3, q: V3, w: usize, h: usize, depth: Option<&[f64]>, img: &mut [u8], rgb: [u8; 3], width: i64) {
-    let steps = ((q[0] - p[0]).abs().max((q[1] - p[1]).abs()).ceil() as usize).clamp(1, 4 * (w + h));
-    for s in 0..=steps {
-        let t = s as f64 / steps as f64;
-        let (x, y, z) = (p[0] + (q[0] - p[0]) * t, p[1] + (q[1] - p[1]) * t, p[2] + (q[2] - p[2]) * t);
-        for dy in 0..width {
-            for dx in 0..width {
-                let (xi, yi) = (x as i64 + dx, y as i64 + dy);
-                if xi < 0 || yi < 0 || xi >= w as i64 || yi >= h as i64 {
+        let x0 = v.iter().map(|p| p[0]).fold(f64::INFINITY, f64::min).floor().max(0.0) as usize;
+        let x1 = (v.iter().map(|p| p[0]).fold(f64::NEG_INFINITY, f64::max).ceil() as usize).min(w.saturating_sub(1));
+        let y0 = v.iter().map(|p| p[1]).fold(f64::INFINITY, f64::min).floor().max(0.0) as usize;
+        let y1 = (v.iter().map(|p| p[1]).fold(f64::NEG_INFINITY, f64::max).ceil() as usize).min(h.saturating_sub(1));
+        for y in y0..=y1 {
+            for x in x0..=x1 {
+                let (px, py) = (x as f64 + 0.5, y as f64 + 0.5);
+                let e = |a: V3, b: V3| (b[0] - a[0]) * (py - a[1]) - (b[1] - a[1]) * (px - a[0]);
+                let (w0, w1, w2) = (e(v[1], v[2]) / area, e(v[2], v[0]) / area, e(v[0], v[1]) / area);
+                if w0 < 0.0 || w1 < 0.0 || w2 < 0.0 {
                     continue;
                 }
-                let i = yi as usize * w + xi as usize;
-                if let Some(d) = depth {
-                    // A small bias lets the edges of visible faces win against their own face.
-                    if z > d[i] + 1e-6 * (1.0 + d[i].abs()) + 1e-3 {
+                let z = w0 * v[0][2] + w1 * v[1][2] + w2 * v[2][2];
+                let i = y * w + x;
+                if z < self.depth[i] {
+                    self.depth[i] = z;
+                    self.img[3 * i..3 * i + 3].copy_from_slice(&rgb);
+                }
+            }
+        }
+    }
+
+    /// A line of `width` pixels, drawn where it is not behind the surface.
+    fn line(&mut self, p: V3, q: V3, rgb: [u8; 3], width: i64) {
+        let (w, h) = (self.w, self.h);
+        let steps = ((q[0] - p[0]).abs().max((q[1] - p[1]).abs()).ceil() as usize).clamp(1, 4 * (w + h));
+        for s in 0..=steps {
+            let t = s as f64 / steps as f64;
+            let (x, y, z) = (p[0] + (q[0] - p[0]) * t, p[1] + (q[1] - p[1]) * t, p[2] + (q[2] - p[2]) * t);
+            for dy in 0..width {
+                for dx in 0..width {
+                    let (xi, yi) = (x as i64 + dx, y as i64 + dy);
+                    if xi < 0 || yi < 0 || xi >= w as i64 || yi >= h as i64 {
                         continue;
                     }
+                    let i = yi as usize * w + xi as usize;
+                    // A small bias lets the edges of visible faces win against their own face.
+                    let d = self.depth[i];
+                    if z > d + 1e-6 * (1.0 + d.abs()) + 1e-3 {
+                        continue;
+                    }
+                    self.img[3 * i..3 * i + 3].copy_from_slice(&rgb);
                 }
-                img[3 * i..3 * i + 3].copy_from_slice(&rgb);
             }
         }
     }
