@@ -123,8 +123,22 @@ mrc("i16_mrc2014_origin.mrc", np.int16, (0.5, 0.75, 1.25), origin=(10.0, -4.0, 2
 mrc("f32_ccp4_nstart.map", np.float32, (1.5, 1.5, 2.0), nstart=(-3, 2, 4))
 mrc("u16_bigendian.mrc", np.uint16, (1.0, 2.0, 3.0), big=True)
 mrc("i8_mode0.mrc", np.int8, (1.0, 1.0, 1.0))
+mrc("f16_mode12.mrc", np.float16, (0.8, 0.8, 0.8), origin=(1.0, 2.0, 3.0))
+
+
+def tiff_stack(name, np_dtype):
+    """A multi-page greyscale TIFF (tifffile): page k is slice z = k, index = world."""
+    arr = field((7, 5, 6), np_dtype) * np_dtype(1.5) if np.issubdtype(np_dtype, np.floating) else field((7, 5, 6), np_dtype)
+    path = os.path.join(OUT, name)
+    tifffile.imwrite(path, arr, photometric="minisblack")
+    back = tifffile.imread(path)
+    write_expect(name, back, lambda i, j, k: (float(i), float(j), float(k)))
 vtk_legacy("f32_binary.vtk", np.float32, True, (0.5, 1.0, 2.0), (1.0, -2.0, 3.5))
 vtk_legacy("i16_ascii.vtk", np.int16, False, (1.0, 1.0, 1.0), (0.0, 0.0, 0.0))
+import tifffile  # noqa: E402
+
+tiff_stack("f32_stack.tif", np.float32)
+tiff_stack("i32_stack.tif", np.int32)
 vti("f32_ascii.vti", np.float32, "ascii", False, False)
 vti("i16_binary_zlib.vti", np.int16, "binary", True, False)
 vti("u16_appended_raw.vti", np.uint16, "appended", False, False, header64=True)
