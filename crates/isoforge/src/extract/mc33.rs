@@ -202,6 +202,9 @@ impl CellTopology {
                 t.edges[n] = e;
                 n += 1;
                 let nx = next[e as usize];
+                if nx == NO_EDGE {
+                    break; // unreachable for consistent faces: every crossed edge exits one face
+                }
                 let f = common_face(e, nx);
                 t.twice[l] |= faces & (1 << f) != 0;
                 faces |= 1 << f;
