@@ -32,6 +32,8 @@ pub enum Command {
     Convert(ConvertArgs),
     /// Render a mesh, or the isosurface of a volume or field, to a PNG (software, no GPU).
     Render(RenderArgs),
+    /// Serve an interactive viewer on 127.0.0.1: the classic demo fields, a volume, or a mesh.
+    View(ViewArgs),
 }
 
 /// Where the volume comes from (`extract -i INPUT`).
@@ -265,6 +267,21 @@ impl RenderArgs {
     pub fn input_args(&self) -> InputArgs {
         InputArgs { input: self.input.clone(), layout: self.layout.clone() }
     }
+}
+
+#[derive(Debug, ClapArgs)]
+pub struct ViewArgs {
+    /// Volume or mesh file (nothing: the classic demo fields).
+    #[arg(value_name = "INPUT")]
+    pub input: Option<String>,
+    #[command(flatten)]
+    pub layout: LayoutArgs,
+    /// Port on 127.0.0.1 (0: any free port; the URL is printed).
+    #[arg(long, default_value_t = 0)]
+    pub port: u16,
+    /// Which side of iso is inside for a volume: below or above.
+    #[arg(long, value_name = "below|above", default_value = "below")]
+    pub inside: String,
 }
 
 #[derive(Debug, ClapArgs)]

@@ -4,10 +4,14 @@
 //! file and the problem). A closed stdout (broken pipe) counts as success.
 
 mod args;
+mod assets {
+    include!(concat!(env!("OUT_DIR"), "/assets.rs"));
+}
 mod config;
 mod progress;
 mod report;
 mod run;
+mod view;
 
 use std::io::Write;
 use std::process::ExitCode;
@@ -50,6 +54,7 @@ fn main() -> ExitCode {
         Command::Check(a) => config::CheckConfig::from_args(a).and_then(|c| run::check(&c)),
         Command::Demo(a) => config::DemoConfig::from_args(a).and_then(|c| run::demo(&c)),
         Command::Contour(a) => config::ContourConfig::from_args(a).and_then(|c| run::contour(&c)),
+        Command::View(a) => run::view(a),
         Command::Render(a) => config::RenderConfig::from_args(a).and_then(|c| run::render(&c)),
         Command::Convert(a) => {
             config::InputConfig::from_args(&a.input_args()).and_then(|c| run::convert(&c, &a.output))

@@ -776,3 +776,37 @@ pub fn render(c: &RenderConfig) -> Result<Outcome> {
     eprintln!("{}: {w} x {h} picture of {} triangles", c.output.display(), mesh.num_triangles());
     Ok(Outcome::Success)
 }
+
+pub fn view(a: &crate::args::ViewArgs) -> Result<Outcome> {
+    use crate::view::Shown;
+    let inside = match a.inside.as_str() {
+        "below" => Inside::Below,
+        "above" => Inside::Above,
+        s => bail!("--inside {s:?}: must be below or above"),
+    };
+    let shown = match &a.input {
+        None => Shown::Demo,
+        Some(input) => {
+            let path = Path::new(input);
+            let is_mesh = MeshFormat::from_path(path).is_some() && isoforge_io::VolumeFormat::from_path(path).is_none();
+            if is_mesh {
+                Shown::Mesh { name: input.clone(), mesh: isoforge_io::read_mesh(path, &Limits::default())? }
+            } else {
+                let cfg =
+                    InputConfig::from_args(&crate::args::InputArgs { input: input.clone(), layout: a.layout.clone() })?;
+                match load(&cfg)? {
+                    Loaded::Grid(grid) => Shown::Volume { name: input.clone(), grid, inside },
+                    _ => bail!("{input}: view shows volume files, meshes, or (without INPUT) the demo fields"),
+                }
+            }
+        }
+    };
+    let server = tiny_http::Server::http(("127.0.0.1", a.port))
+        .map_err(|e| anyhow!("cannot listen on 127.0.0.1:{}: {e}", a.port))?;
+    let addr = server.server_addr().to_ip().ok_or_else(|| anyhow!("the server has no IP address"))?;
+    println!("http://{addr}/");
+    use std::io::Write as _;
+    let _ = std::io::stdout().flush();
+    crate::view::serve(&server, &shown);
+    Ok(Outcome::Success)
+}

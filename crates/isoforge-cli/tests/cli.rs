@@ -1044,3 +1044,152 @@ fn render_writes_pictures_of_meshes_volumes_and_fields() {
     let jpg = dir.path().join("x.jpg");
     fails(&["render", p(&mesh), "-o", p(&jpg)], "render writes .png", &jpg);
 }
+
+/// `isoforge view` running in the background, killed when dropped.
+struct Viewer {
+    child: std::process::Child,
+    addr: String,
+}
+
+impl Viewer {
+    fn start(args: &[&str]) -> Viewer {
+        use std::io::BufRead;
+        let mut child = Command::new(env!("CARGO_BIN_EXE_isoforge"))
+            .arg("view")
+            .args(args)
+            .stdout(std::process::Stdio::piped())
+            .spawn()
+            .expect("start isoforge view");
+        let mut line = String::new();
+        std::io::BufReader::new(child.stdout.take().unwrap()).read_line(&mut line).unwrap();
+        let addr = line.trim().trim_start_matches("http://").trim_end_matches('/').to_string();
+        assert!(addr.starts_with("127.0.0.1:"), "view printed {line:?}");
+        Viewer { child, addr }
+    }
+
+    /// (status, body) of GET `path`.
+    fn get(&self, path: &str) -> (u16, Vec<u8>) {
+        use std::io::{Read, Write};
+        let mut s = std::net::TcpStream::connect(&self.addr).unwrap();
+        write!(s, "GET {path} HTTP/1.1\r\nHost: {}\r\nConnection: close\r\n\r\n", self.addr).unwrap();
+        let mut raw = Vec::new();
+        s.read_to_end(&mut raw).unwrap();
+        let split = raw.windows(4).position(|w| w == b"\r\n\r\n").expect("headers") + 4;
+        let head = String::from_utf8_lossy(&raw[..split]).into_owned();
+        let status = head.split_whitespace().nth(1).unwrap().parse().unwrap();
+        let mut body = raw[split..].to_vec();
+        if head.to_ascii_lowercase().contains("transfer-encoding: chunked") {
+            body = dechunk(&body);
+        }
+        (status, body)
+    }
+}
+
+impl Drop for Viewer {
+    fn drop(&mut self) {
+        let _ = self.child.kill();
+        let _ = self.child.wait();
+    }
+}
+
+fn dechunk(mut b: &[u8]) -> Vec<u8> {
+    let mut out = Vec::new();
+    loop {
+        let eol = b.windows(2).position(|w| w == b"\r\n").unwrap();
+        let n = usize::from_str_radix(std::str::from_utf8(&b[..eol]).unwrap().trim(), 16).unwrap();
+        if n == 0 {
+            return out;
+        }
+        out.extend_from_slice(&b[eol + 2..eol + 2 + n]);
+        b = &b[eol + 2 + n + 2..];
+    }
+}
+
+/// The JSON report at the head of a `/api/mesh` body, and the vertex and triangle counts the
+/// binary part holds.
+fn mesh_reply(body: &[u8]) -> serde_json::Value {
+    let n = u32::from_le_bytes(body[..4].try_into().unwrap()) as usize;
+    let report: serde_json::Value = serde_json::from_slice(&body[4..4 + n]).unwrap();
+    let start = (4 + n).div_ceil(4) * 4;
+    let (v, t, e) = (
+        report["vertices"].as_u64().unwrap() as usize,
+        report["triangles"].as_u64().unwrap() as usize,
+        report["defect_edges"].as_u64().unwrap() as usize,
+    );
+    assert_eq!(body.len() - start, v * 12 + t * 12 + e * 8, "binary part of {report}");
+    report
+}
+
+#[test]
+fn the_viewer_server_extracts_what_extract_writes() {
+    let dir = tempfile::tempdir().unwrap();
+    let demo = Viewer::start(&[]);
+    let (code, info) = demo.get("/api/info");
+    assert_eq!(code, 200);
+    let info: serde_json::Value = serde_json::from_slice(&info).unwrap();
+    assert_eq!(info["kind"], "demo");
+    assert_eq!(info["methods"].as_array().unwrap().len(), 5);
+    // The same parameters through extract: the same counts.
+    for (query, spec, method) in [
+        ("field=metaballs&n=48&t=0.25&method=mc33", "field:metaballs?n=48&t=0.25", "mc33"),
+        ("field=lines&n=32&method=mt6&iso=40", "field:lines?n=32", "mt6"),
+    ] {
+        let (code, body) = demo.get(&format!("/api/mesh?{query}"));
+        assert_eq!(code, 200, "{}", String::from_utf8_lossy(&body));
+        let r = mesh_reply(&body);
+        let out = dir.path().join("m.ply");
+        let tj = dir.path().join("t.json");
+        let mut args = vec!["extract", "-i", spec, "--method", method, "-o", p(&out), "--time-json", p(&tj)];
+        if query.contains("iso=40") {
+            args.extend(["--iso", "40"]);
+        }
+        let o = isoforge(&args);
+        assert_eq!(o.status.code(), Some(0), "{}", stderr(&o));
+        let t: serde_json::Value = serde_json::from_str(&std::fs::read_to_string(&tj).unwrap()).unwrap();
+        assert_eq!(r["vertices"], t["vertices"], "{query}");
+        assert_eq!(r["triangles"], t["triangles"], "{query}");
+        assert_eq!(r["manifold"], true, "{query}");
+    }
+    // Every parameter is checked; nothing unbounded gets through.
+    for bad in [
+        "/api/mesh?n=100000",
+        "/api/mesh?n=7.5",
+        "/api/mesh?iso=nan",
+        "/api/mesh?method=dc",
+        "/api/mesh?zoom=2",
+        "/api/export?format=fbx",
+    ] {
+        let (code, body) = demo.get(bad);
+        assert_eq!(code, 400, "{bad}: {}", String::from_utf8_lossy(&body));
+    }
+    assert_eq!(demo.get("/nothing-here").0, 404);
+    // A client that goes away mid-request does not stop the server.
+    {
+        use std::io::Write;
+        let mut s = std::net::TcpStream::connect(&demo.addr).unwrap();
+        s.write_all(b"GET /api/mesh?n=160 HTTP/1.1\r\nHost: x\r\n\r\n").unwrap();
+    }
+    assert_eq!(demo.get("/api/info").0, 200);
+    // Export: a file the Khronos validator would accept is covered elsewhere; here, a PLY that reads.
+    let (code, ply) = demo.get("/api/export?format=ply&n=24");
+    assert_eq!(code, 200);
+    let f = dir.path().join("e.ply");
+    std::fs::write(&f, ply).unwrap();
+    assert!(isoforge(&["check", p(&f), "--require", "watertight"]).status.success());
+    // A volume: iso over its range, the same mesh as extract.
+    let vol = testdata().join("volumes/u8_raw.nrrd");
+    let v = Viewer::start(&[p(&vol)]);
+    let info: serde_json::Value = serde_json::from_slice(&v.get("/api/info").1).unwrap();
+    assert_eq!(info["kind"], "volume");
+    assert_eq!(info["range"], serde_json::json!([0.0, 22.0]));
+    let r = mesh_reply(&v.get("/api/mesh?iso=10.5").1);
+    let tj = dir.path().join("v.json");
+    let out = dir.path().join("v.ply");
+    assert!(isoforge(&["extract", "-i", p(&vol), "--iso", "10.5", "-o", p(&out), "--time-json", p(&tj)])
+        .status
+        .success());
+    let t: serde_json::Value = serde_json::from_str(&std::fs::read_to_string(&tj).unwrap()).unwrap();
+    assert_eq!((r["vertices"].clone(), r["triangles"].clone()), (t["vertices"].clone(), t["triangles"].clone()));
+    assert!(r["boundary_edges"].as_u64().unwrap() > 0, "open at the volume faces, shown as defects");
+    assert_eq!(v.get("/api/mesh?field=lines").0, 400, "demo parameters are refused for a volume");
+}
