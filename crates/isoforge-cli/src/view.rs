@@ -9,7 +9,7 @@
 //!   all little-endian.
 //! - `GET /api/export?format=ply|obj|stl|glb&…` → the same mesh as a file.
 //!
-//! Parameters: `method`, `iso` (volumes and the demo), `field` (`metaballs|lines|height`), `n`
+//! Parameters: `method`, `iso` (volumes and the demo), `roi` (volumes: `i0:i1,j0:j1,k0:k1`), `field` (`metaballs|lines|height`), `n`
 //! (8–160) and `t` (animation time) for the demo. Every parameter is validated; unknown ones and
 //! out-of-range values are a 400 with the reason, so no request can make the server allocate
 //! without bound. Write errors (a browser closing mid-response) are ignored.
@@ -132,9 +132,34 @@ fn parse_query(q: &str) -> Result<Vec<(String, String)>> {
         if k.len() > 32 || v.len() > 64 {
             bail!("parameter {:?}: too long", &k[..k.len().min(32)]);
         }
-        out.push((k.to_string(), v.to_string()));
+        out.push((decode(k)?, decode(v)?));
     }
     Ok(out)
+}
+
+/// Percent-decoding of a query component (`%3A` → `:`, `+` → space).
+fn decode(s: &str) -> Result<String> {
+    let b = s.as_bytes();
+    let mut out = Vec::with_capacity(b.len());
+    let mut i = 0;
+    while i < b.len() {
+        match b[i] {
+            b'%' => {
+                let hex = s.get(i + 1..i + 3).and_then(|h| u8::from_str_radix(h, 16).ok());
+                out.push(hex.ok_or_else(|| anyhow!("{s:?}: bad percent escape"))?);
+                i += 3;
+            }
+            b'+' => {
+                out.push(b' ');
+                i += 1;
+            }
+            c => {
+                out.push(c);
+                i += 1;
+            }
+        }
+    }
+    String::from_utf8(out).map_err(|_| anyhow!("{s:?}: not UTF-8"))
 }
 
 fn info(shown: &Shown) -> Value {
@@ -179,7 +204,7 @@ fn number(params: &[(String, String)], key: &str) -> Result<Option<f64>> {
 fn mesh_for(shown: &Shown, params: &[(String, String)]) -> Result<(Mesh, Value)> {
     let allowed: &[&str] = match shown {
         Shown::Demo => &["method", "iso", "field", "n", "t", "format"],
-        Shown::Volume { .. } => &["method", "iso", "format"],
+        Shown::Volume { .. } => &["method", "iso", "roi", "format"],
         Shown::Mesh { .. } => &["format"],
     };
     if let Some((k, _)) = params.iter().find(|(k, _)| !allowed.contains(&k.as_str())) {
@@ -211,8 +236,14 @@ fn mesh_for(shown: &Shown, params: &[(String, String)]) -> Result<(Mesh, Value)>
             pipeline::extract_builtin(&b, iso, &opts, None)?.mesh
         }
         Shown::Volume { grid, inside, .. } => {
-            let iso = number(params, "iso")?.ok_or_else(|| anyhow!("iso is required"))?;
-            pipeline::extract_grid(grid, Iso { value: iso, inside: *inside }, &opts, None)?.mesh
+            let iso = Iso { value: number(params, "iso")?.ok_or_else(|| anyhow!("iso is required"))?, inside: *inside };
+            match get(params, "roi").filter(|r| !r.is_empty()) {
+                None => pipeline::extract_grid(grid, iso, &opts, None)?.mesh,
+                Some(roi) => {
+                    let (lo, hi) = parse_roi(roi, grid.lattice().dims())?;
+                    pipeline::extract_grid(&grid.crop(lo, hi)?, iso, &opts, None)?.mesh
+                }
+            }
         }
         Shown::Mesh { mesh, .. } => mesh.clone(),
     };
@@ -225,6 +256,29 @@ fn mesh_for(shown: &Shown, params: &[(String, String)]) -> Result<(Mesh, Value)>
         "extraction_ms": ms, "method": method.name(),
     });
     Ok((mesh, report))
+}
+
+/// `i0:i1,j0:j1,k0:k1` (half-open voxel indices; empty bounds take the whole axis), as in
+/// `extract --roi`.
+fn parse_roi(roi: &str, dims: [u32; 3]) -> Result<([u32; 3], [u32; 3])> {
+    let parts: Vec<&str> = roi.split(',').collect();
+    if parts.len() != 3 {
+        bail!("roi={roi:?}: expected i0:i1,j0:j1,k0:k1");
+    }
+    let (mut lo, mut hi) = ([0u32; 3], dims);
+    for (a, part) in parts.iter().enumerate() {
+        let (l, h) = part.split_once(':').ok_or_else(|| anyhow!("roi={roi:?}: {part:?} has no ':'"))?;
+        let num = |t: &str, default: u32| -> Result<u32> {
+            if t.trim().is_empty() {
+                Ok(default)
+            } else {
+                t.trim().parse().map_err(|_| anyhow!("roi={roi:?}: {t:?} is not a voxel index"))
+            }
+        };
+        lo[a] = num(l, 0)?;
+        hi[a] = num(h, dims[a])?;
+    }
+    Ok((lo, hi))
 }
 
 /// The report, then positions, triangles and defect edges (boundary or non-manifold).

@@ -1163,6 +1163,14 @@ fn the_viewer_server_extracts_what_extract_writes() {
         assert_eq!(code, 400, "{bad}: {}", String::from_utf8_lossy(&body));
     }
     assert_eq!(demo.get("/nothing-here").0, 404);
+    // The page: the built viewer, or (assets not built) a page saying how to build them.
+    let (code, page) = demo.get("/");
+    assert_eq!(code, 200);
+    let page = String::from_utf8_lossy(&page);
+    assert!(
+        page.contains("main.js") || page.contains("npm ci && npm run build") || page.contains("npm ci &amp;&amp;"),
+        "{page}"
+    );
     // A client that goes away mid-request does not stop the server.
     {
         use std::io::Write;
@@ -1192,4 +1200,24 @@ fn the_viewer_server_extracts_what_extract_writes() {
     assert_eq!((r["vertices"].clone(), r["triangles"].clone()), (t["vertices"].clone(), t["triangles"].clone()));
     assert!(r["boundary_edges"].as_u64().unwrap() > 0, "open at the volume faces, shown as defects");
     assert_eq!(v.get("/api/mesh?field=lines").0, 400, "demo parameters are refused for a volume");
+    // A region, percent-encoded as browsers send it, equals extract --roi.
+    let r = mesh_reply(&v.get("/api/mesh?iso=10.5&roi=1%3A4%2C%3A%2C2%3A").1);
+    assert!(isoforge(&[
+        "extract",
+        "-i",
+        p(&vol),
+        "--iso",
+        "10.5",
+        "--roi",
+        "1:4,:,2:",
+        "-o",
+        p(&out),
+        "--time-json",
+        p(&tj)
+    ])
+    .status
+    .success());
+    let t: serde_json::Value = serde_json::from_str(&std::fs::read_to_string(&tj).unwrap()).unwrap();
+    assert_eq!((r["vertices"].clone(), r["triangles"].clone()), (t["vertices"].clone(), t["triangles"].clone()));
+    assert_eq!(v.get("/api/mesh?iso=10.5&roi=1:99,:,:").0, 400);
 }
