@@ -1220,4 +1220,13 @@ fn the_viewer_server_extracts_what_extract_writes() {
     let t: serde_json::Value = serde_json::from_str(&std::fs::read_to_string(&tj).unwrap()).unwrap();
     assert_eq!((r["vertices"].clone(), r["triangles"].clone()), (t["vertices"].clone(), t["triangles"].clone()));
     assert_eq!(v.get("/api/mesh?iso=10.5&roi=1:99,:,:").0, 400);
+    // A mesh file is shown as it is.
+    let m = Viewer::start(&[p(&testdata().join("meshes/tetra_ascii.ply"))]);
+    let info: serde_json::Value = serde_json::from_slice(&m.get("/api/info").1).unwrap();
+    assert_eq!(info["kind"], "mesh");
+    let r = mesh_reply(&m.get("/api/mesh").1);
+    assert_eq!(
+        (r["vertices"].as_u64(), r["triangles"].as_u64(), r["closed"].as_bool()),
+        (Some(4), Some(4), Some(true))
+    );
 }
