@@ -14,10 +14,15 @@ pub fn write_obj(w: &mut dyn Write, mesh: &Mesh) -> io::Result<()> {
 /// Writes `mesh` as OBJ with vertex colours (`v x y z r g b`, the common extension read by
 /// MeshLab, Blender and trimesh). Scalar attributes have no OBJ form and are not written.
 pub fn write_obj_with(w: &mut dyn Write, mesh: &Mesh, data: &MeshData) -> io::Result<()> {
-    if !data.fits(mesh) {
-        return Err(io::Error::other("vertex data does not have one entry per vertex"));
-    }
     writeln!(w, "# isoforge {}", env!("CARGO_PKG_VERSION"))?;
+    write_object(w, mesh, data, 0, 0)
+}
+
+/// One mesh's `v`, `vn` and `f` lines, indices offset by the vertices and normals written before.
+fn write_object(w: &mut dyn Write, mesh: &Mesh, data: &MeshData, base_v: usize, base_n: usize) -> io::Result<()> {
+    if !data.fits(mesh) {
+        return Err(io::Error::other("mesh data does not have one entry per vertex"));
+    }
     for (i, p) in mesh.positions.iter().enumerate() {
         match &data.colors {
             Some(c) => {
@@ -32,9 +37,10 @@ pub fn write_obj_with(w: &mut dyn Write, mesh: &Mesh, data: &MeshData) -> io::Re
     }
     let with_n = !mesh.normals.is_empty();
     for t in &mesh.triangles {
-        let [a, b, c] = t.map(|v| v + 1);
+        let [a, b, c] = t.map(|v| v as usize + base_v + 1);
         if with_n {
-            writeln!(w, "f {a}//{a} {b}//{b} {c}//{c}")?;
+            let [na, nb, nc] = t.map(|v| v as usize + base_n + 1);
+            writeln!(w, "f {a}//{na} {b}//{nb} {c}//{nc}")?;
         } else {
             writeln!(w, "f {a} {b} {c}")?;
         }
@@ -48,33 +54,9 @@ pub fn write_obj_objects(w: &mut dyn Write, meshes: &[crate::attributes::NamedMe
     writeln!(w, "# isoforge {}", env!("CARGO_PKG_VERSION"))?;
     let (mut base_v, mut base_n) = (0usize, 0usize);
     for m in meshes {
-        if !m.data.fits(m.mesh) {
-            return Err(io::Error::other("mesh data does not match the mesh"));
-        }
         let name: String = m.name.chars().map(|c| if c.is_whitespace() { '_' } else { c }).collect();
         writeln!(w, "o {name}")?;
-        for (i, p) in m.mesh.positions.iter().enumerate() {
-            match &m.data.colors {
-                Some(c) => {
-                    let [r, g, b] = c[i].map(|x| x as f32 / 255.0);
-                    writeln!(w, "v {} {} {} {r} {g} {b}", p[0], p[1], p[2])?
-                }
-                None => writeln!(w, "v {} {} {}", p[0], p[1], p[2])?,
-            }
-        }
-        for n in &m.mesh.normals {
-            writeln!(w, "vn {} {} {}", n[0], n[1], n[2])?;
-        }
-        let with_n = !m.mesh.normals.is_empty();
-        for t in &m.mesh.triangles {
-            let [a, b, c] = t.map(|v| v as usize + base_v + 1);
-            if with_n {
-                let [na, nb, nc] = t.map(|v| v as usize + base_n + 1);
-                writeln!(w, "f {a}//{na} {b}//{nb} {c}//{nc}")?;
-            } else {
-                writeln!(w, "f {a} {b} {c}")?;
-            }
-        }
+        write_object(w, m.mesh, m.data, base_v, base_n)?;
         base_v += m.mesh.positions.len();
         base_n += m.mesh.normals.len();
     }

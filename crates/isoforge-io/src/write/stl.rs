@@ -4,6 +4,16 @@ use std::io::{self, Write};
 
 use isoforge::mesh::Mesh;
 
+/// A triangle's unit normal from its winding (zero when degenerate) and its corners.
+fn facet(mesh: &Mesh, t: &[u32; 3]) -> ([f32; 3], [[f32; 3]; 3]) {
+    let [a, b, c] = t.map(|v| mesh.positions[v as usize]);
+    let u = [b[0] - a[0], b[1] - a[1], b[2] - a[2]];
+    let v = [c[0] - a[0], c[1] - a[1], c[2] - a[2]];
+    let n = [u[1] * v[2] - u[2] * v[1], u[2] * v[0] - u[0] * v[2], u[0] * v[1] - u[1] * v[0]];
+    let len = (n[0] * n[0] + n[1] * n[1] + n[2] * n[2]).sqrt();
+    (if len > 0.0 { n.map(|x| x / len) } else { n }, [a, b, c])
+}
+
 /// Writes `mesh` as binary STL.
 pub fn write_stl(w: &mut dyn Write, mesh: &Mesh) -> io::Result<()> {
     let n = u32::try_from(mesh.triangles.len())
@@ -15,14 +25,7 @@ pub fn write_stl(w: &mut dyn Write, mesh: &Mesh) -> io::Result<()> {
     w.write_all(&n.to_le_bytes())?;
     let mut buf = Vec::with_capacity(50 * 1024);
     for t in &mesh.triangles {
-        let [a, b, c] = t.map(|v| mesh.positions[v as usize]);
-        let u = [b[0] - a[0], b[1] - a[1], b[2] - a[2]];
-        let v = [c[0] - a[0], c[1] - a[1], c[2] - a[2]];
-        let mut nrm = [u[1] * v[2] - u[2] * v[1], u[2] * v[0] - u[0] * v[2], u[0] * v[1] - u[1] * v[0]];
-        let len = (nrm[0] * nrm[0] + nrm[1] * nrm[1] + nrm[2] * nrm[2]).sqrt();
-        if len > 0.0 {
-            nrm = nrm.map(|x| x / len);
-        }
+        let (nrm, [a, b, c]) = facet(mesh, t);
         for p in [nrm, a, b, c] {
             for x in p {
                 buf.extend_from_slice(&x.to_le_bytes());
@@ -42,14 +45,7 @@ pub fn write_stl_ascii(w: &mut dyn Write, mesh: &Mesh) -> io::Result<()> {
     writeln!(w, "solid isoforge")?;
     let mut out = io::BufWriter::with_capacity(1 << 16, w);
     for t in &mesh.triangles {
-        let [a, b, c] = t.map(|v| mesh.positions[v as usize]);
-        let u = [b[0] - a[0], b[1] - a[1], b[2] - a[2]];
-        let v = [c[0] - a[0], c[1] - a[1], c[2] - a[2]];
-        let mut n = [u[1] * v[2] - u[2] * v[1], u[2] * v[0] - u[0] * v[2], u[0] * v[1] - u[1] * v[0]];
-        let len = (n[0] * n[0] + n[1] * n[1] + n[2] * n[2]).sqrt();
-        if len > 0.0 {
-            n = n.map(|x| x / len);
-        }
+        let (n, [a, b, c]) = facet(mesh, t);
         writeln!(out, "  facet normal {} {} {}\n    outer loop", n[0], n[1], n[2])?;
         for p in [a, b, c] {
             writeln!(out, "      vertex {} {} {}", p[0], p[1], p[2])?;
