@@ -1,17 +1,29 @@
 //! Extraction throughput on fields like the peer harness's (sphere r 0.7, a gyroid with 4 periods
 //! across the cube, three metaballs) on [-1, 1]³, sampled into f32 grids at 128³ and 256³.
 //!
-//! `cargo bench -p isoforge-bench` (never run by CI, which only builds it). Groups: `flying_edges`
-//! (the grid path of `isoforge extract`, one thread) and `slab_walker` (the generic walker used for
-//! fields), each with and without gradient normals. Throughput in lattice points per second; the
-//! triangle count is in the benchmark id.
+//! `cargo bench -p isoforge-bench` (never run by CI, which only builds it). Groups: every method
+//! on the `flying_edges` walker (the grid path of `isoforge extract`, one thread), and classic MC
+//! on the serial `slab_walker`, each with and without gradient normals. Throughput in lattice
+//! points per second; the triangle count is in the benchmark id.
 
 use criterion::{criterion_group, criterion_main, BenchmarkId, Criterion, Throughput};
-use isoforge::extract::MarchingCubes;
 use isoforge::grid::{DenseGrid, Lattice};
-use isoforge::pipeline::{extract, Normals, Options};
+use isoforge::mesh::MeshBuilder;
+use isoforge::pipeline::{run, Method, Normals, Options};
 use isoforge::volume::{GridVolume, Iso};
-use isoforge::walk::flying_edges;
+use isoforge::walk::{FlyingEdgesWalker, SlabWalker, Walker};
+
+/// One extraction of `grid` with `opts` through `walker`; returns the triangle count.
+fn once<W: Walker<GridVolume<'static, f32>>>(
+    w: &mut W,
+    vol: &GridVolume<'static, f32>,
+    iso: Iso,
+    opts: &Options,
+) -> usize {
+    let mut out = MeshBuilder::new(opts.normals);
+    run(w, vol, iso, opts, &mut out).unwrap();
+    out.finish().unwrap().num_triangles()
+}
 
 fn sample(n: u32, f: impl Fn(f32, f32, f32) -> f32) -> DenseGrid<f32> {
     let l = Lattice::spanning([n; 3], [-1.0; 3], [1.0; 3]).unwrap();
@@ -49,21 +61,27 @@ fn bench(c: &mut Criterion) {
     let pool = rayon::ThreadPoolBuilder::new().num_threads(1).build().unwrap();
     for n in [128u32, 256] {
         for (name, grid, iso) in fields(n) {
+            let grid: &'static DenseGrid<f32> = Box::leak(Box::new(grid));
+            let vol = GridVolume::new(grid);
             let iso = Iso::below(iso);
-            for (label, normals) in [("normals", true), ("no-normals", false)] {
-                let tris =
-                    pool.install(|| flying_edges(&grid, iso, &MarchingCubes, normals).unwrap().0.num_triangles());
-                let id = |group: &str| BenchmarkId::new(format!("{group}/{name}-{n}-{label}"), format!("{tris}tris"));
-                let mut g = c.benchmark_group("extract_mc");
+            for (label, normals) in [("normals", Normals::Gradient), ("no-normals", Normals::None)] {
+                let mut g = c.benchmark_group("extract");
                 g.sample_size(10);
                 g.throughput(Throughput::Elements(u64::from(n).pow(3)));
-                g.bench_function(id("flying_edges"), |b| {
-                    b.iter(|| pool.install(|| flying_edges(&grid, iso, &MarchingCubes, normals).unwrap()))
-                });
-                let opts =
-                    Options { normals: if normals { Normals::Gradient } else { Normals::None }, ..Default::default() };
-                let vol = GridVolume::new(&grid);
-                g.bench_function(id("slab_walker"), |b| b.iter(|| extract(&vol, iso, &opts).unwrap()));
+                for method in Method::ALL {
+                    let opts = Options { method, normals, ..Default::default() };
+                    let tris = pool.install(|| once(&mut FlyingEdgesWalker::new(), &vol, iso, &opts));
+                    let id = BenchmarkId::new(
+                        format!("flying_edges/{}/{name}-{n}-{label}", method.name()),
+                        format!("{tris}tris"),
+                    );
+                    g.bench_function(id, |b| {
+                        b.iter(|| pool.install(|| once(&mut FlyingEdgesWalker::new(), &vol, iso, &opts)))
+                    });
+                }
+                let opts = Options { normals, ..Default::default() };
+                let id = BenchmarkId::new(format!("slab_walker/mc/{name}-{n}-{label}"), "");
+                g.bench_function(id, |b| b.iter(|| once(&mut SlabWalker::new(), &vol, iso, &opts)));
                 g.finish();
             }
         }

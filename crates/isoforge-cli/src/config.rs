@@ -225,7 +225,7 @@ impl ExtractConfig {
             color: color(a)?,
             color_volume: a.color_volume.clone(),
             inside,
-            options: Options { method, normals, threads: None, mask: None },
+            options: Options { method, normals, ..Default::default() },
             time_json: a.time_json.clone(),
             repeat: a.repeat,
             require: guarantees(&a.require)?,

@@ -4,13 +4,11 @@ use std::path::Path;
 use std::time::Instant;
 
 use anyhow::{anyhow, bail, Context, Result};
-use isoforge::extract::MarchingCubes;
-use isoforge::grid::{AnyGrid, Histogram, Sample, IDENTITY};
-use isoforge::pipeline::{self, Extraction, Method, Normals};
+use isoforge::grid::{AnyGrid, Histogram, IDENTITY};
+use isoforge::pipeline::{self, Extraction};
 use isoforge::topo::{self, CheckOptions, Guarantee, MeshReport};
 use isoforge::volume::catalog::{self, Builtin};
 use isoforge::volume::{Inside, Iso};
-use isoforge::walk::{flying_edges_streaming, StreamStats};
 use isoforge_io::write::ply::PlyStream;
 use isoforge_io::{Limits, MeshFormat, VolumeReader};
 use serde_json::json;
@@ -90,23 +88,11 @@ fn extract_streaming(c: &ExtractConfig, mut reader: VolumeReader, iso: Iso, name
     if c.format != MeshFormat::Ply {
         bail!("{}: out-of-core extraction (--max-memory) writes binary PLY only", c.output.display());
     }
-    if c.options.method != Method::MarchingCubes {
-        bail!("--max-memory: out-of-core extraction supports --method mc only");
-    }
-    let normals = c.options.normals == Normals::Gradient;
+    let normals = c.options.normals == isoforge::mesh::Normals::Gradient;
     let mut sink =
         PlyStream::create(&c.output, normals).with_context(|| format!("{}: cannot create", c.output.display()))?;
     let start = Instant::now();
-    fn go<S: Sample>(
-        r: &mut VolumeReader,
-        iso: Iso,
-        n: bool,
-        sink: &mut PlyStream,
-        bar: &Bar,
-    ) -> isoforge::Result<StreamStats> {
-        flying_edges_streaming::<S, _>(r, iso, &MarchingCubes, n, sink, Some(bar))
-    }
-    let stats = isoforge::with_dtype!(reader.dtype(), S => go::<S>(&mut reader, iso, normals, &mut sink, bar))?;
+    let stats = pipeline::extract_streamed(&mut reader, iso, &c.options, &mut sink, Some(bar))?;
     let seconds = start.elapsed().as_secs_f64();
     bar.finish();
     let w = stats.walk;
@@ -121,10 +107,11 @@ fn extract_streaming(c: &ExtractConfig, mut reader: VolumeReader, iso: Iso, name
         isoforge_io::write_atomic(t, |w| w.write_all(body.to_string().as_bytes()))?;
     }
     eprintln!(
-        "{}: {} vertices, {} triangles (mc, streamed slab by slab, iso {}, reading + extraction + writing {:.3} s)",
+        "{}: {} vertices, {} triangles ({}, streamed slab by slab, iso {}, reading + extraction + writing {:.3} s)",
         c.output.display(),
         stats.vertices,
         stats.triangles,
+        c.options.method.name(),
         iso.value,
         seconds
     );
@@ -500,7 +487,9 @@ fn extract_one(
         });
         runs.push(start.elapsed().as_secs_f64());
     }
-    let out = last.ok_or_else(|| anyhow!("internal: --repeat ran no extraction"))?;
+    let mut out = last.ok_or_else(|| anyhow!("internal: --repeat ran no extraction"))?;
+    // Quads (dual methods) are written as triangles until every writer takes polygons.
+    out.mesh.triangulate();
     let seconds = runs.last().copied().unwrap_or_default();
     let s = out.stats;
     if s.cells > 0 && (s.cells_outside == s.cells || s.cells_inside == s.cells) {

@@ -1128,7 +1128,7 @@ fn the_viewer_server_extracts_what_extract_writes() {
     assert_eq!(code, 200);
     let info: serde_json::Value = serde_json::from_slice(&info).unwrap();
     assert_eq!(info["kind"], "demo");
-    assert_eq!(info["methods"].as_array().unwrap().len(), 5);
+    assert_eq!(info["methods"].as_array().unwrap().len(), isoforge::pipeline::Method::ALL.len());
     // The same parameters through extract: the same counts.
     for (query, spec, method) in [
         ("field=metaballs&n=48&t=0.25&method=mc33", "field:metaballs?n=48&t=0.25", "mc33"),

@@ -1,21 +1,35 @@
-//! The whole pipeline in one call: volume + iso + method → checked [`Mesh`].
+//! The whole pipeline in one call: volume + iso + method → [`Mesh`].
 //!
-//! Runtime choices (sample type, built-in field, method) are matched once here; each arm calls
-//! the same generic walk, monomorphised for its volume and extractor.
+//! The one place where runtime choices become types: the sample type (matched once per grid), the
+//! walker (by what the input is: a grid, any volume, a stream), the method and the mask (matched
+//! once in [`run`], which calls the same generic walk for every combination).
+//!
+//! | input | walker | parallel |
+//! |---|---|---|
+//! | a grid ([`extract_grid`]) | [`FlyingEdgesWalker`] on its samples | yes |
+//! | any volume or field ([`extract`], [`extract_builtin`]) | tabulated at the iso, then [`FlyingEdgesWalker`] ([`SlabWalker`] past [`Tabulated::MAX_POINTS`]) | yes (no) |
+//! | a stream of slabs ([`extract_streamed`]) | [`FlyingEdgesWalker::stream`] into a [`MeshSink`] | no (I/O bound) |
 
+use std::sync::Arc;
+
+use crate::cube::{CellRange, VertexKey};
 use crate::error::{Error, Result};
-use crate::extract::{Decomposition, MarchingCubes, MarchingCubes33, MarchingTetrahedra, Masked, PointMask};
-use crate::grid::{AnyGrid, DenseGrid, Sample};
-use crate::mesh::{Mesh, MeshBuilder};
+use crate::extract::{
+    Decomposition, Extractor, MarchingCubes, MarchingCubes33, MarchingTetrahedra, Masked, PointMask, SurfaceNets,
+};
+use crate::grid::{AnyGrid, DType, DenseGrid, Sample};
+use crate::mesh::{KeyRecord, Mesh, MeshBuilder, MeshSink};
 use crate::volume::catalog::Builtin;
-use crate::volume::{Field, FieldVisitor, GridVolume, Iso, Sampled, Volume};
-use crate::walk::{flying_edges, Progress, SlabWalker, WalkStats, Walker};
+use crate::volume::{Field, FieldVisitor, GridVolume, Iso, Sampled, SlabSource, Tabulated, Volume};
+use crate::walk::{FlyingEdgesWalker, Progress, SlabWalker, StreamStats, WalkStats, Walker};
+
+pub use crate::mesh::Normals;
 
 /// An extraction algorithm.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
 #[non_exhaustive]
 pub enum Method {
-    /// Classic marching cubes ([`MarchingCubes`]), parallel Flying Edges on grids.
+    /// Classic marching cubes ([`MarchingCubes`]): `vtkFlyingEdges3D`'s triangles.
     #[default]
     MarchingCubes,
     /// Marching cubes 33 ([`MarchingCubes33`]): the topology of the trilinear interpolant.
@@ -26,19 +40,22 @@ pub enum Method {
     Tetrahedra6,
     /// Marching tetrahedra on the body-centred lattice (cell centres added).
     TetrahedraBcc,
+    /// Surface nets ([`SurfaceNets`]): dual, one vertex per cell, quads.
+    SurfaceNets,
 }
 
 impl Method {
     /// Every method, in CLI order.
-    pub const ALL: [Method; 5] = [
+    pub const ALL: [Method; 6] = [
         Method::MarchingCubes,
         Method::MarchingCubes33,
         Method::Tetrahedra5,
         Method::Tetrahedra6,
         Method::TetrahedraBcc,
+        Method::SurfaceNets,
     ];
 
-    /// The short CLI name (`mc`, `mc33`, `mt5`, `mt6`, `mt-bcc`).
+    /// The short CLI name (`mc`, `mc33`, `mt5`, `mt6`, `mt-bcc`, `surface-nets`).
     pub fn name(self) -> &'static str {
         match self {
             Method::MarchingCubes => "mc",
@@ -46,6 +63,7 @@ impl Method {
             Method::Tetrahedra5 => "mt5",
             Method::Tetrahedra6 => "mt6",
             Method::TetrahedraBcc => "mt-bcc",
+            Method::SurfaceNets => "surface-nets",
         }
     }
 
@@ -53,27 +71,6 @@ impl Method {
     pub fn parse(s: &str) -> Option<Method> {
         Method::ALL.into_iter().find(|m| m.name() == s)
     }
-
-    /// The tetrahedral decomposition of an `mt*` method.
-    fn decomposition(self) -> Option<Decomposition> {
-        match self {
-            Method::Tetrahedra5 => Some(Decomposition::Five),
-            Method::Tetrahedra6 => Some(Decomposition::Six),
-            Method::TetrahedraBcc => Some(Decomposition::BodyCentred),
-            Method::MarchingCubes | Method::MarchingCubes33 => None,
-        }
-    }
-}
-
-/// Whether vertices get normals.
-#[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
-pub enum Normals {
-    /// Unit normals from the field gradient (central differences for grids).
-    Gradient,
-    /// No normals (`Mesh::normals` stays empty): the default, as in the peer benchmarks; viewers
-    /// compute normals themselves, and gradient normals cost 30–75 % of a grid extraction.
-    #[default]
-    None,
 }
 
 /// Extraction options.
@@ -83,11 +80,15 @@ pub struct Options {
     pub method: Method,
     /// Normals or not.
     pub normals: Normals,
-    /// Worker threads for grid extraction; `None` uses rayon's global pool (all cores). The mesh
-    /// is identical for every thread count.
+    /// Worker threads; `None` uses rayon's global pool (all cores). The mesh is identical for
+    /// every thread count.
     pub threads: Option<usize>,
-    /// Only cells whose eight corners are in this mask (any method; runs on the slab walker).
-    pub mask: Option<std::sync::Arc<PointMask>>,
+    /// Only cells whose eight corners are in this mask (any method, any walker).
+    pub mask: Option<Arc<PointMask>>,
+    /// Only these cells (global lattice indices); the whole lattice when `None`.
+    pub range: Option<CellRange>,
+    /// Which vertices' provenance keys to keep in [`Extraction::keys`] (to stitch ranges).
+    pub keys: KeyRecord,
 }
 
 /// A mesh and what the walk saw.
@@ -97,14 +98,82 @@ pub struct Extraction {
     pub mesh: Mesh,
     /// Cell counts.
     pub stats: WalkStats,
+    /// Provenance of the vertices [`Options::keys`] asked for: `(vertex, key)` in vertex order.
+    pub keys: Vec<(u32, VertexKey)>,
 }
 
-/// Extracts the surface of `vol` at `iso`.
+impl Extraction {
+    /// Why there is no surface: `Some("outside")` (or `"inside"`) when every cell walked was on
+    /// that side of the iso.
+    pub fn no_surface(&self) -> Option<&'static str> {
+        self.stats.uniform_side()
+    }
+}
+
+/// The one place a method becomes an extractor: runs `method` (masked if asked) with `walker`.
 ///
 /// # Errors
-/// [`Error::InvalidInput`] when `iso` is not finite; [`Error::Limit`] when the mesh outgrows
-/// `u32` indices.
-pub fn extract<V: Volume>(vol: &V, iso: Iso, opts: &Options) -> Result<Extraction> {
+/// As the walker's [`Walker::walk`].
+pub fn run<V: ?Sized, W: Walker<V>>(
+    walker: &mut W,
+    vol: &V,
+    iso: Iso,
+    opts: &Options,
+    out: &mut MeshBuilder,
+) -> Result<WalkStats> {
+    fn go<V: ?Sized, W: Walker<V>, X: Extractor + Sync>(
+        w: &mut W,
+        vol: &V,
+        iso: Iso,
+        x: X,
+        mask: Option<&PointMask>,
+        out: &mut MeshBuilder,
+    ) -> Result<WalkStats> {
+        match mask {
+            None => w.walk(vol, iso, &x, out),
+            Some(mask) => w.walk(vol, iso, &Masked { inner: x, mask }, out),
+        }
+    }
+    let tetrahedra = |decomposition| MarchingTetrahedra { decomposition };
+    let mask = opts.mask.as_deref();
+    match opts.method {
+        Method::MarchingCubes => go(walker, vol, iso, MarchingCubes, mask, out),
+        Method::MarchingCubes33 => go(walker, vol, iso, MarchingCubes33, mask, out),
+        Method::Tetrahedra5 => go(walker, vol, iso, tetrahedra(Decomposition::Five), mask, out),
+        Method::Tetrahedra6 => go(walker, vol, iso, tetrahedra(Decomposition::Six), mask, out),
+        Method::TetrahedraBcc => go(walker, vol, iso, tetrahedra(Decomposition::BodyCentred), mask, out),
+        Method::SurfaceNets => go(walker, vol, iso, SurfaceNets, mask, out),
+    }
+}
+
+fn check(iso: Iso, opts: &Options, dims: [u32; 3]) -> Result<()> {
+    if !iso.value.is_finite() {
+        return Err(Error::InvalidInput(format!("iso {}: must be a finite number", iso.value)));
+    }
+    if let Some(mask) = &opts.mask {
+        if mask.dims() != dims {
+            return Err(Error::InvalidInput(format!("mask dims {:?} differ from the volume's {dims:?}", mask.dims())));
+        }
+    }
+    Ok(())
+}
+
+fn builder(opts: &Options) -> MeshBuilder {
+    MeshBuilder::new(opts.normals).with_keys(opts.keys)
+}
+
+fn finish(out: MeshBuilder, stats: WalkStats) -> Result<Extraction> {
+    let (mesh, keys) = out.finish_keyed()?;
+    Ok(Extraction { mesh, stats, keys })
+}
+
+/// Extracts the surface of any volume at `iso`: tabulated at the iso and walked in parallel
+/// ([`Tabulated`]), or slab by slab in O(nx·ny) memory past [`Tabulated::MAX_POINTS`].
+///
+/// # Errors
+/// [`Error::InvalidInput`] when `iso` is not finite or the mask does not fit; [`Error::Limit`]
+/// when the mesh outgrows `u32` indices.
+pub fn extract<V: Volume + Sync>(vol: &V, iso: Iso, opts: &Options) -> Result<Extraction> {
     extract_with_progress(vol, iso, opts, None)
 }
 
@@ -112,70 +181,127 @@ pub fn extract<V: Volume>(vol: &V, iso: Iso, opts: &Options) -> Result<Extractio
 ///
 /// # Errors
 /// As [`extract`].
-pub fn extract_with_progress<V: Volume>(
+pub fn extract_with_progress<V: Volume + Sync>(
     vol: &V,
     iso: Iso,
     opts: &Options,
     progress: Option<&dyn Progress>,
 ) -> Result<Extraction> {
-    if !iso.value.is_finite() {
-        return Err(Error::InvalidInput(format!("iso {}: must be a finite number", iso.value)));
-    }
-    let mut out = MeshBuilder::new(opts.normals == Normals::Gradient);
-    let mut walker = SlabWalker::new();
-    if let Some(p) = progress {
-        walker = walker.with_progress(p);
-    }
-    if let Some(mask) = &opts.mask {
-        if mask.dims() != vol.lattice().dims() {
-            return Err(Error::InvalidInput(format!(
-                "mask dims {:?} differ from the volume's {:?}",
-                mask.dims(),
-                vol.lattice().dims()
-            )));
-        }
-    }
-    let stats = match (opts.method, opts.method.decomposition(), &opts.mask) {
-        (_, Some(decomposition), None) => walker.walk(vol, iso, &mut MarchingTetrahedra { decomposition }, &mut out)?,
-        (_, Some(decomposition), Some(m)) => {
-            let mut x = Masked { inner: MarchingTetrahedra { decomposition }, mask: m };
-            walker.walk(vol, iso, &mut x, &mut out)?
-        }
-        (Method::MarchingCubes33, _, None) => walker.walk(vol, iso, &mut MarchingCubes33, &mut out)?,
-        (Method::MarchingCubes33, _, Some(m)) => {
-            walker.walk(vol, iso, &mut Masked { inner: MarchingCubes33, mask: m }, &mut out)?
-        }
-        (_, _, None) => walker.walk(vol, iso, &mut MarchingCubes, &mut out)?,
-        (_, _, Some(m)) => walker.walk(vol, iso, &mut Masked { inner: MarchingCubes, mask: m }, &mut out)?,
-    };
-    Ok(Extraction { mesh: out.finish()?, stats })
+    check(iso, opts, vol.lattice().dims())?;
+    in_pool(opts.threads, || {
+        let mut out = builder(opts);
+        let stats = if vol.lattice().num_points() <= Tabulated::<V>::MAX_POINTS {
+            let table = Tabulated::new(vol, iso)?;
+            run(&mut walker(opts, progress), &table, Iso::below(0.0), opts, &mut out)?
+        } else {
+            let mut w = SlabWalker::new();
+            if let Some(r) = opts.range {
+                w = w.with_range(r);
+            }
+            if let Some(p) = progress {
+                w = w.with_progress(p);
+            }
+            run(&mut w, vol, iso, opts, &mut out)?
+        };
+        finish(out, stats)
+    })?
 }
 
-/// Extracts from a grid of any sample type (matched once) with the parallel Flying Edges walker
-/// ([`flying_edges`]): the same mesh as [`extract`] on a [`GridVolume`] up to vertex numbering,
-/// and the same bytes for every thread count.
+fn walker<'p>(opts: &Options, progress: Option<&'p dyn Progress>) -> FlyingEdgesWalker<'p> {
+    let mut w = FlyingEdgesWalker::new();
+    if let Some(r) = opts.range {
+        w = w.with_range(r);
+    }
+    if let Some(p) = progress {
+        w = w.with_progress(p);
+    }
+    w
+}
+
+/// Extracts from a grid of any sample type (matched once), classified in its own type by the
+/// parallel [`FlyingEdgesWalker`]; the same bytes for every thread count.
 ///
 /// # Errors
 /// As [`extract`]; [`Error::InvalidInput`] when the thread pool cannot be built.
 pub fn extract_grid(grid: &AnyGrid, iso: Iso, opts: &Options, progress: Option<&dyn Progress>) -> Result<Extraction> {
-    fn go<S: Sample>(g: &DenseGrid<S>, iso: Iso, opts: &Options) -> Result<Extraction> {
-        let normals = opts.normals == Normals::Gradient;
-        if opts.method != Method::MarchingCubes || opts.mask.is_some() {
-            // The other methods and masks run on the serial slab walker.
-            return extract(&GridVolume::new(g), iso, opts);
+    check(iso, opts, grid.lattice().dims())?;
+    fn go<S: Sample>(
+        g: &DenseGrid<S>,
+        iso: Iso,
+        opts: &Options,
+        progress: Option<&dyn Progress>,
+    ) -> Result<Extraction> {
+        let mut out = builder(opts);
+        let stats = run(&mut walker(opts, progress), &GridVolume::new(g), iso, opts, &mut out)?;
+        finish(out, stats)
+    }
+    in_pool(opts.threads, || crate::with_grid!(grid, g => go(g, iso, opts, progress)))?
+}
+
+/// A source of slabs in whichever sample type its file stores (a volume reader).
+pub trait AnySlabSource:
+    SlabSource<u8>
+    + SlabSource<i8>
+    + SlabSource<u16>
+    + SlabSource<i16>
+    + SlabSource<u32>
+    + SlabSource<i32>
+    + SlabSource<f32>
+    + SlabSource<f64>
+{
+    /// The stored sample type (the one `read_slab` is called with).
+    fn dtype(&self) -> DType;
+}
+
+/// Extracts a volume that arrives slab by slab (larger than memory), handing the mesh to `sink`
+/// as it is produced, in O(nx·ny) memory. Every method; no mask or range.
+///
+/// # Errors
+/// As [`extract`]; [`Error::External`] from the source or the sink.
+pub fn extract_streamed<R: AnySlabSource>(
+    src: &mut R,
+    iso: Iso,
+    opts: &Options,
+    sink: &mut dyn MeshSink,
+    progress: Option<&dyn Progress>,
+) -> Result<StreamStats> {
+    let dims = <R as SlabSource<u8>>::lattice(src).dims();
+    check(iso, opts, dims)?;
+    if opts.mask.is_some() || opts.range.is_some() {
+        return Err(Error::InvalidInput("streamed extraction walks the whole volume: no mask or range".into()));
+    }
+    /// Adapts a streamed walk to [`run`]'s walker shape.
+    struct Streamed<'a, 'p, S> {
+        src: &'a mut dyn SlabSource<S>,
+        sink: &'a mut dyn MeshSink,
+        walker: FlyingEdgesWalker<'p>,
+        stats: StreamStats,
+        normals: Normals,
+    }
+    impl<S: Sample> Walker<()> for Streamed<'_, '_, S> {
+        fn walk<X: Extractor + Sync>(&mut self, _: &(), iso: Iso, x: &X, _: &mut MeshBuilder) -> Result<WalkStats> {
+            self.stats = self.walker.stream(self.src, iso, x, self.normals, self.sink)?;
+            Ok(self.stats.walk)
         }
-        let (mesh, stats) = flying_edges(g, iso, &MarchingCubes, normals)?;
-        Ok(Extraction { mesh, stats })
     }
-    if !iso.value.is_finite() {
-        return Err(Error::InvalidInput(format!("iso {}: must be a finite number", iso.value)));
+    fn go<S: Sample>(
+        src: &mut dyn SlabSource<S>,
+        iso: Iso,
+        opts: &Options,
+        sink: &mut dyn MeshSink,
+        progress: Option<&dyn Progress>,
+    ) -> Result<StreamStats> {
+        let mut w = Streamed {
+            src,
+            sink,
+            walker: walker(opts, progress),
+            stats: StreamStats::default(),
+            normals: opts.normals,
+        };
+        run(&mut w, &(), iso, opts, &mut MeshBuilder::default())?;
+        Ok(w.stats)
     }
-    let run = || crate::with_grid!(grid, g => go(g, iso, opts));
-    let out = in_pool(opts.threads, run)?;
-    if let Some(p) = progress {
-        p.advance(1, 1);
-    }
-    out
+    crate::with_dtype!(src.dtype(), S => go::<S>(src, iso, opts, sink, progress))
 }
 
 /// Which labels of a label volume to mesh.
@@ -196,9 +322,9 @@ pub fn labels_present(grid: &AnyGrid) -> Vec<f64> {
 }
 
 /// One closed surface per label of a label volume: the boundary of the points equal to the label,
-/// meshed with marching cubes at 0.5 on the label's indicator, padded with one outside layer so
-/// every surface is closed even where the label touches the volume's faces. Neighbouring labels
-/// get two coincident, independently closed surfaces.
+/// meshed at 0.5 on the label's indicator, padded with one outside layer so every surface is
+/// closed even where the label touches the volume's faces. Neighbouring labels get two
+/// coincident, independently closed surfaces.
 ///
 /// # Errors
 /// [`Error::InvalidInput`] when a label does not occur or more than 4096 labels are asked for; as
@@ -221,8 +347,7 @@ pub fn extract_labels(grid: &AnyGrid, labels: &Labels, opts: &Options) -> Result
         let lattice = grid.lattice().clone();
         let data: Vec<u8> = grid.values_f64().map(|v| u8::from(v == label)).collect();
         let indicator = DenseGrid::new(lattice, data)?.pad(1, 0)?;
-        let o = Options { method: opts.method, ..opts.clone() };
-        out.push((label, extract_grid(&AnyGrid::U8(indicator), Iso::above(0.5), &o, None)?));
+        out.push((label, extract_grid(&AnyGrid::U8(indicator), Iso::above(0.5), opts, None)?));
     }
     Ok(out)
 }

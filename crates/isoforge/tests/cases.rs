@@ -3,7 +3,7 @@
 mod common;
 
 use common::*;
-use isoforge::extract::cube::CASE_EDGES;
+use isoforge::cube::CASE_EDGES;
 use isoforge::topo;
 use isoforge::volume::Iso;
 

@@ -3,13 +3,15 @@
 mod common;
 
 use common::*;
-use isoforge::extract::cube::case_of;
+use isoforge::cube::case_of;
 use isoforge::extract::marching_cubes::TRI_TABLE;
+use isoforge::extract::MarchingCubes;
 use isoforge::grid::{DenseGrid, Lattice};
 use isoforge::math::Vec3;
-use isoforge::mesh::Mesh;
+use isoforge::mesh::{Mesh, MeshBuilder, Normals};
 use isoforge::topo;
 use isoforge::volume::{Iso, Sampled};
+use isoforge::walk::{FlyingEdgesWalker, Walker};
 use proptest::prelude::*;
 use proptest::test_runner::{Config, RngSeed};
 
@@ -61,7 +63,7 @@ fn has_case_in(g: &DenseGrid<f32>, iso: f32, set: &[bool]) -> bool {
     for k in 0..nz - 1 {
         for j in 0..ny - 1 {
             for i in 0..nx - 1 {
-                let d = isoforge::extract::cube::CORNER_OFFSETS.map(|o| g.get([i + o[0], j + o[1], k + o[2]]) - iso);
+                let d = isoforge::cube::CORNER_OFFSETS.map(|o| g.get([i + o[0], j + o[1], k + o[2]]) - iso);
                 if set[case_of(&d) as usize] {
                     return true;
                 }
@@ -263,10 +265,6 @@ fn field_vertices_lie_on_the_true_surface() {
     }
 }
 
-fn fe<S: isoforge::grid::Sample>(g: &DenseGrid<S>, iso: Iso) -> (Mesh, isoforge::walk::WalkStats) {
-    isoforge::walk::flying_edges(g, iso, &isoforge::extract::MarchingCubes, true).unwrap()
-}
-
 /// Random lattices with wider dims (up to 70 points in x, so rows span two 64-bit words).
 fn wide_lattice_values() -> impl Strategy<Value = ([u32; 3], Vec<f32>)> {
     [2u32..=70, 2u32..=6, 2u32..=6].prop_flat_map(|dims| {
@@ -347,11 +345,11 @@ struct GridSlabs<'a> {
     k: usize,
 }
 
-impl isoforge::walk::SlabSource<f32> for GridSlabs<'_> {
+impl isoforge::volume::SlabSource<f32> for GridSlabs<'_> {
     fn lattice(&self) -> &Lattice {
         self.grid.lattice()
     }
-    fn read_slab(&mut self, out: &mut [f32]) -> Result<(), isoforge::walk::ExternalError> {
+    fn read_slab(&mut self, out: &mut [f32]) -> Result<(), isoforge::mesh::ExternalError> {
         let n = out.len();
         out.copy_from_slice(&self.grid.data()[self.k * n..(self.k + 1) * n]);
         self.k += 1;
@@ -362,11 +360,12 @@ impl isoforge::walk::SlabSource<f32> for GridSlabs<'_> {
 #[derive(Default)]
 struct Collect(Mesh);
 
-impl isoforge::walk::MeshSink for Collect {
-    fn push(&mut self, p: &[[f32; 3]], n: &[[f32; 3]], t: &[[u32; 3]]) -> Result<(), isoforge::walk::ExternalError> {
-        self.0.positions.extend_from_slice(p);
-        self.0.normals.extend_from_slice(n);
-        self.0.triangles.extend_from_slice(t);
+impl isoforge::mesh::MeshSink for Collect {
+    fn push(&mut self, b: isoforge::mesh::MeshBatch<'_>) -> Result<(), isoforge::mesh::ExternalError> {
+        self.0.positions.extend_from_slice(b.positions);
+        self.0.normals.extend_from_slice(b.normals);
+        self.0.triangles.extend_from_slice(b.triangles);
+        self.0.quads.extend_from_slice(b.quads);
         Ok(())
     }
 }
@@ -379,9 +378,12 @@ proptest! {
     fn streaming_equals_in_memory((dims, values) in prop_oneof![lattice_values(), wide_lattice_values()], normals in any::<bool>()) {
         let g = grid(dims, values);
         let iso = Iso::below(0.1);
-        let (a, sa) = isoforge::walk::flying_edges(&g, iso, &isoforge::extract::MarchingCubes, normals).unwrap();
+        let normals = if normals { Normals::Gradient } else { Normals::None };
+        let mut out = MeshBuilder::new(normals);
+        let sa = FlyingEdgesWalker::new().walk(&vol(&g), iso, &MarchingCubes, &mut out).unwrap();
+        let a = out.finish().unwrap();
         let mut sink = Collect::default();
-        let s = isoforge::walk::flying_edges_streaming(&mut GridSlabs { grid: &g, k: 0 }, iso, &isoforge::extract::MarchingCubes, normals, &mut sink, None).unwrap();
+        let s = FlyingEdgesWalker::new().stream(&mut GridSlabs { grid: &g, k: 0 }, iso, &MarchingCubes, normals, &mut sink).unwrap();
         prop_assert_eq!(s.walk, sa);
         prop_assert_eq!(s.vertices as usize, a.num_vertices());
         prop_assert_eq!(&sink.0, &a);

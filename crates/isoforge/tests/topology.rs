@@ -8,10 +8,10 @@ mod common;
 
 use isoforge::extract::{Decomposition, Extractor, MarchingCubes, MarchingCubes33, MarchingTetrahedra};
 use isoforge::grid::{upsample_trilinear, DenseGrid, Lattice};
-use isoforge::mesh::{Mesh, MeshBuilder};
+use isoforge::mesh::{Mesh, MeshBuilder, Normals};
 use isoforge::topo::{self, MeshReport};
 use isoforge::volume::{GridVolume, Iso};
-use isoforge::walk::{flying_edges, ReferenceWalker, SlabWalker, Walker};
+use isoforge::walk::{FlyingEdgesWalker, ReferenceWalker, SlabWalker, Walker};
 
 /// splitmix64: a seeded stream for reproducible lattices.
 struct Rng(u64);
@@ -61,8 +61,8 @@ fn describe(g: &DenseGrid<f32>) -> String {
     format!("dims {d:?} values {v:?}")
 }
 
-fn extract<X: Extractor>(g: &DenseGrid<f32>, x: &mut X) -> Mesh {
-    let mut out = MeshBuilder::new(false);
+fn extract<X: Extractor + Sync>(g: &DenseGrid<f32>, x: &X) -> Mesh {
+    let mut out = MeshBuilder::new(Normals::None);
     SlabWalker::new().walk(&GridVolume::new(g), Iso::below(0.0), x, &mut out).expect("walk");
     out.finish().expect("finish")
 }
@@ -85,7 +85,9 @@ fn oracle(g: &DenseGrid<f32>, factor: u32) -> Vec<i64> {
 /// Classic MC on the grid refined `factor` times (the trilinear interpolant, finely).
 fn oracle_mesh(g: &DenseGrid<f32>, factor: u32) -> Mesh {
     let fine = upsample_trilinear(g, factor).unwrap();
-    flying_edges(&fine, Iso::below(0.0), &MarchingCubes, false).unwrap().0
+    let mut out = MeshBuilder::new(Normals::None);
+    FlyingEdgesWalker::new().walk(&GridVolume::new(&fine), Iso::below(0.0), &MarchingCubes, &mut out).unwrap();
+    out.finish().unwrap()
 }
 
 fn cases() -> usize {
@@ -112,10 +114,10 @@ fn mc33_has_the_topology_of_the_trilinear_interpolant() {
     let (mut mc_differs, mut unresolved, mut compared, mut refined) = (0, 0, 0, 0);
     for _ in 0..n {
         let g = random_lattice(&mut rng);
-        let m33 = extract(&g, &mut MarchingCubes33);
+        let m33 = extract(&g, &MarchingCubes33);
         let r33 = topo::check(&m33);
         assert_watertight(&r33, "mc33", &g);
-        let mc = genera(&topo::check(&extract(&g, &mut MarchingCubes)));
+        let mc = genera(&topo::check(&extract(&g, &MarchingCubes)));
         let got = genera(&r33);
         let mut want = oracle(&g, 16);
         if got != want {
@@ -148,7 +150,7 @@ fn tetrahedra_give_watertight_meshes_on_random_lattices() {
     for _ in 0..cases() {
         let g = random_lattice(&mut rng);
         for d in [Decomposition::Five, Decomposition::Six, Decomposition::BodyCentred] {
-            let m = extract(&g, &mut MarchingTetrahedra { decomposition: d });
+            let m = extract(&g, &MarchingTetrahedra { decomposition: d });
             let r = topo::check(&m);
             assert_watertight(&r, &format!("{d:?}"), &g);
             if r.triangles > 0 {
@@ -175,9 +177,9 @@ fn ties_at_iso_never_crack_a_mesh() {
                 1.0
             }
         });
-        assert_watertight(&topo::check(&extract(&g, &mut MarchingCubes33)), "mc33", &g);
+        assert_watertight(&topo::check(&extract(&g, &MarchingCubes33)), "mc33", &g);
         for d in [Decomposition::Five, Decomposition::Six, Decomposition::BodyCentred] {
-            assert_watertight(&topo::check(&extract(&g, &mut MarchingTetrahedra { decomposition: d })), "mt", &g);
+            assert_watertight(&topo::check(&extract(&g, &MarchingTetrahedra { decomposition: d })), "mt", &g);
         }
     }
 }
@@ -191,23 +193,23 @@ fn mc33_and_tetrahedra_agree_between_walkers() {
         let vol = GridVolume::new(&g);
         for method in 0..4 {
             let run = |walker: &mut dyn FnMut(&mut MeshBuilder) -> isoforge::Result<()>| {
-                let mut out = MeshBuilder::new(true);
+                let mut out = MeshBuilder::new(Normals::Gradient);
                 walker(&mut out).unwrap();
                 out.finish().unwrap()
             };
             let iso = Iso::below(0.0);
             let (a, b) = match method {
                 0 => (
-                    run(&mut |o| SlabWalker::new().walk(&vol, iso, &mut MarchingCubes33, o).map(|_| ())),
-                    run(&mut |o| ReferenceWalker.walk(&vol, iso, &mut MarchingCubes33, o).map(|_| ())),
+                    run(&mut |o| SlabWalker::new().walk(&vol, iso, &MarchingCubes33, o).map(|_| ())),
+                    run(&mut |o| ReferenceWalker.walk(&vol, iso, &MarchingCubes33, o).map(|_| ())),
                 ),
                 m => {
                     let d = [Decomposition::Five, Decomposition::Six, Decomposition::BodyCentred][m - 1];
-                    let mut x = MarchingTetrahedra { decomposition: d };
-                    let mut y = x;
+                    let x = MarchingTetrahedra { decomposition: d };
+                    let y = x;
                     (
-                        run(&mut |o| SlabWalker::new().walk(&vol, iso, &mut x, o).map(|_| ())),
-                        run(&mut |o| ReferenceWalker.walk(&vol, iso, &mut y, o).map(|_| ())),
+                        run(&mut |o| SlabWalker::new().walk(&vol, iso, &x, o).map(|_| ())),
+                        run(&mut |o| ReferenceWalker.walk(&vol, iso, &y, o).map(|_| ())),
                     )
                 }
             };
@@ -242,7 +244,7 @@ fn debug_case() {
     for f in [16, 24, 48, 96] {
         eprintln!("oracle {f}: {:?}", oracle(&g, f));
     }
-    let r = topo::check(&extract(&g, &mut MarchingCubes33));
+    let r = topo::check(&extract(&g, &MarchingCubes33));
     eprintln!("mc33 {:?} non-manifold edges {:?}", genera(&r), r.non_manifold_edges.examples);
     let od = g.lattice().dims();
     for k in 0..od[2] - 1 {
@@ -257,10 +259,10 @@ fn debug_case() {
                         1.0
                     }
                 });
-                let (a, b) = (genera(&topo::check(&extract(&cell, &mut MarchingCubes33))), oracle(&cell, 64));
+                let (a, b) = (genera(&topo::check(&extract(&cell, &MarchingCubes33))), oracle(&cell, 64));
                 if a != b {
                     eprintln!("cell {:?}: mc33 {a:?} oracle {b:?} values {c:?}", [i, j, k]);
-                    let m = extract(&cell, &mut MarchingCubes33);
+                    let m = extract(&cell, &MarchingCubes33);
                     let r = topo::check(&m);
                     for e in &r.non_manifold_edges.examples {
                         for t in &m.triangles {
@@ -273,7 +275,7 @@ fn debug_case() {
             }
         }
     }
-    eprintln!("mc {:?}", genera(&topo::check(&extract(&g, &mut MarchingCubes))));
+    eprintln!("mc {:?}", genera(&topo::check(&extract(&g, &MarchingCubes))));
 }
 
 /// The MC33 catalogue: one cell per configuration and subcase (Chernyaev's numbering; inside
@@ -513,7 +515,7 @@ fn mc33_catalogue_has_the_expected_topology_in_every_rotation() {
         assert_eq!((o.components.len(), o.euler), (*comps, *chi), "{name}: the oracle disagrees with the table");
         for r in &rots {
             let g = single_cell(&rotate(v, r));
-            let m = topo::check(&extract(&g, &mut MarchingCubes33));
+            let m = topo::check(&extract(&g, &MarchingCubes33));
             assert_watertight(&m, name, &g);
             assert_eq!((m.components.len(), m.euler), (*comps, *chi), "{name} rotated by {r:?}");
             assert!(m.components.iter().all(|c| c.volume > 0.0), "{name}: a component is inside out");
@@ -598,7 +600,7 @@ fn class_of(set: u8, rots: &[[u8; 8]]) -> u8 {
 }
 
 fn ambiguous_face(set: u8, f: usize) -> bool {
-    let c = isoforge::extract::cube::FACE_CORNERS[f];
+    let c = isoforge::cube::FACE_CORNERS[f];
     let i = |k: usize| set >> c[k] & 1;
     i(0) == i(2) && i(1) == i(3) && i(0) != i(1)
 }
@@ -626,7 +628,7 @@ fn print_catalogue() {
         let joined = (0..6).filter(|&f| ambiguous_face(set, f) && face_joins_inside(&v, f)).count();
         // MC33 finds the distinct topologies fast; each representative is then checked
         // against the refined oracle.
-        let r = topo::check(&extract(&single_cell(&v), &mut MarchingCubes33));
+        let r = topo::check(&extract(&single_cell(&v), &MarchingCubes33));
         let mut arr = arrangement(&v);
         if class == 12 && joined == 1 {
             arr += 100 * chirality_12(&v, set, &rots);
@@ -646,7 +648,7 @@ fn arrangement(v: &[f32; 8]) -> u8 {
     let mut degree = [0u8; 8];
     for f in 0..6 {
         if ambiguous_face(set, f) && face_joins_inside(v, f) {
-            let c = isoforge::extract::cube::FACE_CORNERS[f];
+            let c = isoforge::cube::FACE_CORNERS[f];
             let (a, b) = if v[c[0] as usize] < 0.0 { (c[0], c[2]) } else { (c[1], c[3]) };
             degree[a as usize] += 1;
             degree[b as usize] += 1;
@@ -676,7 +678,7 @@ fn chirality_12(v: &[f32; 8], set: u8, rots: &[[u8; 8]]) -> u8 {
 }
 
 fn face_joins_inside(v: &[f32; 8], f: usize) -> bool {
-    let [p, q, r, s] = isoforge::extract::cube::FACE_CORNERS[f].map(|c| v[c as usize] as f64);
+    let [p, q, r, s] = isoforge::cube::FACE_CORNERS[f].map(|c| v[c as usize] as f64);
     let num = p * r - q * s;
     if p < 0.0 {
         num > 0.0

@@ -348,11 +348,17 @@ pub(crate) fn skip(ctx: Ctx, r: &mut dyn Read, n: u64, what: &str) -> Result<()>
     Ok(())
 }
 
-impl<S: Sample> isoforge::walk::SlabSource<S> for VolumeReader {
+impl<S: Sample> isoforge::volume::SlabSource<S> for VolumeReader {
     fn lattice(&self) -> &Lattice {
         &self.lattice
     }
-    fn read_slab(&mut self, out: &mut [S]) -> std::result::Result<(), isoforge::walk::ExternalError> {
+    fn read_slab(&mut self, out: &mut [S]) -> std::result::Result<(), isoforge::mesh::ExternalError> {
         VolumeReader::read_slab(self, out).map_err(Into::into)
+    }
+}
+
+impl isoforge::pipeline::AnySlabSource for VolumeReader {
+    fn dtype(&self) -> DType {
+        VolumeReader::dtype(self)
     }
 }

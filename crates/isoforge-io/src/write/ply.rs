@@ -166,11 +166,12 @@ impl PlyStream {
         Ok(s)
     }
 
-    /// Appends vertices and triangles.
+    /// Appends vertices and polygons.
     ///
     /// # Errors
     /// Writing fails, or `normals` does not match the stream.
-    pub fn push(&mut self, positions: &[[f32; 3]], normals: &[[f32; 3]], triangles: &[[u32; 3]]) -> io::Result<()> {
+    pub fn push(&mut self, batch: isoforge::mesh::MeshBatch<'_>) -> io::Result<()> {
+        let isoforge::mesh::MeshBatch { positions, normals, triangles, quads } = batch;
         if self.normals == normals.is_empty() && !positions.is_empty() {
             return Err(io::Error::other("normals given to a stream created without them, or missing"));
         }
@@ -193,9 +194,15 @@ impl PlyStream {
                 buf.extend_from_slice(&(*v as i32).to_le_bytes());
             }
         }
+        for q in quads {
+            buf.push(4);
+            for v in q {
+                buf.extend_from_slice(&(*v as i32).to_le_bytes());
+            }
+        }
         self.tris.write_all(&buf)?;
         self.vertices += positions.len() as u64;
-        self.triangles += triangles.len() as u64;
+        self.triangles += (triangles.len() + quads.len()) as u64;
         Ok(())
     }
 
@@ -231,14 +238,9 @@ impl Drop for PlyStream {
     }
 }
 
-impl isoforge::walk::MeshSink for PlyStream {
-    fn push(
-        &mut self,
-        positions: &[[f32; 3]],
-        normals: &[[f32; 3]],
-        triangles: &[[u32; 3]],
-    ) -> Result<(), isoforge::walk::ExternalError> {
-        PlyStream::push(self, positions, normals, triangles).map_err(|e| {
+impl isoforge::mesh::MeshSink for PlyStream {
+    fn push(&mut self, batch: isoforge::mesh::MeshBatch<'_>) -> Result<(), isoforge::mesh::ExternalError> {
+        PlyStream::push(self, batch).map_err(|e| {
             let msg = format!("{}: {e}", self.path.display());
             msg.into()
         })

@@ -1,6 +1,6 @@
 //! A mask on any extractor: cells are processed iff all eight corners are in the mask.
 
-use super::Extractor;
+use super::{CellCounts, Counting, Extractor};
 use crate::walk::Cell;
 
 /// Which lattice points are in the mask: one flag per point, x fastest.
@@ -49,16 +49,39 @@ pub struct Masked<'m, X> {
     pub mask: &'m PointMask,
 }
 
-impl<X: Extractor> Extractor for Masked<'_, X> {
+impl<X> Masked<'_, X> {
+    /// Whether the eight corners of cell `ijk` are in the mask.
     #[inline]
-    fn process<C: Cell>(&mut self, cell: &mut C) {
-        let [i, j, k] = cell.ijk();
-        for c in 0..8u32 {
-            if !self.mask.contains([i + (c & 1), j + ((c >> 1) & 1), k + ((c >> 2) & 1)]) {
-                return;
-            }
+    fn keeps(&self, [i, j, k]: [u32; 3]) -> bool {
+        (0..8u32).all(|c| self.mask.contains([i + (c & 1), j + ((c >> 1) & 1), k + ((c >> 2) & 1)]))
+    }
+}
+
+impl<X: Extractor> Extractor for Masked<'_, X> {
+    const COUNTING: Counting = X::COUNTING;
+    const PLACES_VERTICES: bool = X::PLACES_VERTICES;
+
+    #[inline]
+    fn place<C: Cell>(&self, cell: &mut C) {
+        if self.keeps(cell.ijk()) {
+            self.inner.place(cell);
         }
-        self.inner.process(cell);
+    }
+
+    #[inline]
+    fn process<C: Cell>(&self, cell: &mut C) {
+        if self.keeps(cell.ijk()) {
+            self.inner.process(cell);
+        }
+    }
+
+    #[inline]
+    fn counts(&self, case: u8, ijk: [u32; 3], values: impl FnOnce() -> [f32; 8]) -> CellCounts {
+        if self.keeps(ijk) {
+            self.inner.counts(case, ijk, values)
+        } else {
+            CellCounts::default()
+        }
     }
 
     fn visits_uniform_cells(&self) -> bool {

@@ -22,8 +22,8 @@
 //! Ties follow the project rule (a value equal to iso is outside; a saddle exactly at iso is
 //! outside), identically in both cells of a face, so no crack or non-manifold edge can appear.
 
-use super::cube::{edge_between, CubeEdge, CORNER_OFFSETS, EDGE_CORNERS, EDGE_FACES, FACE_CORNERS};
 use super::Extractor;
+use crate::cube::{CubeEdge, CORNER_OFFSETS, EDGE_CORNERS, EDGE_FACES, FACE_CORNERS, FACE_EDGES};
 use crate::mesh::VertexId;
 use crate::walk::Cell;
 
@@ -34,13 +34,12 @@ use crate::walk::Cell;
 /// components and genus of the trilinear interpolant's isosurface. Vertices lie on lattice edges
 /// (shared) plus one private centroid vertex for loops that cross a face twice.
 ///
-/// **Limits**: serial (slab walker); slower than [`MarchingCubes`](super::MarchingCubes) through
-/// Flying Edges. Geometry inside a cell is a fan or a band, not the interpolant's exact shape.
+/// **Limits**: geometry inside a cell is a fan or a band, not the interpolant's exact shape.
 #[derive(Debug, Clone, Copy, Default)]
 pub struct MarchingCubes33;
 
 impl Extractor for MarchingCubes33 {
-    fn process<C: Cell>(&mut self, cell: &mut C) {
+    fn process<C: Cell>(&self, cell: &mut C) {
         let d = *cell.values();
         let topo = CellTopology::of(&d);
         let mut ids = [VertexId::NONE; 12];
@@ -63,7 +62,7 @@ impl Extractor for MarchingCubes33 {
             let edges = topo.loop_edges(l);
             if topo.visits_a_face_twice(l) {
                 let c = centroid(&d, edges);
-                let centre = cell.interior_vertex(c);
+                let centre = cell.place_vertex(c, 0);
                 for i in 0..edges.len() {
                     let (p, q) = (id(cell, edges[i]), id(cell, edges[(i + 1) % edges.len()]));
                     cell.push_triangle([centre, q, p]);
@@ -149,7 +148,7 @@ impl CellTopology {
             for i in 0..4 {
                 let (p, q) = (cs[i], cs[(i + 1) % 4]);
                 if inside(d[p as usize]) != inside(d[q as usize]) {
-                    xs[n] = (edge_between(p, q).0, inside(d[p as usize]));
+                    xs[n] = (FACE_EDGES[f][i], inside(d[p as usize]));
                     n += 1;
                 }
             }

@@ -1,31 +1,94 @@
-//! ③ Extractor: turns one [`Cell`](crate::walk::Cell) at a time into triangles.
+//! ③ Extractor: turns one [`Cell`] at a time into polygons.
 //!
-//! In: a cell (corner values, case, access to shared edge vertices). Out: triangles pushed through
-//! the cell. Numbering and tables live in [`cube`].
+//! In: a cell (corner values, case, access to shared vertices). Out: triangles or quads pushed
+//! through the cell. Numbering and tables live in [`crate::cube`].
 //!
 //! | extractor | output | manifold | closed when the surface stays inside the lattice | topology of the trilinear interpolant | sharp features |
 //! |---|---|---|---|---|---|
 //! | [`MarchingCubes`] [Lorensen87] | triangles | yes (edge and vertex) | yes | no (fixed choice on ambiguous faces) | no |
+//! | [`MarchingCubes33`] [Chernyaev95] | triangles | yes | yes | yes | no |
+//! | [`MarchingTetrahedra`] [Doi91] | triangles | yes | yes | of the tetrahedral split | no |
+//! | [`SurfaceNets`] [Gibson98] | quads | no (dual: non-manifold where a cell holds two sheets) | yes | no | no |
+//! | [`Masked`] | as the inner extractor, open at the mask's edge | | | | |
+//!
+//! How walkers run extractors: [`place`](Extractor::place) (dual methods' own vertices) for every
+//! cell that needs it, then [`process`](Extractor::process) for every cell with a crossing. A
+//! walker that allocates before it fills (count → prefix sums → fill, the Flying Edges walker's
+//! fast path) asks [`counts`](Extractor::counts) first; extractors that cannot tell their output
+//! before making it run on per-slab meshes stitched by vertex key instead.
 
-pub mod cube;
 pub mod marching_cubes;
 pub mod masked;
 pub mod mc33;
 pub mod squares;
+pub mod surface_nets;
 pub mod tetrahedra;
 
 pub use marching_cubes::MarchingCubes;
 pub use masked::{Masked, PointMask};
 pub use mc33::MarchingCubes33;
 pub use squares::{marching_squares, Polyline, Saddle};
+pub use surface_nets::SurfaceNets;
 pub use tetrahedra::{Decomposition, MarchingTetrahedra};
 
 use crate::walk::Cell;
 
+/// What `process` will emit for one cell, known before the cell is processed.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
+pub struct CellCounts {
+    /// Triangles.
+    pub triangles: u16,
+    /// Quads.
+    pub quads: u16,
+    /// Vertices the cell places itself ([`Cell::place_vertex`]: private, never shared).
+    pub placed: u16,
+}
+
+/// How the output of a cell can be known before processing it.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum Counting {
+    /// Not known in advance: the cell names segments or other cells' vertices. Walkers that
+    /// allocate before filling run such extractors on per-slab meshes stitched by vertex key.
+    Unknown,
+    /// From the case alone (`Some` in [`Extractor::counts`] without looking at the values), or
+    /// from the cell's values and position when the case does not decide. The cell may use only
+    /// [`edge_vertex`](Cell::edge_vertex), private [`place_vertex`](Cell::place_vertex) and
+    /// polygons.
+    Known,
+}
+
 /// Processes one cell at a time; walkers call it for every cell with a crossing.
 pub trait Extractor {
-    /// Emits the cell's triangles through `cell`.
-    fn process<C: Cell>(&mut self, cell: &mut C);
+    /// Whether and how the output of a cell is known in advance (see [`counts`](Extractor::counts)).
+    const COUNTING: Counting = Counting::Unknown;
+    /// Whether [`place`](Extractor::place) does anything (dual methods): walkers then also
+    /// place the vertices of the cells just before their range (its halo), so polygons can refer
+    /// to them.
+    const PLACES_VERTICES: bool = false;
+
+    /// Places the cell's own vertices ([`Cell::place_vertex`]). Called for every active cell in
+    /// walk order, before [`process`](Extractor::process) of the same cell.
+    fn place<C: Cell>(&self, cell: &mut C) {
+        let _ = cell;
+    }
+
+    /// Emits the cell's polygons through `cell`.
+    fn process<C: Cell>(&self, cell: &mut C);
+
+    /// What [`process`](Extractor::process) will emit for a cell of `case`, for extractors with
+    /// [`Counting::Known`]; `values` gives the cell's offset values and `ijk` its position when
+    /// the case alone does not decide. The default says nothing is known (never called then).
+    fn counts(&self, case: u8, ijk: [u32; 3], values: impl FnOnce() -> [f32; 8]) -> CellCounts {
+        let _ = (case, ijk, values);
+        CellCounts::default()
+    }
+
+    /// The counts of `case` when the case alone decides them (`None`: ask [`counts`](Extractor::counts)
+    /// with the values). Walkers tabulate this once per walk.
+    fn case_counts(&self, case: u8) -> Option<CellCounts> {
+        let _ = case;
+        None
+    }
 
     /// Whether walkers must also call [`process`](Extractor::process) for cells whose eight
     /// corners are all on one side (extractors that sample off the lattice, such as cell centres

@@ -13,9 +13,10 @@
 //! Every crossing, on an axis edge, a diagonal or a centre segment, is a walker-cached vertex
 //! ([`Cell::segment_vertex`]), so each is created once and the mesh is closed and manifold.
 
-use super::cube::FACE_CORNERS;
 use super::Extractor;
-use crate::walk::{Cell, CellPoint};
+use crate::cube::CellPoint;
+use crate::cube::FACE_CORNERS;
+use crate::walk::Cell;
 
 /// How a cell is split into tetrahedra.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
@@ -34,7 +35,7 @@ pub enum Decomposition {
 /// consistently oriented (normals from inside to outside). Topology is that of the piecewise
 /// linear interpolant on the tetrahedra, which differs from the trilinear one in ambiguous cells.
 ///
-/// **Limits**: more and thinner triangles than marching cubes (see docs/BENCHMARKS.md); serial.
+/// **Limits**: more and thinner triangles than marching cubes (see docs/BENCHMARKS.md).
 #[derive(Debug, Clone, Copy)]
 pub struct MarchingTetrahedra {
     /// The split.
@@ -53,7 +54,7 @@ const FIVE: [[[u8; 4]; 5]; 2] = [
 const SIX: [[u8; 4]; 6] = [[0, 1, 3, 7], [0, 1, 5, 7], [0, 2, 3, 7], [0, 2, 6, 7], [0, 4, 5, 7], [0, 4, 6, 7]];
 
 impl Extractor for MarchingTetrahedra {
-    fn process<C: Cell>(&mut self, cell: &mut C) {
+    fn process<C: Cell>(&self, cell: &mut C) {
         match self.decomposition {
             Decomposition::Five => {
                 let [i, j, k] = cell.ijk();

@@ -2,6 +2,7 @@
 //!
 //! Nothing here depends on other modules; volumes, walkers and readers build on it.
 
+mod blocks;
 mod dense;
 mod histogram;
 mod lattice;
@@ -9,6 +10,7 @@ mod region;
 mod resample;
 mod sample;
 
+pub use blocks::BlockBounds;
 pub use dense::{AnyGrid, DenseGrid, NonFinite, ValueRange};
 pub use histogram::Histogram;
 pub use lattice::{Lattice, WorldSpace, IDENTITY};

@@ -103,11 +103,6 @@ pub trait Sample: Copy + Send + Sync + PartialOrd + fmt::Debug + sealed::Sealed 
     /// The native-type test equivalent to `v < iso` (`below`) or `v > iso` (`!below`) for every
     /// finite sample `v`, with `iso` an `f64`.
     fn threshold(iso: f64, below: bool) -> Threshold<Self>;
-    /// Sets bit `i` of `out` (64 per word) for each `row[i]` that passes `th`; `out` has
-    /// `row.len().div_ceil(64)` words and bits past the row are cleared.
-    fn classify_row(row: &[Self], th: Threshold<Self>, out: &mut [u64]) {
-        classify_generic(row, th, out)
-    }
 }
 
 /// A native-type inside test: see [`Sample::threshold`].
@@ -151,69 +146,6 @@ pub fn as_bytes<S: Sample>(samples: &[S]) -> &[u8] {
     // SAFETY: as for `as_bytes_mut`: primitive types without padding, alignment 1 for `u8`, the
     // same memory and length, read-only.
     unsafe { std::slice::from_raw_parts(samples.as_ptr().cast::<u8>(), len) }
-}
-
-#[inline(always)]
-fn classify_generic<S: Sample>(row: &[S], th: Threshold<S>, out: &mut [u64]) {
-    let fill = match th {
-        Threshold::All => Some(!0u64),
-        Threshold::None => Some(0),
-        _ => None,
-    };
-    let mut chunks = row.chunks_exact(64);
-    for (w, c) in out.iter_mut().zip(&mut chunks) {
-        *w = match fill {
-            Some(f) => f,
-            // Bytes of 8 lanes, then one word: this shape vectorises on baseline x86-64.
-            None => (0..8).fold(0u64, |m, g| {
-                let b = (0..8).fold(0u8, |b, l| b | ((th.inside(c[g * 8 + l]) as u8) << l));
-                m | ((b as u64) << (8 * g))
-            }),
-        };
-    }
-    let rem = chunks.remainder();
-    if !rem.is_empty() {
-        let m = rem.iter().enumerate().fold(0u64, |m, (b, &v)| m | ((th.inside(v) as u64) << b));
-        out[row.len() / 64] = m;
-    }
-}
-
-#[cfg(target_arch = "x86_64")]
-fn classify_f32(row: &[f32], th: Threshold<f32>, out: &mut [u64]) {
-    if std::arch::is_x86_feature_detected!("avx2") {
-        // SAFETY: AVX2 is available (checked just above).
-        unsafe { classify_f32_avx2(row, th, out) }
-    } else {
-        classify_generic(row, th, out)
-    }
-}
-
-/// AVX2 classification: 8 compares and one movemask per 8 samples (the bandwidth floor on 256³).
-#[cfg(target_arch = "x86_64")]
-#[target_feature(enable = "avx2")]
-unsafe fn classify_f32_avx2(row: &[f32], th: Threshold<f32>, out: &mut [u64]) {
-    use std::arch::x86_64::*;
-    let (t, less) = match th {
-        Threshold::Less(t) => (t, true),
-        Threshold::Greater(t) => (t, false),
-        _ => return classify_generic(row, th, out),
-    };
-    let tv = _mm256_set1_ps(t);
-    let mut chunks = row.chunks_exact(64);
-    for (w, c) in out.iter_mut().zip(&mut chunks) {
-        let mut m = 0u64;
-        for g in 0..8 {
-            // SAFETY: `c` has 64 elements, so `g * 8 + 8 <= 64` stays inside it.
-            let v = unsafe { _mm256_loadu_ps(c.as_ptr().add(g * 8)) };
-            let r = if less { _mm256_cmp_ps::<_CMP_LT_OQ>(v, tv) } else { _mm256_cmp_ps::<_CMP_GT_OQ>(v, tv) };
-            m |= (_mm256_movemask_ps(r) as u32 as u64) << (8 * g);
-        }
-        *w = m;
-    }
-    let rem = chunks.remainder();
-    if !rem.is_empty() {
-        out[row.len() / 64] = rem.iter().enumerate().fold(0u64, |m, (b, &v)| m | ((th.inside(v) as u64) << b));
-    }
 }
 
 macro_rules! impl_int {
@@ -315,10 +247,6 @@ impl Sample for f32 {
         } else {
             Threshold::Greater(if (t as f64) > iso { t.next_down() } else { t })
         }
-    }
-    #[cfg(target_arch = "x86_64")]
-    fn classify_row(row: &[Self], th: Threshold<Self>, out: &mut [u64]) {
-        classify_f32(row, th, out)
     }
 }
 

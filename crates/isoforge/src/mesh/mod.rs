@@ -1,10 +1,15 @@
-//! Data: the indexed triangle [`Mesh`] and the [`MeshBuilder`] walkers write into.
+//! Data: the indexed polygon [`Mesh`] (triangles and quads), the [`MeshBuilder`] walkers write
+//! into, and the [`MeshSink`] that receives a mesh as it is produced.
 //!
 //! Positions are `f32` world coordinates; normals (when present) are unit vectors pointing from
-//! inside (low values) to outside; triangles are wound counter-clockwise seen from outside.
+//! inside (low values) to outside; polygons are wound counter-clockwise seen from outside.
 
 pub mod colormap;
+mod sink;
 
+pub use sink::{ExternalError, MeshBatch, MeshSink};
+
+use crate::cube::{CellRange, VertexKey};
 use crate::error::{Error, Result};
 
 /// Index of a mesh vertex.
@@ -22,7 +27,8 @@ impl VertexId {
     }
 }
 
-/// An indexed triangle mesh.
+/// An indexed polygon mesh: triangles, and quads from the methods that make them (dual
+/// methods); [`triangulate`](Mesh::triangulate) turns the quads into triangles.
 #[derive(Debug, Clone, Default, PartialEq)]
 pub struct Mesh {
     /// Vertex positions (world coordinates).
@@ -31,6 +37,8 @@ pub struct Mesh {
     pub normals: Vec<[f32; 3]>,
     /// Triangles as vertex index triples.
     pub triangles: Vec<[u32; 3]>,
+    /// Quads as vertex index quadruples, wound like the triangles.
+    pub quads: Vec<[u32; 4]>,
 }
 
 impl Mesh {
@@ -44,9 +52,14 @@ impl Mesh {
         self.triangles.len()
     }
 
-    /// True when the mesh has no triangle.
+    /// Number of quads.
+    pub fn num_quads(&self) -> usize {
+        self.quads.len()
+    }
+
+    /// True when the mesh has no polygon.
     pub fn is_empty(&self) -> bool {
-        self.triangles.is_empty()
+        self.triangles.is_empty() && self.quads.is_empty()
     }
 
     /// Empties the mesh, keeping capacity.
@@ -54,12 +67,39 @@ impl Mesh {
         self.positions.clear();
         self.normals.clear();
         self.triangles.clear();
+        self.quads.clear();
     }
 
-    /// Reverses every triangle's winding and negates the normals.
+    /// Every polygon (triangles, then quads) as a slice of vertex indices.
+    pub fn polygons(&self) -> impl Iterator<Item = &[u32]> + '_ {
+        self.triangles.iter().map(|t| &t[..]).chain(self.quads.iter().map(|q| &q[..]))
+    }
+
+    /// Splits every quad into two triangles along its shorter diagonal (ties: the diagonal from its
+    /// first vertex), appended after the existing triangles in quad order.
+    pub fn triangulate(&mut self) {
+        let quads = std::mem::take(&mut self.quads);
+        self.triangles.reserve(2 * quads.len());
+        for [a, b, c, d] in quads {
+            let len2 = |u: u32, v: u32| {
+                let (p, q) = (self.positions[u as usize], self.positions[v as usize]);
+                (0..3).map(|i| ((p[i] - q[i]) as f64).powi(2)).sum::<f64>()
+            };
+            if len2(b, d) < len2(a, c) {
+                self.triangles.extend([[a, b, d], [b, c, d]]);
+            } else {
+                self.triangles.extend([[a, b, c], [a, c, d]]);
+            }
+        }
+    }
+
+    /// Reverses every polygon's winding and negates the normals.
     pub fn flip(&mut self) {
         for t in &mut self.triangles {
             t.swap(1, 2);
+        }
+        for q in &mut self.quads {
+            q.swap(1, 3);
         }
         for n in &mut self.normals {
             *n = [-n[0], -n[1], -n[2]];
@@ -82,11 +122,15 @@ impl Mesh {
         if let Some((i, t)) = self.triangles.iter().enumerate().find(|(_, t)| t.iter().any(|&v| v as usize >= n)) {
             return Err(Error::InvalidInput(format!("triangle {i} {t:?} refers to a vertex beyond the {n} vertices")));
         }
+        if let Some((i, q)) = self.quads.iter().enumerate().find(|(_, q)| q.iter().any(|&v| v as usize >= n)) {
+            return Err(Error::InvalidInput(format!("quad {i} {q:?} refers to a vertex beyond the {n} vertices")));
+        }
         Ok(())
     }
 
     /// Canonical form for comparing meshes up to vertex numbering and triangle order: each
     /// triangle as its three positions (bit patterns), rotated to start at the smallest, then sorted.
+    /// Quads are not included (compare [`triangulate`](Mesh::triangulate)d meshes).
     pub fn canonical_triangles(&self) -> Vec<[[u32; 3]; 3]> {
         let key = |v: u32| {
             let p = self.positions[v as usize];
@@ -131,28 +175,71 @@ pub fn huge_vec<T: Copy>(n: usize, zero: T) -> Vec<T> {
     v
 }
 
-/// Accumulates vertices and triangles; fails cleanly when the mesh outgrows `u32` indices.
+/// Whether vertices get normals written to the output.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
+pub enum Normals {
+    /// Unit normals from the field gradient (central differences for grids).
+    Gradient,
+    /// No normals (`Mesh::normals` stays empty): the default, as in the peer benchmarks; viewers
+    /// compute normals themselves, and gradient normals cost 30–75 % of a grid extraction.
+    #[default]
+    None,
+}
+
+/// Which vertices a [`MeshBuilder`] records the [`VertexKey`] of.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
+pub enum KeyRecord {
+    /// None (the usual case).
+    #[default]
+    None,
+    /// Every vertex.
+    All,
+    /// The vertices a walk of this range may share with walks of neighbouring ranges: those whose
+    /// edge, segment or cell touches the range's boundary planes (what stitching needs).
+    Boundary(CellRange),
+}
+
+/// Accumulates vertices and polygons; fails cleanly when the mesh outgrows `u32` indices.
+///
+/// Walkers push each vertex with its [`VertexKey`]; the builder keeps the keys asked for by its
+/// [`KeyRecord`] (vertex provenance, for stitching chunks).
 #[derive(Debug, Default)]
 pub struct MeshBuilder {
     mesh: Mesh,
     with_normals: bool,
     reverse_winding: bool,
     overflow: bool,
+    record: KeyRecord,
+    keys: Vec<(u32, VertexKey)>,
+    /// Vertices already handed to a sink (ids continue after them).
+    drained: u64,
 }
 
 impl MeshBuilder {
     /// Largest number of vertices a mesh may hold (`u32` indices, `NONE` reserved).
     pub const MAX_VERTICES: u64 = u32::MAX as u64 - 1;
 
-    /// A builder that stores normals when `with_normals` is true.
-    pub fn new(with_normals: bool) -> Self {
-        MeshBuilder { mesh: Mesh::default(), with_normals, reverse_winding: false, overflow: false }
+    /// A builder that stores normals or not.
+    pub fn new(normals: Normals) -> Self {
+        MeshBuilder { with_normals: normals == Normals::Gradient, ..Default::default() }
     }
 
     /// A builder that reuses `mesh`'s buffers (cleared).
-    pub fn reuse(mut mesh: Mesh, with_normals: bool) -> Self {
+    pub fn reuse(mut mesh: Mesh, normals: Normals) -> Self {
         mesh.clear();
-        MeshBuilder { mesh, with_normals, reverse_winding: false, overflow: false }
+        MeshBuilder { mesh, with_normals: normals == Normals::Gradient, ..Default::default() }
+    }
+
+    /// Records the keys of the vertices `record` selects (see [`finish_keyed`](MeshBuilder::finish_keyed)).
+    pub fn with_keys(mut self, record: KeyRecord) -> Self {
+        self.record = record;
+        self
+    }
+
+    /// Which keys are recorded.
+    #[inline]
+    pub fn key_record(&self) -> KeyRecord {
+        self.record
     }
 
     /// True when normals are stored.
@@ -161,10 +248,25 @@ impl MeshBuilder {
         self.with_normals
     }
 
-    /// Adds a vertex; its normal is ignored when normals are off.
+    /// Takes the vertices and polygons pushed since the last call, as one batch for a
+    /// [`MeshSink`]; vertex ids keep counting from where they were (streamed walks).
+    pub fn drain_into(&mut self, sink: &mut dyn MeshSink) -> std::result::Result<(), ExternalError> {
+        let m = &self.mesh;
+        sink.push(MeshBatch {
+            positions: &m.positions,
+            normals: &m.normals,
+            triangles: &m.triangles,
+            quads: &m.quads,
+        })?;
+        self.drained += m.positions.len() as u64;
+        self.mesh.clear();
+        Ok(())
+    }
+
+    /// Adds a vertex (`key`: where it comes from); its normal is ignored when normals are off.
     #[inline]
-    pub fn push_vertex(&mut self, p: [f32; 3], n: [f32; 3]) -> VertexId {
-        let id = self.mesh.positions.len() as u64;
+    pub fn push_vertex(&mut self, key: VertexKey, p: [f32; 3], n: [f32; 3]) -> VertexId {
+        let id = self.drained + self.mesh.positions.len() as u64;
         if id >= Self::MAX_VERTICES {
             self.overflow = true;
             return VertexId(0);
@@ -173,11 +275,20 @@ impl MeshBuilder {
         if self.with_normals {
             self.mesh.normals.push(n);
         }
+        match self.record {
+            KeyRecord::None => {}
+            KeyRecord::All => self.keys.push((id as u32, key)),
+            KeyRecord::Boundary(r) => {
+                if touches_boundary(&key, &r) {
+                    self.keys.push((id as u32, key));
+                }
+            }
+        }
         VertexId(id as u32)
     }
 
-    /// Reverses the winding of every triangle pushed from now on: walkers set it for mirrored
-    /// lattices, whose world frame is left-handed, so triangles stay counter-clockwise from outside.
+    /// Reverses the winding of every polygon pushed from now on: walkers set it for mirrored
+    /// lattices, whose world frame is left-handed, so polygons stay counter-clockwise from outside.
     pub fn set_reverse_winding(&mut self, reverse: bool) {
         self.reverse_winding = reverse;
     }
@@ -189,9 +300,28 @@ impl MeshBuilder {
         self.mesh.triangles.push(t);
     }
 
-    /// Number of vertices so far.
-    pub fn num_vertices(&self) -> usize {
-        self.mesh.positions.len()
+    /// Adds a quad.
+    #[inline]
+    pub fn push_quad(&mut self, q: [VertexId; 4]) {
+        let q = if self.reverse_winding { [q[0].0, q[3].0, q[2].0, q[1].0] } else { q.map(|v| v.0) };
+        self.mesh.quads.push(q);
+    }
+
+    /// Triangles and quads pushed since the last drain.
+    pub fn polygon_counts(&self) -> (usize, usize) {
+        (self.mesh.triangles.len(), self.mesh.quads.len())
+    }
+
+    /// Number of vertices so far (drained ones included).
+    pub fn num_vertices(&self) -> u64 {
+        self.drained + self.mesh.positions.len() as u64
+    }
+
+    /// Replaces the contents with a mesh a walker assembled itself (a parallel walker fills
+    /// preallocated arrays), with the recorded keys of its vertices.
+    pub fn set_assembled(&mut self, mesh: Mesh, keys: Vec<(u32, VertexKey)>) {
+        self.mesh = mesh;
+        self.keys = keys;
     }
 
     /// The finished mesh.
@@ -199,6 +329,14 @@ impl MeshBuilder {
     /// # Errors
     /// [`Error::Limit`] when more than [`MeshBuilder::MAX_VERTICES`] vertices were pushed.
     pub fn finish(self) -> Result<Mesh> {
+        Ok(self.finish_keyed()?.0)
+    }
+
+    /// The finished mesh and the recorded keys (vertex id, key), in vertex order.
+    ///
+    /// # Errors
+    /// As [`finish`](MeshBuilder::finish).
+    pub fn finish_keyed(self) -> Result<(Mesh, Vec<(u32, VertexKey)>)> {
         if self.overflow {
             return Err(Error::Limit {
                 what: "mesh vertices",
@@ -206,6 +344,15 @@ impl MeshBuilder {
                 allowed: Self::MAX_VERTICES,
             });
         }
-        Ok(self.mesh)
+        Ok((self.mesh, self.keys))
     }
+}
+
+/// Whether the vertex `key` may be shared with a walk of a neighbouring range: its edge, segment
+/// or cell reaches one of the range's boundary planes (on an axis where the range has a neighbour
+/// or not: a range does not know the lattice, so both ends count).
+#[inline]
+pub fn touches_boundary(key: &VertexKey, r: &CellRange) -> bool {
+    let (lo, hi) = key.extent2();
+    (0..3).any(|a| lo[a] <= 2 * r.lo[a] || hi[a] >= 2 * r.hi[a])
 }

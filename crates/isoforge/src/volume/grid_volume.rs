@@ -1,20 +1,71 @@
-use super::{linear_crossing, Iso, Volume};
-use crate::extract::cube::EdgeKey;
-use crate::grid::{DenseGrid, Lattice, Sample};
+use super::{linear_crossing, Iso, SampleSlabs, Volume};
+use crate::cube::EdgeKey;
+use crate::error::{Error, Result};
+use crate::grid::{BlockBounds, DenseGrid, Lattice, Sample};
 use crate::math::Vec3;
 
 /// A dense grid seen as a volume: crossings by linear interpolation (exact for the trilinear
 /// interpolant on an edge), gradients by central differences at the edge's two points,
 /// interpolated (one-sided at the lattice faces).
-#[derive(Debug, Clone, Copy)]
+///
+/// Usually the grid is the whole lattice ([`new`](GridVolume::new)); a *window* is a chunk of a
+/// larger lattice (its points from a global offset, [`window`](GridVolume::window)), walked
+/// over a cell range in global indices exactly as the whole lattice would be.
+#[derive(Debug, Clone)]
 pub struct GridVolume<'g, S> {
     grid: &'g DenseGrid<S>,
+    /// The lattice walked (the grid's own, or the global one of a window).
+    lattice: Lattice,
+    /// Global index of the grid's first point.
+    offset: [u32; 3],
+    bounds: Option<&'g BlockBounds>,
 }
 
 impl<'g, S: Sample> GridVolume<'g, S> {
     /// Wraps a grid.
     pub fn new(grid: &'g DenseGrid<S>) -> Self {
-        GridVolume { grid }
+        GridVolume { grid, lattice: grid.lattice().clone(), offset: [0; 3], bounds: None }
+    }
+
+    /// A chunk of the lattice `global`: `grid` holds its points from global index `offset` on
+    /// (its own lattice's geometry is ignored). Walks of a cell range read its points and one
+    /// more on every side ([`CellRange::halo_points`](crate::cube::CellRange::halo_points)), so
+    /// the window must hold them.
+    ///
+    /// # Errors
+    /// [`Error::InvalidInput`] when the window does not fit in `global`.
+    pub fn window(grid: &'g DenseGrid<S>, offset: [u32; 3], global: Lattice) -> Result<Self> {
+        let (d, g) = (grid.lattice().dims(), global.dims());
+        if (0..3).any(|a| offset[a] as u64 + d[a] as u64 > g[a] as u64) {
+            return Err(Error::InvalidInput(format!(
+                "window of {d:?} points at {offset:?} does not fit a lattice of {g:?} points"
+            )));
+        }
+        Ok(GridVolume { grid, lattice: global, offset, bounds: None })
+    }
+
+    /// Lets walkers skip blocks whose sample bounds exclude the iso (computed once by
+    /// [`BlockBounds::of`] on the same grid, and reused for any iso).
+    ///
+    /// # Errors
+    /// [`Error::InvalidInput`] when `bounds` were computed for a grid of other dims.
+    pub fn with_block_bounds(mut self, bounds: &'g BlockBounds) -> Result<Self> {
+        let want = self.grid.lattice().dims().map(|d| d.saturating_sub(1).div_ceil(BlockBounds::CELLS).max(1));
+        if bounds.blocks() != want {
+            return Err(Error::InvalidInput(format!(
+                "block bounds of {:?} blocks do not match a grid of {:?} points",
+                bounds.blocks(),
+                self.grid.lattice().dims()
+            )));
+        }
+        self.bounds = Some(bounds);
+        Ok(self)
+    }
+
+    /// The sample at global point `p`.
+    #[inline]
+    fn at(&self, p: [u32; 3]) -> f64 {
+        self.grid.get([p[0] - self.offset[0], p[1] - self.offset[1], p[2] - self.offset[2]]).to_f64()
     }
 }
 
@@ -76,15 +127,28 @@ pub fn point_gradient_at(lattice: &Lattice, p: [f64; 3], get: &impl Fn([u32; 3])
 impl<S: Sample> Volume for GridVolume<'_, S> {
     #[inline]
     fn lattice(&self) -> &Lattice {
-        self.grid.lattice()
+        &self.lattice
     }
 
     fn fill_slab(&self, k: u32, iso: Iso, out: &mut [f32]) {
-        let n = self.grid.lattice().slab_len();
-        let start = k as usize * n;
-        let src = &self.grid.data()[start..start + n];
-        for (o, &v) in out.iter_mut().zip(src) {
-            *o = iso.offset(v.to_f64());
+        let [nx, ny, _] = self.lattice.dims().map(|d| d as usize);
+        debug_assert_eq!(out.len(), nx * ny);
+        if self.offset == [0; 3] && self.grid.lattice().dims() == self.lattice.dims() {
+            for (o, &v) in out.iter_mut().zip(self.slab(k)) {
+                *o = iso.offset(v.to_f64());
+            }
+            return;
+        }
+        // A window: the points it holds; the rest of the slab is never read by walks of ranges
+        // the window serves, and is marked NaN so a misuse shows.
+        out.fill(f32::NAN);
+        let ([ox, oy, _], [wx, wy, _]) = self.sample_box();
+        let slab = self.slab(k);
+        for j in 0..wy as usize {
+            let dst = &mut out[(oy as usize + j) * nx + ox as usize..][..wx as usize];
+            for (o, &v) in dst.iter_mut().zip(&slab[j * wx as usize..(j + 1) * wx as usize]) {
+                *o = iso.offset(v.to_f64());
+            }
         }
     }
 
@@ -94,14 +158,42 @@ impl<S: Sample> Volume for GridVolume<'_, S> {
     }
 
     fn gradient(&self, e: EdgeKey, t: f32) -> Vec3 {
-        edge_gradient(self.grid.lattice(), e, t, &|p| self.grid.get(p).to_f64())
+        edge_gradient(&self.lattice, e, t, &|p| self.at(p))
     }
 
     fn value_at(&self, p: [f64; 3], iso: Iso) -> f32 {
-        iso.offset(trilinear_value(self.grid.lattice().dims(), p, &|q| self.grid.get(q).to_f64()))
+        iso.offset(trilinear_value(self.lattice.dims(), p, &|q| self.at(q)))
     }
 
     fn gradient_at(&self, p: [f64; 3]) -> Vec3 {
-        point_gradient_at(self.grid.lattice(), p, &|q| self.grid.get(q).to_f64())
+        point_gradient_at(&self.lattice, p, &|q| self.at(q))
+    }
+
+    fn value_bounds(&self, lo: [u32; 3], hi: [u32; 3], iso: Iso) -> Option<(f32, f32)> {
+        let b = self.bounds?;
+        let local = |p: [u32; 3]| [0, 1, 2].map(|a| p[a].saturating_sub(self.offset[a]));
+        let [l, h] = b.of_points(local(lo), local(hi));
+        let (a, c) = (iso.offset(l), iso.offset(h));
+        Some((a.min(c), a.max(c)))
+    }
+}
+
+impl<S: Sample> SampleSlabs for GridVolume<'_, S> {
+    type Sample = S;
+
+    #[inline]
+    fn sample_box(&self) -> ([u32; 3], [u32; 3]) {
+        (self.offset, self.grid.lattice().dims())
+    }
+
+    #[inline]
+    fn slab(&self, k: u32) -> &[S] {
+        let n = self.grid.lattice().slab_len();
+        let k = (k - self.offset[2]) as usize;
+        &self.grid.data()[k * n..(k + 1) * n]
+    }
+
+    fn block_bounds(&self) -> Option<&BlockBounds> {
+        self.bounds
     }
 }

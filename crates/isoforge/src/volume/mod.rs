@@ -3,7 +3,10 @@
 //! In: a [`Field`] (any closure `Fn(Vec3) -> f32`) or a [`DenseGrid`](crate::grid::DenseGrid).
 //! Out: the [`Volume`] that walkers consume — slabs of values offset by iso, the crossing on an
 //! edge ([`GridVolume`]: linear interpolation, exact for the trilinear interpolant; [`Sampled`]:
-//! root finding by an [`Oracle`]) and the gradient there.
+//! root finding by an [`Oracle`]), the gradient there, and bounds of the values over blocks so
+//! walkers can skip what the surface cannot cross. Volumes whose samples are stored in a native
+//! type also offer them slab by slab ([`SampleSlabs`]); streamed volumes arrive through a
+//! [`SlabSource`].
 
 pub mod catalog;
 pub mod classic;
@@ -12,15 +15,19 @@ mod grid_volume;
 mod oracle;
 mod sampled;
 pub mod sdf;
+mod source;
+mod tabulated;
 pub mod texture;
 
 pub use field::{central_difference, Field, FieldVisitor};
 pub use grid_volume::{edge_gradient, point_gradient, point_gradient_at, trilinear_value, GridVolume};
 pub use oracle::{Bisection, Illinois, Linear, Oracle};
 pub use sampled::Sampled;
+pub use source::SlabSource;
+pub use tabulated::Tabulated;
 
-use crate::extract::cube::EdgeKey;
-use crate::grid::Lattice;
+use crate::cube::EdgeKey;
+use crate::grid::{Lattice, Sample};
 use crate::math::Vec3;
 
 /// Which side of the iso value is *inside*.
@@ -118,6 +125,32 @@ pub trait Volume {
     fn segment_crossing(&self, p0: [f64; 3], p1: [f64; 3], d0: f32, d1: f32, iso: Iso) -> f32 {
         let _ = (p0, p1, iso);
         linear_crossing(d0, d1)
+    }
+
+    /// Bounds `(min, max)` of the value offset by iso wherever walkers may evaluate it in the
+    /// closed box of index points `lo ..= hi` (corners, centres, diagonals: for grids the samples'
+    /// range, which bounds the trilinear interpolant), or `None` when unknown. A walker skips the
+    /// cells of a box whose bounds lie on one side of 0 (`max < 0`: all inside; `min ≥ 0`: all
+    /// outside).
+    fn value_bounds(&self, lo: [u32; 3], hi: [u32; 3], iso: Iso) -> Option<(f32, f32)> {
+        let _ = (lo, hi, iso);
+        None
+    }
+}
+
+/// A volume stored as samples of a native type, offered slab by slab: what the Flying Edges
+/// walker classifies in the sample's own type (exactly, and at memory speed).
+pub trait SampleSlabs: Volume {
+    /// The sample type.
+    type Sample: Sample;
+    /// The box of points the samples cover: its first point (global lattice index) and its points
+    /// per axis. The whole lattice for an in-memory grid; a chunk (with its halo) otherwise.
+    fn sample_box(&self) -> ([u32; 3], [u32; 3]);
+    /// The samples of the box's points at global z-index `k`, x fastest (box nx · ny of them).
+    fn slab(&self, k: u32) -> &[Self::Sample];
+    /// Bounds of the native samples over blocks, if the volume has them (see [`Volume::value_bounds`]).
+    fn block_bounds(&self) -> Option<&crate::grid::BlockBounds> {
+        None
     }
 }
 

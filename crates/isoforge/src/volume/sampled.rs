@@ -1,5 +1,5 @@
 use super::{Field, Illinois, Iso, Oracle, Volume};
-use crate::extract::cube::EdgeKey;
+use crate::cube::EdgeKey;
 use crate::grid::Lattice;
 use crate::math::Vec3;
 

@@ -1,44 +1,62 @@
 //! ② Walker: owns the traversal order and the caches; hands one [`Cell`] at a time to an extractor.
 //!
-//! In: a [`Volume`] and an [`Iso`]. Out: mesh vertices and triangles in a [`MeshBuilder`].
-//! [`SlabWalker`] is the production walker (two value slabs, per-axis vertex-id slabs);
-//! [`ReferenceWalker`] recomputes everything and joins vertices by [`EdgeKey`], for tests.
+//! In: a [`Volume`], an [`Iso`], a [`CellRange`] (global lattice indices; the whole lattice by
+//! default). Out: vertices and polygons in a [`MeshBuilder`] (or, streamed, a [`MeshSink`]).
+//!
+//! | walker | volumes | traversal | parallel |
+//! |---|---|---|---|
+//! | [`FlyingEdgesWalker`] | sampled grids ([`SampleSlabs`]), streamed slabs, materialised fields | bit rows; count → prefix sums → fill, or per-slab meshes stitched by key | yes, identical output for every thread count |
+//! | [`SlabWalker`] | any [`Volume`] | cell by cell, slab by slab, O(nx·ny) memory | no |
+//! | [`ReferenceWalker`] | any [`Volume`] | recomputes everything (tests) | no |
+//!
+//! Every walker creates each vertex once per walk, with its [`VertexKey`]: walks of cell ranges
+//! that tile the lattice [`stitch`] by key into the whole-lattice mesh.
 
+mod cached;
 pub mod flying_edges;
 mod reference;
-pub mod segment;
+pub(crate) mod segment;
 mod slab;
+mod stitch;
 
-pub use flying_edges::{
-    flying_edges, flying_edges_streaming, CaseTable, ExternalError, MeshSink, SlabSource, StreamStats,
-};
+pub use flying_edges::{FlyingEdgesWalker, StreamStats};
 pub use reference::ReferenceWalker;
-pub use segment::{CellPoint, SegmentKey};
 pub use slab::SlabWalker;
+pub use stitch::{stitch, stitch_keyed, KeyedMesh};
 
+use crate::cube::{CellPoint, CellRange, CubeEdge, EdgeKey, VertexKey};
 use crate::error::Result;
-use crate::extract::cube::{CubeEdge, EdgeKey};
 use crate::extract::Extractor;
 use crate::mesh::{MeshBuilder, VertexId};
 use crate::volume::{Iso, Volume};
 
+#[doc(inline)]
+pub use crate::volume::SampleSlabs;
+
 /// A walker's cursor on one cell. Extractors are generic over it and see nothing else.
+///
+/// Vertices come in three kinds, each created once per walk and shared through the walker's
+/// caches: crossings on lattice edges ([`edge_vertex`](Cell::edge_vertex)), crossings on other
+/// lattice segments ([`segment_vertex`](Cell::segment_vertex)), and vertices a cell places inside
+/// itself ([`place_vertex`](Cell::place_vertex), which neighbours can refer to through
+/// [`placed_vertex`](Cell::placed_vertex)).
 pub trait Cell {
-    /// Lattice index of the cell's corner 0.
+    /// Lattice index of the cell's corner 0 (global: the same in a walk of any range).
     fn ijk(&self) -> [u32; 3];
     /// The eight corner values offset by iso (inside ⇔ < 0), in corner order.
     fn values(&self) -> &[f32; 8];
     /// Case index: bit `c` set ⇔ corner `c` inside.
     fn case(&self) -> u8;
-    /// The mesh vertex at the crossing on edge `e`, created on first request and shared with
-    /// every other cell touching the same lattice edge.
-    ///
-    /// The edge must cross (its corners differ in class).
-    fn edge_vertex(&mut self, e: CubeEdge) -> VertexId;
-    /// Emits a triangle (wound counter-clockwise seen from outside).
-    fn push_triangle(&mut self, t: [VertexId; 3]);
 
-    /// Whether the neighbouring cell across `face` (`2 · axis + side`) exists.
+    /// Hermite data of edge `e` (its corners must differ in class): the crossing and the unit
+    /// outward normal of the field there, computed once per lattice edge. What an algorithm
+    /// needs (dual contouring, feature detection); independent of the normals the output stores.
+    fn hermite(&mut self, e: CubeEdge) -> Hermite;
+    /// The mesh vertex at the crossing on edge `e` (its corners must differ in class), created on
+    /// first request and shared with every other cell touching the same lattice edge.
+    fn edge_vertex(&mut self, e: CubeEdge) -> VertexId;
+
+    /// Whether the neighbouring cell across `face` (`2 · axis + side`) exists in the lattice.
     fn has_neighbour(&self, face: u8) -> bool;
     /// The value offset by iso at a cell point: a corner's from [`values`](Cell::values), a
     /// centre's from [`Volume::value_at`] (computed once per cell).
@@ -47,29 +65,38 @@ pub trait Cell {
     /// first request and shared with every cell that names the same lattice segment; axis edges
     /// give the same vertex as [`edge_vertex`](Cell::edge_vertex).
     fn segment_vertex(&mut self, a: CellPoint, b: CellPoint) -> VertexId;
-    /// A new vertex private to this cell at cell coordinates `local` ∈ [0, 1]³ (never shared).
-    fn interior_vertex(&mut self, local: [f32; 3]) -> VertexId;
+
+    /// Places a new vertex inside this cell at cell coordinates `local` ∈ [0, 1]³, serving the
+    /// crossed cube edges in the bit mask `edges` (0: a vertex only this cell uses). Vertices are
+    /// numbered in placement order `n = 0, 1, …`; their key is [`VertexKey::Cell`].
+    fn place_vertex(&mut self, local: [f32; 3], edges: u16) -> VertexId;
+    /// The vertex that the cell at `ijk + offset` placed for the lattice edge that is edge `e` of
+    /// this cell, if it placed one. `offset` ∈ {−1, 0}³ and the neighbour must contain that edge:
+    /// cells at or before this one in walk order, which walkers have always placed (dual methods
+    /// emit a cell's polygons for its edges at corner 0: 0, 4 and 8). `None` also when the
+    /// neighbour lies outside the lattice.
+    fn placed_vertex(&mut self, offset: [i8; 3], e: CubeEdge) -> Option<VertexId>;
+
+    /// Emits a triangle (wound counter-clockwise seen from outside).
+    fn push_triangle(&mut self, t: [VertexId; 3]);
+    /// Emits a quad (wound counter-clockwise seen from outside).
+    fn push_quad(&mut self, q: [VertexId; 4]);
 }
 
-/// A traversal strategy: visits every cell of `vol` and lets `x` process the active ones.
-pub trait Walker {
-    /// Walks the whole lattice.
+/// A traversal strategy over the volumes of type `V` it can walk: visits the cells of its range
+/// and lets an extractor process the active ones.
+pub trait Walker<V: ?Sized> {
+    /// Walks the range (the whole lattice unless the walker was given one).
     ///
     /// # Errors
     /// [`Error::Limit`](crate::Error::Limit) when the mesh outgrows `u32` indices.
-    fn walk<V: Volume, X: Extractor>(
-        &mut self,
-        vol: &V,
-        iso: Iso,
-        x: &mut X,
-        out: &mut MeshBuilder,
-    ) -> Result<WalkStats>;
+    fn walk<X: Extractor + Sync>(&mut self, vol: &V, iso: Iso, x: &X, out: &mut MeshBuilder) -> Result<WalkStats>;
 }
 
 /// Counts gathered during a walk.
 #[derive(Debug, Clone, Copy, Default, PartialEq, Eq)]
 pub struct WalkStats {
-    /// Cells visited.
+    /// Cells visited (the range's cells).
     pub cells: u64,
     /// Cells whose corners are all outside (case 0).
     pub cells_outside: u64,
@@ -82,45 +109,103 @@ impl WalkStats {
     pub fn active_cells(&self) -> u64 {
         self.cells - self.cells_outside - self.cells_inside
     }
+
+    /// Why a walk produced nothing: every cell outside, or every cell inside (`None` otherwise).
+    pub fn uniform_side(&self) -> Option<&'static str> {
+        if self.cells == 0 {
+            None
+        } else if self.cells_outside == self.cells {
+            Some("outside")
+        } else if self.cells_inside == self.cells {
+            Some("inside")
+        } else {
+            None
+        }
+    }
+
+    fn add(&mut self, o: WalkStats) {
+        self.cells += o.cells;
+        self.cells_outside += o.cells_outside;
+        self.cells_inside += o.cells_inside;
+    }
 }
 
-/// Reports progress of long walks (one call per slab).
+/// Reports progress of long walks (one call per slab or task).
 pub trait Progress: Sync {
     /// `done` of `total` units of work are finished.
     fn advance(&self, done: u64, total: u64);
 }
 
-/// A vertex on a lattice edge: world position and unit normal (outward).
+/// A crossing with its outward unit normal: the Hermite data dual methods fit vertices to.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct Hermite {
     /// World position of the crossing.
     pub point: [f32; 3],
-    /// Unit normal pointing from inside to outside.
+    /// Unit normal pointing from inside to outside (from the field's gradient; the edge's
+    /// direction where the gradient vanishes).
     pub normal: [f32; 3],
 }
 
-/// Computes the crossing on `key` (offset values `d0` at its origin, `d1` at its end) and, when
-/// `normals` is set, its outward normal. Shared by every walker so all agree bit for bit.
+/// The crossing on lattice edge `key` (offset values `d0` at its origin, `d1` at its end): its
+/// world position and its parameter `t` from the origin. Shared by every walker so all agree bit
+/// for bit.
 #[inline]
-pub fn hermite<V: Volume + ?Sized>(vol: &V, key: EdgeKey, d0: f32, d1: f32, iso: Iso, normals: bool) -> Hermite {
-    let s = iso.sign();
+pub fn edge_crossing<V: Volume + ?Sized>(vol: &V, key: EdgeKey, d0: f32, d1: f32, iso: Iso) -> ([f32; 3], f32) {
     let t = vol.crossing(key, d0, d1, iso);
     let w = vol.lattice().to_world(key.point_at(t as f64));
-    let point = [w[0] as f32, w[1] as f32, w[2] as f32];
-    if !normals {
-        return Hermite { point, normal: [0.0; 3] };
-    }
-    let g = vol.gradient(key, t) * s;
-    let n = g.normalize_or_zero();
-    let normal = if n == glam::Vec3::ZERO {
-        // Flat field: fall back to the edge's world direction, pointing to its outside end.
+    ([w[0] as f32, w[1] as f32, w[2] as f32], t)
+}
+
+/// The outward unit normal at parameter `t` on lattice edge `key` whose origin has offset value
+/// `d0`: the normalised gradient, or the edge's world direction towards its outside end where the
+/// gradient vanishes.
+#[inline]
+pub fn edge_normal<V: Volume + ?Sized>(vol: &V, key: EdgeKey, t: f32, d0: f32, iso: Iso) -> [f32; 3] {
+    let n = (vol.gradient(key, t) * iso.sign()).normalize_or_zero();
+    if n == glam::Vec3::ZERO {
         let dir = vol.lattice().direction()[key.axis.index()];
         let sign = if d0 < 0.0 { 1.0 } else { -1.0 };
         dir.map(|x| (x * sign) as f32)
     } else {
         n.to_array()
-    };
-    Hermite { point, normal }
+    }
+}
+
+/// Hermite data of lattice edge `key`.
+#[inline]
+pub fn edge_hermite<V: Volume + ?Sized>(vol: &V, key: EdgeKey, d0: f32, d1: f32, iso: Iso) -> Hermite {
+    let (point, t) = edge_crossing(vol, key, d0, d1, iso);
+    Hermite { point, normal: edge_normal(vol, key, t, d0, iso) }
+}
+
+/// Creates the vertex at the crossing on `key` in `out`, with its normal when `out` stores normals.
+#[inline]
+pub(crate) fn push_edge_vertex<V: Volume + ?Sized>(
+    vol: &V,
+    key: EdgeKey,
+    d0: f32,
+    d1: f32,
+    iso: Iso,
+    out: &mut MeshBuilder,
+) -> VertexId {
+    let (p, t) = edge_crossing(vol, key, d0, d1, iso);
+    let n = if out.wants_normals() { edge_normal(vol, key, t, d0, iso) } else { [0.0; 3] };
+    out.push_vertex(VertexKey::Edge(key), p, n)
+}
+
+/// Which cells of `range` a walker hands to `process`: those with a crossing, or every cell for
+/// extractors that sample off the lattice ([`Extractor::visits_uniform_cells`]).
+#[inline]
+pub(crate) fn wants_cell<X: Extractor + ?Sized>(x: &X, case: u8) -> bool {
+    (case != 0 && case != 255) || x.visits_uniform_cells()
+}
+
+/// The range a walker covers: the one it was given, clipped to the lattice, or all of it.
+pub(crate) fn range_of(given: Option<CellRange>, dims: [u32; 3]) -> CellRange {
+    match given {
+        Some(r) => CellRange::clipped(r.lo, r.hi, dims),
+        None => CellRange::all(dims),
+    }
 }
 
 #[cfg(test)]
@@ -133,6 +218,7 @@ mod tests {
         fn send<T: Send>() {}
         fn sync<T: Sync>() {}
         send::<SlabWalker<'static>>();
+        send::<FlyingEdgesWalker<'static>>();
         send::<ReferenceWalker>();
         sync::<crate::volume::GridVolume<'static, f32>>();
         sync::<crate::volume::Sampled<crate::volume::sdf::Sphere>>();

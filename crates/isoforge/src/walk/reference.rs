@@ -1,9 +1,9 @@
 use std::collections::HashMap;
 
-use super::segment::{self, CellPoint, SegmentKey};
-use super::{hermite, Cell, WalkStats, Walker};
+use super::segment;
+use super::{edge_crossing, edge_hermite, push_edge_vertex, wants_cell, Cell, Hermite, WalkStats, Walker};
+use crate::cube::{case_of, CellPoint, CubeEdge, EdgeKey, SegmentKey, CORNER_OFFSETS};
 use crate::error::{Error, Result};
-use crate::extract::cube::{case_of, CubeEdge, EdgeKey, CORNER_OFFSETS};
 use crate::extract::Extractor;
 use crate::mesh::{MeshBuilder, VertexId};
 use crate::volume::{Iso, Volume};
@@ -16,14 +16,8 @@ use crate::volume::{Iso, Volume};
 #[derive(Debug, Default)]
 pub struct ReferenceWalker;
 
-impl Walker for ReferenceWalker {
-    fn walk<V: Volume, X: Extractor>(
-        &mut self,
-        vol: &V,
-        iso: Iso,
-        x: &mut X,
-        out: &mut MeshBuilder,
-    ) -> Result<WalkStats> {
+impl<V: Volume> Walker<V> for ReferenceWalker {
+    fn walk<X: Extractor + Sync>(&mut self, vol: &V, iso: Iso, x: &X, out: &mut MeshBuilder) -> Result<WalkStats> {
         let lattice = vol.lattice().clone();
         let mut stats = WalkStats::default();
         if !lattice.has_cells() {
@@ -33,8 +27,8 @@ impl Walker for ReferenceWalker {
         let [nx, ny, nz] = lattice.dims();
         let mut ids: HashMap<EdgeKey, (VertexId, [f32; 3])> = HashMap::new();
         let mut seg_ids: HashMap<SegmentKey, (VertexId, [f32; 3])> = HashMap::new();
+        let mut placed: HashMap<[u32; 3], Vec<(VertexId, u16)>> = HashMap::new();
         let mut mismatch = None;
-        let uniform_too = x.visits_uniform_cells();
         for k in 0..nz - 1 {
             for j in 0..ny - 1 {
                 for i in 0..nx - 1 {
@@ -52,7 +46,7 @@ impl Walker for ReferenceWalker {
                         255 => stats.cells_inside += 1,
                         _ => {}
                     }
-                    if (case != 0 && case != 255) || uniform_too {
+                    if wants_cell(x, case) {
                         let mut cell = RefCell {
                             ijk: [i, j, k],
                             dims: [nx, ny, nz],
@@ -62,10 +56,13 @@ impl Walker for ReferenceWalker {
                             iso,
                             ids: &mut ids,
                             seg_ids: &mut seg_ids,
+                            placed: &mut placed,
+                            n_placed: 0,
                             memo: [f32::NAN; 7],
                             out,
                             mismatch: &mut mismatch,
                         };
+                        x.place(&mut cell);
                         x.process(&mut cell);
                     }
                 }
@@ -87,6 +84,8 @@ struct RefCell<'a, V> {
     iso: Iso,
     ids: &'a mut HashMap<EdgeKey, (VertexId, [f32; 3])>,
     seg_ids: &'a mut HashMap<SegmentKey, (VertexId, [f32; 3])>,
+    placed: &'a mut HashMap<[u32; 3], Vec<(VertexId, u16)>>,
+    n_placed: u8,
     memo: [f32; 7],
     out: &'a mut MeshBuilder,
     mismatch: &'a mut Option<String>,
@@ -102,18 +101,23 @@ impl<V: Volume> Cell for RefCell<'_, V> {
     fn case(&self) -> u8 {
         self.case
     }
+    fn hermite(&mut self, e: CubeEdge) -> Hermite {
+        let [c0, c1] = e.corners();
+        edge_hermite(self.vol, EdgeKey::of_cell(self.ijk, e), self.d[c0 as usize], self.d[c1 as usize], self.iso)
+    }
     fn edge_vertex(&mut self, e: CubeEdge) -> VertexId {
         let [c0, c1] = e.corners();
         let key = EdgeKey::of_cell(self.ijk, e);
-        let h = hermite(self.vol, key, self.d[c0 as usize], self.d[c1 as usize], self.iso, self.out.wants_normals());
-        if let Some(&(id, p)) = self.ids.get(&key) {
-            if p.map(f32::to_bits) != h.point.map(f32::to_bits) {
+        let (d0, d1) = (self.d[c0 as usize], self.d[c1 as usize]);
+        let (p, _) = edge_crossing(self.vol, key, d0, d1, self.iso);
+        if let Some(&(id, first)) = self.ids.get(&key) {
+            if p.map(f32::to_bits) != first.map(f32::to_bits) {
                 *self.mismatch = Some(format!("{key:?}"));
             }
             return id;
         }
-        let id = self.out.push_vertex(h.point, h.normal);
-        self.ids.insert(key, (id, h.point));
+        let id = push_edge_vertex(self.vol, key, d0, d1, self.iso, self.out);
+        self.ids.insert(key, (id, p));
         id
     }
     fn push_triangle(&mut self, t: [VertexId; 3]) {
@@ -131,20 +135,32 @@ impl<V: Volume> Cell for RefCell<'_, V> {
         }
         let (vol, iso) = (self.vol, self.iso);
         let (key, d0, d1) = segment::cell_segment(vol, iso, self.ijk, &self.d, &mut self.memo, (a, b));
-        let h = segment::segment_hermite(vol, key, d0, d1, iso, self.out.wants_normals());
-        if let Some(&(id, p)) = self.seg_ids.get(&key) {
-            if p.map(f32::to_bits) != h.point.map(f32::to_bits) {
+        let p = segment::segment_hermite(vol, key, d0, d1, iso).point;
+        if let Some(&(id, first)) = self.seg_ids.get(&key) {
+            if p.map(f32::to_bits) != first.map(f32::to_bits) {
                 *self.mismatch = Some(format!("{key:?}"));
             }
             return id;
         }
-        let id = self.out.push_vertex(h.point, h.normal);
-        self.seg_ids.insert(key, (id, h.point));
+        let id = segment::push_segment_vertex(vol, key, d0, d1, iso, self.out);
+        self.seg_ids.insert(key, (id, p));
         id
     }
-    fn interior_vertex(&mut self, local: [f32; 3]) -> VertexId {
-        let p = segment::cell_point(self.ijk, local);
-        let h = segment::point_hermite(self.vol, p, self.iso, self.out.wants_normals(), || [0.0; 3]);
-        self.out.push_vertex(h.point, h.normal)
+    fn place_vertex(&mut self, local: [f32; 3], edges: u16) -> VertexId {
+        let n = self.n_placed;
+        self.n_placed += 1;
+        let id = segment::push_cell_vertex(self.vol, self.iso, self.ijk, n, local, self.out);
+        self.placed.entry(self.ijk).or_default().push((id, edges));
+        id
+    }
+    fn placed_vertex(&mut self, offset: [i8; 3], e: CubeEdge) -> Option<VertexId> {
+        let key = EdgeKey::of_cell(self.ijk, e);
+        let cell = segment::neighbour(self.ijk, offset)?;
+        let ne = key.in_cell(cell)?;
+        let entries = self.placed.get(&cell)?;
+        entries.iter().find(|(_, m)| m & (1 << ne.0) != 0).map(|&(v, _)| v)
+    }
+    fn push_quad(&mut self, q: [VertexId; 4]) {
+        self.out.push_quad(q);
     }
 }

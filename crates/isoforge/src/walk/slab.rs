@@ -1,34 +1,41 @@
-use super::segment::{self, CellPoint, SegmentCache};
-use super::{hermite, Cell, Progress, WalkStats, Walker};
+use super::cached::{CachedCell, LayerCaches};
+use super::{range_of, wants_cell, Progress, WalkStats, Walker};
+use crate::cube::{case_of, CellRange};
 use crate::error::Result;
-use crate::extract::cube::{case_of, Axis, CubeEdge, EdgeKey};
 use crate::extract::Extractor;
-use crate::mesh::{MeshBuilder, VertexId};
+use crate::mesh::MeshBuilder;
 use crate::volume::{Iso, Volume};
 
 /// Walks z-slab by z-slab keeping O(nx·ny) state: the values of slabs k and k + 1, and the vertex
-/// ids of x- and y-edges on both slabs and of the z-edges between them. Every value is read once
-/// and every crossing vertex is created once, by the first cell that asks for it.
+/// caches of the planes around cell layer k ([`LayerCaches`]). Every value is read once and
+/// every vertex is created once, by the first cell that asks for it. Serial; any [`Volume`].
 ///
-/// ```text
-///   slab k+1:  above, x_ids[1], y_ids[1]      z_ids[j·nx + i]: edge (i, j, k) → (i, j, k+1)
-///   slab k:    below, x_ids[0], y_ids[0]      after slab k: above → below, ids[1] → ids[0]
-/// ```
+/// A walk covers a [`CellRange`] (the whole lattice unless given one). Extractors that place
+/// vertices also get the cells just before the range on each axis placed (not processed), so
+/// polygons can refer to them. Boxes of 8 × 8 cells whose [`Volume::value_bounds`] lie on one
+/// side of the iso are skipped.
 #[derive(Default)]
 pub struct SlabWalker<'p> {
     below: Vec<f32>,
     above: Vec<f32>,
-    x_ids: [Vec<VertexId>; 2],
-    y_ids: [Vec<VertexId>; 2],
-    z_ids: Vec<VertexId>,
-    segs: SegmentCache,
+    caches: LayerCaches,
+    range: Option<CellRange>,
     progress: Option<&'p dyn Progress>,
 }
+
+/// Cells per side of the boxes tested against [`Volume::value_bounds`].
+const SKIP_TILE: u32 = 8;
 
 impl<'p> SlabWalker<'p> {
     /// A walker with empty caches (sized on the first walk, then reused).
     pub fn new() -> Self {
         SlabWalker::default()
+    }
+
+    /// Walks only the cells of `range` (global lattice indices).
+    pub fn with_range(mut self, range: CellRange) -> Self {
+        self.range = Some(range);
+        self
     }
 
     /// Reports progress once per slab.
@@ -38,175 +45,97 @@ impl<'p> SlabWalker<'p> {
     }
 }
 
-impl Walker for SlabWalker<'_> {
-    fn walk<V: Volume, X: Extractor>(
-        &mut self,
-        vol: &V,
-        iso: Iso,
-        x: &mut X,
-        out: &mut MeshBuilder,
-    ) -> Result<WalkStats> {
+impl<V: Volume> Walker<V> for SlabWalker<'_> {
+    fn walk<X: Extractor + Sync>(&mut self, vol: &V, iso: Iso, x: &X, out: &mut MeshBuilder) -> Result<WalkStats> {
         let lattice = vol.lattice();
+        let dims = lattice.dims();
+        let range = range_of(self.range, dims);
         let mut stats = WalkStats::default();
-        if !lattice.has_cells() {
+        if range.is_empty() {
             return Ok(stats);
         }
         out.set_reverse_winding(lattice.is_mirrored());
-        let [nx, ny, nz] = lattice.dims();
-        let n = lattice.slab_len();
+        let places = X::PLACES_VERTICES;
+        // Cells walked: the range, and for placing extractors the layer before it on each axis.
+        let first = if places { range.lo.map(|v| v.saturating_sub(1)) } else { range.lo };
+        let [nx, ny, _] = dims.map(|d| d as usize);
+        let (w, h) = ((range.hi[0] - first[0] + 1) as usize, (range.hi[1] - first[1] + 1) as usize);
+        self.caches.reset([first[0], first[1]], w, h, places);
         for buf in [&mut self.below, &mut self.above] {
             buf.clear();
-            buf.resize(n, 0.0);
+            buf.resize(nx * ny, 0.0);
         }
-        for ids in self.x_ids.iter_mut().chain(self.y_ids.iter_mut()).chain(std::iter::once(&mut self.z_ids)) {
-            ids.clear();
-            ids.resize(n, VertexId::NONE);
-        }
-        self.segs.clear();
-        vol.fill_slab(0, iso, &mut self.below);
-        let normals = out.wants_normals();
+        vol.fill_slab(first[2], iso, &mut self.below);
         let uniform_too = x.visits_uniform_cells();
-        let nxu = nx as usize;
-        for k in 0..nz - 1 {
-            // PASS 1: values of the next slab; fresh id slots for its edges and the z-edges below it.
+        let layers = range.hi[2] - first[2];
+        for k in first[2]..range.hi[2] {
             vol.fill_slab(k + 1, iso, &mut self.above);
-            self.x_ids[1].fill(VertexId::NONE);
-            self.y_ids[1].fill(VertexId::NONE);
-            self.z_ids.fill(VertexId::NONE);
-            // PASS 2: every cell between the two slabs.
-            for j in 0..ny - 1 {
-                let (r0, r1) = (j as usize * nxu, (j as usize + 1) * nxu);
-                let (b0, b1) = (&self.below[r0..r0 + nxu], &self.below[r1..r1 + nxu]);
-                let (a0, a1) = (&self.above[r0..r0 + nxu], &self.above[r1..r1 + nxu]);
-                for i in 0..nxu - 1 {
-                    let d = [b0[i], b0[i + 1], b1[i], b1[i + 1], a0[i], a0[i + 1], a1[i], a1[i + 1]];
-                    let case = case_of(&d);
-                    stats.cells += 1;
-                    match case {
-                        0 => stats.cells_outside += 1,
-                        255 => stats.cells_inside += 1,
-                        _ => {}
+            let layer_in_range = k >= range.lo[2];
+            for tj in (first[1]..range.hi[1]).step_by(SKIP_TILE as usize) {
+                for ti in (first[0]..range.hi[0]).step_by(SKIP_TILE as usize) {
+                    let (i1, j1) = ((ti + SKIP_TILE).min(range.hi[0]), (tj + SKIP_TILE).min(range.hi[1]));
+                    // Body-centred extractors also read the centres across the lower faces.
+                    let grow = u32::from(uniform_too);
+                    let lo = [ti.saturating_sub(grow), tj.saturating_sub(grow), k.saturating_sub(grow)];
+                    let hi =
+                        [(i1 + grow).min(dims[0] - 1), (j1 + grow).min(dims[1] - 1), (k + 1 + grow).min(dims[2] - 1)];
+                    if let Some((min, max)) = vol.value_bounds(lo, hi, iso) {
+                        if max < 0.0 || min >= 0.0 {
+                            if layer_in_range {
+                                let tile = CellRange {
+                                    lo: [ti.max(range.lo[0]), tj.max(range.lo[1]), k],
+                                    hi: [i1, j1, k + 1],
+                                };
+                                let n = tile.num_cells();
+                                stats.cells += n;
+                                if max < 0.0 {
+                                    stats.cells_inside += n;
+                                } else {
+                                    stats.cells_outside += n;
+                                }
+                            }
+                            continue;
+                        }
                     }
-                    if (case != 0 && case != 255) || uniform_too {
-                        let mut cell = SlabCell {
-                            ijk: [i as u32, j, k],
-                            d,
-                            case,
-                            nx: nxu,
-                            dims: [nx, ny, nz],
-                            vol,
-                            iso,
-                            normals,
-                            x_ids: &mut self.x_ids,
-                            y_ids: &mut self.y_ids,
-                            z_ids: &mut self.z_ids,
-                            segs: &mut self.segs,
-                            memo: [f32::NAN; 7],
-                            out,
-                        };
-                        x.process(&mut cell);
+                    for j in tj..j1 {
+                        let (r0, r1) = (j as usize * nx, (j as usize + 1) * nx);
+                        let (b0, b1) = (&self.below[r0..r0 + nx], &self.below[r1..r1 + nx]);
+                        let (a0, a1) = (&self.above[r0..r0 + nx], &self.above[r1..r1 + nx]);
+                        for i in ti..i1 {
+                            let i = i as usize;
+                            let d = [b0[i], b0[i + 1], b1[i], b1[i + 1], a0[i], a0[i + 1], a1[i], a1[i + 1]];
+                            let case = case_of(&d);
+                            let ijk = [i as u32, j, k];
+                            let in_range = layer_in_range && j >= range.lo[1] && ijk[0] >= range.lo[0];
+                            if in_range {
+                                stats.cells += 1;
+                                match case {
+                                    0 => stats.cells_outside += 1,
+                                    255 => stats.cells_inside += 1,
+                                    _ => {}
+                                }
+                            }
+                            if !wants_cell(x, case) {
+                                continue;
+                            }
+                            let mut cell = CachedCell::new(ijk, d, case, vol, iso, &mut self.caches, out);
+                            if places {
+                                x.place(&mut cell);
+                            }
+                            if in_range {
+                                x.process(&mut cell);
+                            }
+                        }
                     }
                 }
             }
-            // PASS 3: the top slab becomes the bottom one.
+            // The top slab becomes the bottom one.
             std::mem::swap(&mut self.below, &mut self.above);
-            self.x_ids.swap(0, 1);
-            self.y_ids.swap(0, 1);
-            self.segs.advance();
+            self.caches.advance(places);
             if let Some(p) = self.progress {
-                p.advance(k as u64 + 1, nz as u64 - 1);
+                p.advance((k - first[2]) as u64 + 1, layers as u64);
             }
         }
         Ok(stats)
-    }
-}
-
-struct SlabCell<'a, V> {
-    ijk: [u32; 3],
-    d: [f32; 8],
-    case: u8,
-    nx: usize,
-    dims: [u32; 3],
-    vol: &'a V,
-    iso: Iso,
-    normals: bool,
-    x_ids: &'a mut [Vec<VertexId>; 2],
-    y_ids: &'a mut [Vec<VertexId>; 2],
-    z_ids: &'a mut Vec<VertexId>,
-    segs: &'a mut SegmentCache,
-    memo: [f32; 7],
-    out: &'a mut MeshBuilder,
-}
-
-impl<V: Volume> Cell for SlabCell<'_, V> {
-    #[inline]
-    fn ijk(&self) -> [u32; 3] {
-        self.ijk
-    }
-    #[inline]
-    fn values(&self) -> &[f32; 8] {
-        &self.d
-    }
-    #[inline]
-    fn case(&self) -> u8 {
-        self.case
-    }
-
-    #[inline]
-    fn edge_vertex(&mut self, e: CubeEdge) -> VertexId {
-        let [i, j, _] = self.ijk;
-        let (i, j) = (i as usize, j as usize);
-        // r = e % 4 gives the edge's offsets on the two other axes (see extract/cube.rs).
-        let (lo, hi) = ((e.0 & 1) as usize, ((e.0 >> 1) & 1) as usize);
-        let slot = match e.axis() {
-            Axis::X => &mut self.x_ids[hi][(j + lo) * self.nx + i],
-            Axis::Y => &mut self.y_ids[hi][j * self.nx + i + lo],
-            Axis::Z => &mut self.z_ids[(j + hi) * self.nx + i + lo],
-        };
-        if *slot != VertexId::NONE {
-            return *slot;
-        }
-        let [c0, c1] = e.corners();
-        let key = EdgeKey::of_cell(self.ijk, e);
-        let h = hermite(self.vol, key, self.d[c0 as usize], self.d[c1 as usize], self.iso, self.normals);
-        let id = self.out.push_vertex(h.point, h.normal);
-        *slot = id;
-        id
-    }
-
-    #[inline]
-    fn push_triangle(&mut self, t: [VertexId; 3]) {
-        self.out.push_triangle(t);
-    }
-
-    #[inline]
-    fn has_neighbour(&self, face: u8) -> bool {
-        segment::has_neighbour(self.dims, self.ijk, face)
-    }
-
-    #[inline]
-    fn point_value(&mut self, p: CellPoint) -> f32 {
-        segment::point_value(self.vol, self.iso, self.ijk, &self.d, &mut self.memo, p)
-    }
-
-    fn segment_vertex(&mut self, a: CellPoint, b: CellPoint) -> VertexId {
-        if let Some(e) = CellPoint::axis_edge(a, b) {
-            return self.edge_vertex(e);
-        }
-        let (vol, iso) = (self.vol, self.iso);
-        let (key, d0, d1) = segment::cell_segment(vol, iso, self.ijk, &self.d, &mut self.memo, (a, b));
-        if let Some(id) = self.segs.get(&key) {
-            return id;
-        }
-        let h = segment::segment_hermite(vol, key, d0, d1, iso, self.normals);
-        let id = self.out.push_vertex(h.point, h.normal);
-        self.segs.insert(key, id);
-        id
-    }
-
-    fn interior_vertex(&mut self, local: [f32; 3]) -> VertexId {
-        let p = segment::cell_point(self.ijk, local);
-        let h = segment::point_hermite(self.vol, p, self.iso, self.normals, || [0.0; 3]);
-        self.out.push_vertex(h.point, h.normal)
     }
 }

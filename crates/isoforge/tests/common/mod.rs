@@ -1,17 +1,27 @@
 //! Helpers shared by the integration tests.
 #![allow(dead_code)]
 
-use isoforge::extract::MarchingCubes;
-use isoforge::grid::{DenseGrid, Lattice};
-use isoforge::mesh::{Mesh, MeshBuilder};
+use isoforge::extract::{Extractor, MarchingCubes};
+use isoforge::grid::{DenseGrid, Lattice, Sample};
+use isoforge::mesh::{Mesh, MeshBuilder, Normals};
 use isoforge::volume::{GridVolume, Iso, Volume};
-use isoforge::walk::{ReferenceWalker, SlabWalker, WalkStats, Walker};
+use isoforge::walk::{FlyingEdgesWalker, ReferenceWalker, SlabWalker, WalkStats, Walker};
 
 /// Extracts with marching cubes through the given walker.
-pub fn mc_with<W: Walker, V: Volume>(walker: &mut W, vol: &V, iso: Iso) -> (Mesh, WalkStats) {
-    let mut out = MeshBuilder::new(true);
-    let stats = walker.walk(vol, iso, &mut MarchingCubes, &mut out).expect("walk");
+pub fn mc_with<V, W: Walker<V>>(walker: &mut W, vol: &V, iso: Iso) -> (Mesh, WalkStats) {
+    walk_with(walker, vol, iso, &MarchingCubes)
+}
+
+/// Extracts with `x` through the given walker (normals on).
+pub fn walk_with<V, W: Walker<V>, X: Extractor + Sync>(walker: &mut W, vol: &V, iso: Iso, x: &X) -> (Mesh, WalkStats) {
+    let mut out = MeshBuilder::new(Normals::Gradient);
+    let stats = walker.walk(vol, iso, x, &mut out).expect("walk");
     (out.finish().expect("finish"), stats)
+}
+
+/// Marching cubes through the parallel Flying Edges walker.
+pub fn fe<S: Sample>(g: &DenseGrid<S>, iso: Iso) -> (Mesh, WalkStats) {
+    mc_with(&mut FlyingEdgesWalker::new(), &GridVolume::new(g), iso)
 }
 
 /// Marching cubes through the slab walker.

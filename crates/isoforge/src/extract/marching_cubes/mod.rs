@@ -4,7 +4,7 @@ mod table;
 
 pub use table::{CaseTriangles, TRI_TABLE};
 
-use crate::extract::Extractor;
+use crate::extract::{CellCounts, Counting, Extractor};
 use crate::walk::Cell;
 
 /// Marching cubes: each active cell emits the triangles its case lists in [`TRI_TABLE`], on
@@ -27,19 +27,23 @@ use crate::walk::Cell;
 pub struct MarchingCubes;
 
 impl Extractor for MarchingCubes {
+    const COUNTING: Counting = Counting::Known;
+
     #[inline]
-    fn process<C: Cell>(&mut self, cell: &mut C) {
+    fn process<C: Cell>(&self, cell: &mut C) {
         for [a, b, c] in TRI_TABLE[cell.case() as usize].iter() {
             let t = [cell.edge_vertex(a), cell.edge_vertex(b), cell.edge_vertex(c)];
             cell.push_triangle(t);
         }
     }
-}
 
-impl crate::walk::CaseTable for MarchingCubes {
     #[inline]
-    fn case_triangles(&self, case: u8) -> &[[u8; 3]] {
-        TRI_TABLE[case as usize].triangles()
+    fn counts(&self, case: u8, _ijk: [u32; 3], _values: impl FnOnce() -> [f32; 8]) -> CellCounts {
+        CellCounts { triangles: TRI_TABLE[case as usize].triangles().len() as u16, ..Default::default() }
+    }
+
+    fn case_counts(&self, case: u8) -> Option<CellCounts> {
+        Some(self.counts(case, [0; 3], || [0.0; 8]))
     }
 }
 
@@ -47,7 +51,7 @@ impl crate::walk::CaseTable for MarchingCubes {
 mod tests {
     use super::table::{source_case, SOURCE_TRI_TABLE};
     use super::*;
-    use crate::extract::cube::{CASE_EDGES, CORNER_OFFSETS, EDGE_CORNERS};
+    use crate::cube::{CASE_EDGES, CORNER_OFFSETS, EDGE_CORNERS};
 
     /// Edge midpoint in cell coordinates.
     fn mid(e: u8) -> [f64; 3] {

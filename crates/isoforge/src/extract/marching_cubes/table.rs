@@ -12,7 +12,7 @@
 //! marching-cubes tables, whose bits are the corners at or above iso. Tested: the same triangle
 //! counts as `vtkFlyingEdges3D` on every real volume in `shared/data` (see docs/BENCHMARKS.md).
 
-use crate::extract::cube::{CubeEdge, CORNER_OFFSETS};
+use crate::cube::{CubeEdge, CORNER_OFFSETS};
 
 /// Corner positions in the source numbering.
 const SOURCE_CORNERS: [[u32; 3]; 8] =
@@ -316,7 +316,7 @@ const fn edge_from_source(se: usize) -> u8 {
     let (lo, hi) = if a < b { (a, b) } else { (b, a) };
     let mut e = 0;
     while e < 12 {
-        let c = crate::extract::cube::EDGE_CORNERS[e];
+        let c = crate::cube::EDGE_CORNERS[e];
         if c[0] as usize == lo && c[1] as usize == hi {
             return e as u8;
         }

@@ -1,4 +1,7 @@
-//! The one cube diagram: corner, edge and face numbering shared by every walker and extractor.
+//! Data: the lattice vocabulary — the one cube diagram (corner, edge and face numbering), axes,
+//! lattice edges and segments ([`EdgeKey`], [`SegmentKey`], [`CellPoint`]), vertex provenance
+//! ([`VertexKey`]) and cell ranges ([`CellRange`]). Walkers and extractors both build on it;
+//! it depends on nothing.
 //!
 //! ```text
 //!         [6]────── 3 ──────[7]        [c] corner c sits at (c & 1, (c >> 1) & 1, (c >> 2) & 1)
@@ -61,19 +64,23 @@ pub const CORNER_OFFSETS: [[u32; 3]; 8] = {
     t
 };
 
+/// The two axes other than `axis`, in increasing order: they place an edge (`r = e % 4`).
+const fn other_axes(axis: usize) -> (usize, usize) {
+    match axis {
+        0 => (1, 2),
+        1 => (0, 2),
+        _ => (0, 1),
+    }
+}
+
 /// The two corners of each edge, the one with the smaller coordinate first.
 pub const EDGE_CORNERS: [[u8; 2]; 12] = {
     let mut t = [[0u8; 2]; 12];
     let mut e = 0;
     while e < 12 {
-        let axis = e / 4;
-        let r = e % 4;
+        let (axis, r) = (e / 4, e % 4);
         // The two fixed coordinates, in increasing axis order, take the bits of r.
-        let (a, b) = match axis {
-            0 => (1, 2),
-            1 => (0, 2),
-            _ => (0, 1),
-        };
+        let (a, b) = other_axes(axis);
         let lo = ((r & 1) << a) | ((r >> 1) << b);
         t[e] = [lo as u8, (lo | (1 << axis)) as u8];
         e += 1;
@@ -126,6 +133,19 @@ impl EdgeKey {
         EdgeKey { origin: [cell[0] + o[0], cell[1] + o[1], cell[2] + o[2]], axis: e.axis() }
     }
 
+    /// The cube edge of cell `cell` that is this edge, or `None` if the cell does not touch it
+    /// (the inverse of [`of_cell`](EdgeKey::of_cell)).
+    #[inline]
+    pub fn in_cell(&self, cell: [u32; 3]) -> Option<CubeEdge> {
+        let rel = [0, 1, 2].map(|a| self.origin[a] as i64 - cell[a] as i64);
+        let axis = self.axis.index();
+        if rel[axis] != 0 || rel.iter().any(|&x| !(0..=1).contains(&x)) {
+            return None;
+        }
+        let (u, v) = other_axes(axis);
+        Some(CubeEdge((4 * axis + (rel[u] as usize | ((rel[v] as usize) << 1))) as u8))
+    }
+
     /// The edge's upper point.
     #[inline]
     pub fn end(&self) -> [u32; 3] {
@@ -163,18 +183,37 @@ pub const FACE_CORNERS: [[u8; 4]; 6] = {
     t
 };
 
-/// The edge joining corners `a` and `b`, which must differ in exactly one coordinate.
+/// The edge joining corners `a` and `b` (either order), or `None` unless they differ in exactly
+/// one coordinate. The inverse of [`EDGE_CORNERS`].
 #[inline]
-pub const fn edge_between(a: u8, b: u8) -> CubeEdge {
-    let axis = (a ^ b).trailing_zeros() as u8;
-    let lo = a & b;
-    let (p, q) = match axis {
-        0 => (1, 2),
-        1 => (0, 2),
-        _ => (0, 1),
-    };
-    CubeEdge(4 * axis + (((lo >> p) & 1) | (((lo >> q) & 1) << 1)))
+pub const fn edge_between(a: u8, b: u8) -> Option<CubeEdge> {
+    let diff = a ^ b;
+    if diff.count_ones() != 1 {
+        return None;
+    }
+    let axis = diff.trailing_zeros() as usize;
+    let lo = (a & b) as usize; // the lower corner: the one without the differing bit
+    let (p, q) = other_axes(axis);
+    Some(CubeEdge((4 * axis + (((lo >> p) & 1) | (((lo >> q) & 1) << 1))) as u8))
 }
+
+/// The edges of each face in the order of [`FACE_CORNERS`]: edge `i` joins corners `i` and `i + 1`.
+pub const FACE_EDGES: [[u8; 4]; 6] = {
+    let mut t = [[0u8; 4]; 6];
+    let mut f = 0;
+    while f < 6 {
+        let mut i = 0;
+        while i < 4 {
+            t[f][i] = match edge_between(FACE_CORNERS[f][i], FACE_CORNERS[f][(i + 1) % 4]) {
+                Some(e) => e.0,
+                None => panic!("consecutive face corners share an edge"),
+            };
+            i += 1;
+        }
+        f += 1;
+    }
+    t
+};
 
 /// The two faces each edge lies on.
 pub const EDGE_FACES: [[u8; 2]; 12] = {
@@ -196,6 +235,12 @@ pub const EDGE_FACES: [[u8; 2]; 12] = {
     }
     t
 };
+
+mod range;
+mod segment;
+
+pub use range::CellRange;
+pub use segment::{CellPoint, SegmentKey, VertexKey};
 
 /// The case index of eight corner values already offset by iso: bit `c` set ⇔ `d[c] < 0`.
 #[inline]
@@ -264,10 +309,44 @@ mod tests {
             expect[a] = if side == 1 { 1 } else { -1 };
             assert_eq!(n, expect, "face {f}");
             for i in 0..4 {
-                let e = edge_between(FACE_CORNERS[f][i], FACE_CORNERS[f][(i + 1) % 4]);
-                assert!(EDGE_FACES[e.0 as usize].contains(&(f as u8)), "face {f}: edge {e:?} not on it");
+                let e = FACE_EDGES[f][i];
+                assert_eq!(Some(CubeEdge(e)), edge_between(FACE_CORNERS[f][i], FACE_CORNERS[f][(i + 1) % 4]));
+                assert!(EDGE_FACES[e as usize].contains(&(f as u8)), "face {f}: edge {e} not on it");
             }
         }
+    }
+
+    #[test]
+    fn edge_keys_and_cube_edges_invert_each_other() {
+        let cell = [3, 5, 7];
+        for e in 0..12u8 {
+            let key = EdgeKey::of_cell(cell, CubeEdge(e));
+            assert_eq!(key.in_cell(cell), Some(CubeEdge(e)));
+            // The same lattice edge seen from a neighbour that shares it.
+            let o = CubeEdge(e).origin_offset();
+            let axis = CubeEdge(e).axis().index();
+            let mut other = cell;
+            for a in 0..3 {
+                if a != axis && o[a] == 1 {
+                    other[a] += 1;
+                }
+            }
+            let seen = key.in_cell(other).unwrap();
+            assert_eq!(EdgeKey::of_cell(other, seen), key);
+        }
+        assert_eq!(EdgeKey { origin: [0, 0, 0], axis: Axis::X }.in_cell([0, 2, 0]), None);
+    }
+
+    #[test]
+    fn edge_between_inverts_edge_corners() {
+        for e in 0..12u8 {
+            let [a, b] = EDGE_CORNERS[e as usize];
+            assert_eq!(edge_between(a, b), Some(CubeEdge(e)));
+            assert_eq!(edge_between(b, a), Some(CubeEdge(e)));
+        }
+        assert_eq!(edge_between(0, 3), None);
+        assert_eq!(edge_between(0, 7), None);
+        assert_eq!(edge_between(5, 5), None);
     }
 
     #[test]

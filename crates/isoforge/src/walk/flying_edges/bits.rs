@@ -1,0 +1,247 @@
+//! Bit rows: one bit per point (set = inside), 64 per word, and the word tricks the passes share —
+//! crossings along a row, active cells of a cell row, and a crossing's rank in its row (its
+//! vertex id's offset).
+
+/// Bit rows of a box of points, `words` u64 per row, for rows `row0 ..` (row index
+/// `k · ny + j`, box-local). The whole box in memory, a 3-slab window when streaming.
+pub(super) struct Bits {
+    pub(super) words: usize,
+    pub(super) row0: usize,
+    pub(super) data: Vec<u64>,
+}
+
+impl Bits {
+    #[inline]
+    pub(super) fn row(&self, r: usize) -> &[u64] {
+        let r = r - self.row0;
+        &self.data[r * self.words..(r + 1) * self.words]
+    }
+}
+
+/// `a ^ (a >> 1)` across word boundaries: bit i set ⇔ points i and i + 1 differ (for i < `cells`).
+#[inline]
+pub(super) fn x_crossings(row: &[u64], out: &mut [u64], cells: usize) {
+    for w in 0..row.len() {
+        let next = if w + 1 < row.len() { row[w + 1] << 63 } else { 0 };
+        out[w] = row[w] ^ ((row[w] >> 1) | next);
+    }
+    mask_tail(out, cells);
+}
+
+/// Clears bits at and past `len`.
+#[inline]
+pub(super) fn mask_tail(words: &mut [u64], len: usize) {
+    let full = len / 64;
+    if full < words.len() {
+        let rem = len % 64;
+        words[full] &= if rem == 0 { 0 } else { (1u64 << rem) - 1 };
+        for w in &mut words[full + 1..] {
+            *w = 0;
+        }
+    }
+}
+
+#[inline]
+pub(super) fn popcount(words: &[u64]) -> u32 {
+    words.iter().map(|w| w.count_ones()).sum()
+}
+
+#[inline]
+pub(super) fn xor_count(a: &[u64], b: &[u64]) -> u32 {
+    a.iter().zip(b).map(|(x, y)| (x ^ y).count_ones()).sum()
+}
+
+#[inline]
+pub(super) fn xor_into(a: &[u64], b: &[u64], out: &mut [u64]) {
+    for ((o, x), y) in out.iter_mut().zip(a).zip(b) {
+        *o = x ^ y;
+    }
+}
+
+/// Mask of the valid cells (bits < `cells`) in word `w`.
+#[inline]
+pub(super) fn cell_mask(w: usize, cells: usize) -> u64 {
+    let lo = w * 64;
+    if lo + 64 <= cells {
+        !0
+    } else if lo >= cells {
+        0
+    } else {
+        (1u64 << (cells - lo)) - 1
+    }
+}
+
+#[inline(always)]
+pub(super) fn for_each_bit(words: &[u64], mut f: impl FnMut(usize)) {
+    for (w, &word) in words.iter().enumerate() {
+        let mut m = word;
+        while m != 0 {
+            let b = m.trailing_zeros() as usize;
+            f(w * 64 + b);
+            m &= m - 1;
+        }
+    }
+}
+
+/// The case of cell i from rows A = (j, k), B = (j+1, k), C = (j, k+1), E = (j+1, k+1):
+/// corner c = x + 2y + 4z (see cube/mod.rs).
+#[inline(always)]
+pub(super) fn case_at(rows: &[&[u64]; 4], i: usize) -> u8 {
+    let (w, b) = (i / 64, i % 64);
+    let mut case = 0u8;
+    for (q, row) in rows.iter().enumerate() {
+        // Bits i and i + 1 of the row, possibly straddling two words.
+        let pair = if b < 63 { row[w] >> b } else { (row[w] >> 63) | (row[w + 1] << 1) };
+        case |= ((pair & 3) as u8) << (2 * q);
+    }
+    case
+}
+
+/// The four bit rows of cell row `r` = (j, k) of a box `ny` rows deep: A, B, C, E as in [`case_at`].
+#[inline]
+pub(super) fn cell_rows(bits: &Bits, r: usize, ny: usize) -> [&[u64]; 4] {
+    [bits.row(r), bits.row(r + 1), bits.row(r + ny), bits.row(r + ny + 1)]
+}
+
+/// When row `r` = (j, k) and its neighbours (j+1, k), (j, k+1), (j+1, k+1) (those that exist in
+/// a box of `dims` points) are all entirely outside (0) or all entirely inside (1), that class:
+/// the row starts no crossed edge and its cell row has no active cell.
+#[inline]
+pub(super) fn uniform_block(bits: &Bits, r: usize, [j, k]: [usize; 2], dims: [usize; 3]) -> Option<u8> {
+    let [nx, ny, nz] = dims;
+    let a = bits.row(r);
+    let class = if a[0] & 1 == 1 { 1u8 } else { 0 };
+    let same = |row: &[u64]| row.iter().enumerate().all(|(w, &x)| x == if class == 1 { cell_mask(w, nx) } else { 0 });
+    if !same(a) {
+        return None;
+    }
+    if j + 1 < ny && !same(bits.row(r + 1)) {
+        return None;
+    }
+    if k + 1 < nz && !same(bits.row(r + ny)) {
+        return None;
+    }
+    if j + 1 < ny && k + 1 < nz && !same(bits.row(r + ny + 1)) {
+        return None;
+    }
+    Some(class)
+}
+
+/// Per-row crossing masks with prefix popcounts, for vertex ranks.
+pub(super) struct RankedMask {
+    pub(super) mask: Vec<u64>,
+    before: Vec<u32>,
+}
+
+impl RankedMask {
+    pub(super) fn new(words: usize) -> Self {
+        RankedMask { mask: vec![0; words], before: vec![0; words] }
+    }
+    fn rank_prefix(&mut self) {
+        let mut acc = 0;
+        for (b, m) in self.before.iter_mut().zip(&self.mask) {
+            *b = acc;
+            acc += m.count_ones();
+        }
+    }
+    /// Number of set bits below bit `i`.
+    #[inline(always)]
+    pub(super) fn rank(&self, i: usize) -> u32 {
+        let (w, b) = (i / 64, i % 64);
+        self.before[w] + (self.mask[w] & ((1u64 << b) - 1)).count_ones()
+    }
+}
+
+/// Marks the active cells of cell row `rows` (A, B, C, E) in `active` (cells `< cells`); returns
+/// the all-outside and all-inside cell counts.
+///
+/// A cell is inactive iff its 8 corners agree: both of its columns are uniform (the four rows
+/// agree at i and at i + 1) and row A agrees between i and i + 1.
+pub(super) fn mark_active(rows: [&[u64]; 4], cells: usize, active: &mut [u64]) -> (u64, u64) {
+    let [a, b, c, e] = rows;
+    let words = a.len();
+    let column = |w: usize| (a[w] ^ b[w]) | (a[w] ^ c[w]) | (a[w] ^ e[w]);
+    let (mut outside, mut inside) = (0u64, 0u64);
+    for w in 0..words {
+        let d = column(w);
+        let next_d = if w + 1 < words { column(w + 1) << 63 } else { 0 };
+        let next_a = if w + 1 < words { a[w + 1] << 63 } else { 0 };
+        let a_shift = (a[w] >> 1) | next_a;
+        active[w] = d | (d >> 1) | next_d | (a[w] ^ a_shift);
+    }
+    mask_tail(active, cells);
+    for w in 0..words {
+        let idle = !active[w] & cell_mask(w, cells);
+        inside += (idle & a[w]).count_ones() as u64;
+        outside += (idle & !a[w]).count_ones() as u64;
+    }
+    (outside, inside)
+}
+
+/// For each cube edge: the mask slot holding its row's crossings (see [`RowMasks`]) and the offset
+/// of its lower point from the cell's i.
+pub(super) const EDGE_SLOT: [(u8, u8); 12] = {
+    let mut t = [(0u8, 0u8); 12];
+    let mut e = 0;
+    while e < 12 {
+        let (lo, hi) = ((e & 1) as u8, ((e >> 1) & 1) as u8);
+        t[e] = match e / 4 {
+            0 => (lo + 2 * hi, 0), // x-edge at (y = lo, z = hi): rows A, B, C, E → slots 0–3
+            1 => (4 + hi, lo),     // y-edge at (x = lo, z = hi): rows A, C → slots 4, 5
+            _ => (6 + hi, lo),     // z-edge at (x = lo, y = hi): rows A, B → slots 6, 7
+        };
+        e += 1;
+    }
+    t
+};
+
+/// Ranked crossing masks of a cell row and the id of each mask's first vertex, by slot:
+/// 0–3 x-edges of rows A, B, C, E; 4–5 y-edges of rows A, C; 6–7 z-edges of rows A, B.
+pub(super) struct RowMasks {
+    pub(super) masks: [RankedMask; 8],
+    pub(super) base: [u32; 8],
+}
+
+impl RowMasks {
+    pub(super) fn new(words: usize) -> Self {
+        RowMasks { masks: std::array::from_fn(|_| RankedMask::new(words)), base: [0; 8] }
+    }
+
+    /// Loads cell row `r` = (j, k): `first(row)` is a row's first vertex id and `xy(row)` its
+    /// x- and y-edge counts (its y- and z-edges follow its x-edges, in that order).
+    pub(super) fn load(
+        &mut self,
+        bits: &Bits,
+        r: usize,
+        [nx, ny]: [usize; 2],
+        first: impl Fn(usize) -> u32,
+        xy: impl Fn(usize) -> (u32, u32),
+    ) {
+        let row_of = [r, r + 1, r + ny, r + ny + 1];
+        for q in 0..4 {
+            x_crossings(bits.row(row_of[q]), &mut self.masks[q].mask, nx - 1);
+            self.base[q] = first(row_of[q]);
+        }
+        // y-edges of A = (j, k) and C = (j, k + 1), after their rows' x-edges.
+        for (h, row) in [r, r + ny].into_iter().enumerate() {
+            xor_into(bits.row(row), bits.row(row + 1), &mut self.masks[4 + h].mask);
+            self.base[4 + h] = first(row) + xy(row).0;
+        }
+        // z-edges of A = (j, k) and B = (j + 1, k), after their rows' x- and y-edges.
+        for (h, row) in [r, r + 1].into_iter().enumerate() {
+            xor_into(bits.row(row), bits.row(row + ny), &mut self.masks[6 + h].mask);
+            let (x, y) = xy(row);
+            self.base[6 + h] = first(row) + x + y;
+        }
+        for m in &mut self.masks {
+            m.rank_prefix();
+        }
+    }
+
+    /// The vertex id of cube edge `e` of the cell at box-local `i`.
+    #[inline(always)]
+    pub(super) fn id(&self, e: u8, i: usize) -> u32 {
+        let (slot, off) = EDGE_SLOT[e as usize];
+        self.base[slot as usize] + self.masks[slot as usize].rank(i + off as usize)
+    }
+}

@@ -1,0 +1,87 @@
+//! PASS 2: every row → its crossed x-, y-, z-edges (popcounts of XORed bit rows); every cell row
+//! → the polygons and placed vertices of its active cells (the extractor's counts).
+
+use super::bits::{
+    case_at, cell_rows, for_each_bit, mark_active, popcount, uniform_block, x_crossings, xor_count, Bits, RankedMask,
+};
+use super::{cell_values, Passes};
+use crate::extract::{CellCounts, Extractor};
+use crate::volume::SampleSlabs;
+
+/// Counts of one row (its edges) and of the cell row starting at it (its cells' output).
+#[derive(Clone, Copy, Default, Debug)]
+pub(super) struct RowCount {
+    pub(super) x: u32,
+    pub(super) y: u32,
+    pub(super) z: u32,
+    /// Vertices the cells of this cell row place.
+    pub(super) placed: u32,
+    pub(super) tris: u32,
+    pub(super) quads: u32,
+}
+
+impl RowCount {
+    /// Vertices numbered in this row: its edges', then its cells' placed ones.
+    #[inline]
+    pub(super) fn vertices(&self) -> u32 {
+        self.x + self.y + self.z + self.placed
+    }
+}
+
+/// The extractor's counts per case, `None` where the values decide.
+pub(super) struct CaseCounts([Option<CellCounts>; 256]);
+
+impl CaseCounts {
+    pub(super) fn of<X: Extractor>(x: &X) -> Self {
+        CaseCounts(std::array::from_fn(|c| x.case_counts(c as u8)))
+    }
+}
+
+impl<V: SampleSlabs, X: Extractor> Passes<'_, V, X> {
+    /// PASS 2 for the rows of point plane `k` (box-local) into `out`; returns the all-outside and
+    /// all-inside cell counts of cell layer `k`.
+    pub(super) fn count_plane(&self, bits: &Bits, k: usize, out: &mut [RowCount]) -> [u64; 2] {
+        let bx = &self.bx;
+        let [nx, ny, nz] = bx.dims;
+        let mut cs = [0u64; 2];
+        let mut xs = RankedMask::new(bits.words);
+        let mut active = vec![0u64; bits.words];
+        for (j, c) in out.iter_mut().enumerate() {
+            let r = k * ny + j;
+            *c = RowCount::default();
+            let cells_here = j + 1 < ny && k + 1 < nz;
+            if let Some(class) = uniform_block(bits, r, [j, k], bx.dims) {
+                // No crossing in or out of this row and its cell row: only cell counts.
+                if cells_here {
+                    cs[class as usize] += (nx - 1) as u64;
+                }
+                continue;
+            }
+            x_crossings(bits.row(r), &mut xs.mask, nx - 1);
+            c.x = popcount(&xs.mask);
+            c.y = if j + 1 < ny { xor_count(bits.row(r), bits.row(r + 1)) } else { 0 };
+            c.z = if k + 1 < nz { xor_count(bits.row(r), bits.row(r + ny)) } else { 0 };
+            if !cells_here {
+                continue;
+            }
+            let rows = cell_rows(bits, r, ny);
+            let (outside, inside) = mark_active(rows, nx - 1, &mut active);
+            cs[0] += outside;
+            cs[1] += inside;
+            for_each_bit(&active, |i| {
+                let case = case_at(&rows, i);
+                let n = match self.table.0[case as usize] {
+                    Some(n) => n,
+                    None => {
+                        let l = [i, j, k];
+                        self.x.counts(case, bx.global(l), || cell_values(self.vol, bx, self.iso, l))
+                    }
+                };
+                c.tris += n.triangles as u32;
+                c.quads += n.quads as u32;
+                c.placed += n.placed as u32;
+            });
+        }
+        cs
+    }
+}

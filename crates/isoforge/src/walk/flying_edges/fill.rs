@@ -1,0 +1,377 @@
+//! PASS 3 (prefix sums) and PASS 4 (fill): rows write their vertices by rank, active cells run the
+//! extractor through [`FillCell`], polygons land at their precomputed offsets.
+
+use std::cell::OnceCell;
+
+use super::bits::{case_at, cell_rows, for_each_bit, mark_active, x_crossings, xor_into, Bits, RankedMask, RowMasks};
+use super::count::RowCount;
+use super::{cell_values, Passes};
+use crate::cube::{Axis, CellPoint, CubeEdge, EdgeKey, VertexKey};
+use crate::error::{Error, Result};
+use crate::extract::Extractor;
+use crate::grid::Sample;
+use crate::mesh::{MeshBuilder, VertexId};
+use crate::volume::SampleSlabs;
+use crate::walk::segment;
+use crate::walk::{edge_crossing, edge_hermite, edge_normal, Cell, Hermite};
+
+/// Row counts and each row's first vertex, triangle and quad, for box rows `row0 ..`.
+pub(super) struct RowTable {
+    pub(super) counts: Vec<RowCount>,
+    /// `[vertex, triangle, quad]` before each row; one more entry holds the totals.
+    base: Vec<[u64; 3]>,
+    pub(super) row0: usize,
+}
+
+impl RowTable {
+    /// PASS 3: running sums over all rows.
+    ///
+    /// # Errors
+    /// [`Error::Limit`] past `u32` vertex indices.
+    pub(super) fn prefix(counts: Vec<RowCount>) -> Result<Self> {
+        let mut base = Vec::with_capacity(counts.len() + 1);
+        let mut acc = [0u64; 3];
+        for c in &counts {
+            base.push(acc);
+            acc[0] += c.vertices() as u64;
+            acc[1] += c.tris as u64;
+            acc[2] += c.quads as u64;
+        }
+        base.push(acc);
+        check_vertices(acc[0])?;
+        Ok(RowTable { counts, base, row0: 0 })
+    }
+
+    /// A table for a window of rows starting at `row0` whose first vertex, triangle and quad
+    /// are `start` (streaming: the counts are set later with [`restart`](RowTable::restart)).
+    pub(super) fn window(rows: usize) -> Self {
+        RowTable { counts: vec![RowCount::default(); rows], base: vec![[0; 3]; rows + 1], row0: 0 }
+    }
+
+    /// Recomputes the running sums of the window from `start` (its first row's bases).
+    ///
+    /// # Errors
+    /// [`Error::Limit`] past `u32` vertex indices.
+    pub(super) fn restart(&mut self, row0: usize, start: [u64; 3]) -> Result<()> {
+        self.row0 = row0;
+        let mut acc = start;
+        for (b, c) in self.base.iter_mut().zip(&self.counts) {
+            *b = acc;
+            acc[0] += c.vertices() as u64;
+            acc[1] += c.tris as u64;
+            acc[2] += c.quads as u64;
+        }
+        if let Some(last) = self.base.last_mut() {
+            *last = acc;
+        }
+        check_vertices(acc[0])
+    }
+
+    /// Vertices, triangles and quads of all rows.
+    pub(super) fn totals(&self) -> [usize; 3] {
+        self.base[self.base.len() - 1].map(|x| x as usize)
+    }
+
+    /// Vertices, triangles and quads of the `ny` rows of box plane `k`.
+    pub(super) fn plane_sizes(&self, k: usize, ny: usize) -> [usize; 3] {
+        let (a, b) = (self.base(k * ny), self.base((k + 1) * ny));
+        [0, 1, 2].map(|i| (b[i] - a[i]) as usize)
+    }
+
+    #[inline(always)]
+    pub(super) fn count(&self, r: usize) -> RowCount {
+        self.counts[r - self.row0]
+    }
+
+    #[inline(always)]
+    pub(super) fn base(&self, r: usize) -> [u64; 3] {
+        self.base[r - self.row0]
+    }
+}
+
+fn check_vertices(n: u64) -> Result<()> {
+    if n > MeshBuilder::MAX_VERTICES {
+        return Err(Error::Limit { what: "mesh vertices", requested: n, allowed: MeshBuilder::MAX_VERTICES });
+    }
+    Ok(())
+}
+
+/// One slab's share of the output: its vertices, triangles and quads, and the keys it records.
+pub(super) struct SlabOut<'a> {
+    pub(super) positions: &'a mut [[f32; 3]],
+    /// Empty when normals are off.
+    pub(super) normals: &'a mut [[f32; 3]],
+    pub(super) triangles: &'a mut [[u32; 3]],
+    pub(super) quads: &'a mut [[u32; 4]],
+    pub(super) keys: Vec<(u32, VertexKey)>,
+}
+
+/// Rows of look-ahead for the sample prefetch (enough to cover memory latency on sparse rows).
+const PREFETCH_ROWS: usize = 2;
+
+impl<V: SampleSlabs, X: Extractor> Passes<'_, V, X> {
+    /// PASS 4 for box plane `k`: the vertices of its rows, then the polygons of its cell rows.
+    pub(super) fn fill_plane(&self, bits: &Bits, table: &RowTable, k: usize, out: &mut SlabOut) {
+        let bx = &self.bx;
+        let [nx, ny, nz] = bx.dims;
+        let words = bits.words;
+        let z = bx.lo[2] + k as u32;
+        let s0 = self.vol.slab(z);
+        let s1 = if k + 1 < nz { self.vol.slab(z + 1) } else { s0 };
+        let plane = table.base(k * ny);
+        let stride = bx.row_stride();
+        let mut out_v = 0usize;
+        let mut mask = RankedMask::new(words);
+        let mut ymask = vec![0u64; words];
+        let mut emit = |key: EdgeKey, a: V::Sample, b: V::Sample, out_v: &mut usize| {
+            let (d0, d1) = (self.iso.offset(a.to_f64()), self.iso.offset(b.to_f64()));
+            let (p, t) = edge_crossing(self.vol, key, d0, d1, self.iso);
+            out.positions[*out_v] = p;
+            if self.normals {
+                out.normals[*out_v] = edge_normal(self.vol, key, t, d0, self.iso);
+            }
+            let key = VertexKey::Edge(key);
+            if self.records(&key) {
+                out.keys.push(((plane[0] + *out_v as u64) as u32, key));
+            }
+            *out_v += 1;
+        };
+        // Vertices of the slab's rows: x-edges, then y-edges, then z-edges of each row, then
+        // room for the vertices its cells place. The samples a row needs are scattered (sparse
+        // surfaces) and the hardware cannot guess them; their positions are known from the bits,
+        // so they are prefetched PREFETCH_ROWS rows ahead.
+        for j in 0..PREFETCH_ROWS.min(ny) {
+            self.prefetch_row(bits, k, j, s0, s1, &mut ymask);
+        }
+        for j in 0..ny {
+            if j + PREFETCH_ROWS < ny {
+                self.prefetch_row(bits, k, j + PREFETCH_ROWS, s0, s1, &mut ymask);
+            }
+            let r = k * ny + j;
+            let at = bx.in_slab(0, j);
+            x_crossings(bits.row(r), &mut mask.mask, nx - 1);
+            for_each_bit(&mask.mask, |i| {
+                let key = EdgeKey { origin: bx.global([i, j, k]), axis: Axis::X };
+                emit(key, s0[at + i], s0[at + i + 1], &mut out_v)
+            });
+            if j + 1 < ny {
+                xor_into(bits.row(r), bits.row(r + 1), &mut ymask);
+                for_each_bit(&ymask, |i| {
+                    let key = EdgeKey { origin: bx.global([i, j, k]), axis: Axis::Y };
+                    emit(key, s0[at + i], s0[at + i + stride], &mut out_v)
+                });
+            }
+            if k + 1 < nz {
+                xor_into(bits.row(r), bits.row(r + ny), &mut ymask);
+                for_each_bit(&ymask, |i| {
+                    let key = EdgeKey { origin: bx.global([i, j, k]), axis: Axis::Z };
+                    emit(key, s0[at + i], s1[at + i], &mut out_v)
+                });
+            }
+            out_v += table.count(r).placed as usize;
+        }
+        debug_assert_eq!(out_v, out.positions.len());
+        if k + 1 >= nz {
+            return;
+        }
+        // Polygons of the cell rows of layer k.
+        let mut ranked = RowMasks::new(words);
+        let mut active = vec![0u64; words];
+        let mut state = FillState { t: 0, q: 0, plane_v: plane[0], next_placed: 0 };
+        let first = |row: usize| table.base(row)[0] as u32;
+        let xy = |row: usize| (table.count(row).x, table.count(row).y);
+        for j in 0..ny - 1 {
+            let r = k * ny + j;
+            let c = table.count(r);
+            if c.tris == 0 && c.quads == 0 && c.placed == 0 {
+                continue;
+            }
+            let rows = cell_rows(bits, r, ny);
+            mark_active(rows, nx - 1, &mut active);
+            ranked.load(bits, r, [nx, ny], first, xy);
+            state.next_placed = table.base(r)[0] + (c.x + c.y + c.z) as u64;
+            for_each_bit(&active, |i| {
+                let l = [i, j, k];
+                let mut cell = FillCell {
+                    p: self,
+                    l,
+                    ijk: bx.global(l),
+                    case: case_at(&rows, i),
+                    values: OnceCell::new(),
+                    ranked: &ranked,
+                    ids: [0; 12],
+                    known: 0,
+                    memo: [f32::NAN; 7],
+                    placed: 0,
+                    out,
+                    state: &mut state,
+                };
+                self.x.process(&mut cell);
+            });
+        }
+        debug_assert_eq!(state.t, out.triangles.len());
+        debug_assert_eq!(state.q, out.quads.len());
+    }
+
+    /// Prefetches the samples that row (j, k)'s crossings will read: rows (j, k), (j + 1, k) and
+    /// (j, k + 1) around every point where an edge starting in row (j, k) crosses.
+    #[inline]
+    fn prefetch_row(&self, bits: &Bits, k: usize, j: usize, s0: &[V::Sample], s1: &[V::Sample], union: &mut [u64]) {
+        let [nx, ny, nz] = self.bx.dims;
+        let r = k * ny + j;
+        let a = bits.row(r);
+        for w in 0..union.len() {
+            let next = if w + 1 < a.len() { a[w + 1] << 63 } else { 0 };
+            let mut m = a[w] ^ ((a[w] >> 1) | next) | (a[w] << 1 ^ a[w]);
+            if j + 1 < ny {
+                m |= a[w] ^ bits.row(r + 1)[w];
+            }
+            if k + 1 < nz {
+                m |= a[w] ^ bits.row(r + ny)[w];
+            }
+            union[w] = m;
+        }
+        let at = self.bx.in_slab(0, j);
+        let stride = self.bx.row_stride();
+        let mut last_line = usize::MAX;
+        for_each_bit(union, |i| {
+            let i = i.min(nx - 1);
+            // One prefetch per 64-byte line of the row.
+            let line = i * std::mem::size_of::<V::Sample>() / 64;
+            if line == last_line {
+                return;
+            }
+            last_line = line;
+            prefetch(&s0[at + i]);
+            if j + 1 < ny {
+                prefetch(&s0[at + i + stride]);
+            }
+            if k + 1 < nz {
+                prefetch(&s1[at + i]);
+            }
+        });
+    }
+}
+
+#[inline(always)]
+fn prefetch<S>(x: &S) {
+    #[cfg(target_arch = "x86_64")]
+    // SAFETY: a prefetch is a hint; it never faults and does not read the value into a register.
+    unsafe {
+        std::arch::x86_64::_mm_prefetch::<{ std::arch::x86_64::_MM_HINT_T0 }>((x as *const S).cast::<i8>());
+    }
+    #[cfg(not(target_arch = "x86_64"))]
+    let _ = x;
+}
+
+/// Write cursors of one slab's cell pass.
+struct FillState {
+    t: usize,
+    q: usize,
+    /// Global id of the slab's first vertex.
+    plane_v: u64,
+    /// Global id of the next vertex a cell of the current row places.
+    next_placed: u64,
+}
+
+/// A cell of the fill pass: edge vertex ids by rank (computed once per cell), polygons and placed
+/// vertices written at their counted offsets.
+struct FillCell<'a, 'o, V, X> {
+    p: &'a Passes<'a, V, X>,
+    l: [usize; 3],
+    ijk: [u32; 3],
+    case: u8,
+    values: OnceCell<[f32; 8]>,
+    ranked: &'a RowMasks,
+    ids: [u32; 12],
+    known: u16,
+    memo: [f32; 7],
+    placed: u8,
+    out: &'a mut SlabOut<'o>,
+    state: &'a mut FillState,
+}
+
+impl<V: SampleSlabs, X: Extractor> Cell for FillCell<'_, '_, V, X> {
+    #[inline]
+    fn ijk(&self) -> [u32; 3] {
+        self.ijk
+    }
+    #[inline]
+    fn values(&self) -> &[f32; 8] {
+        self.values.get_or_init(|| cell_values(self.p.vol, &self.p.bx, self.p.iso, self.l))
+    }
+    #[inline]
+    fn case(&self) -> u8 {
+        self.case
+    }
+
+    fn hermite(&mut self, e: CubeEdge) -> Hermite {
+        let [c0, c1] = e.corners();
+        let d = *self.values();
+        edge_hermite(self.p.vol, EdgeKey::of_cell(self.ijk, e), d[c0 as usize], d[c1 as usize], self.p.iso)
+    }
+
+    #[inline(always)]
+    fn edge_vertex(&mut self, e: CubeEdge) -> VertexId {
+        if self.known & (1 << e.0) == 0 {
+            self.ids[e.0 as usize] = self.ranked.id(e.0, self.l[0]);
+            self.known |= 1 << e.0;
+        }
+        VertexId(self.ids[e.0 as usize])
+    }
+
+    #[inline]
+    fn has_neighbour(&self, face: u8) -> bool {
+        segment::has_neighbour(self.p.vol.lattice().dims(), self.ijk, face)
+    }
+
+    fn point_value(&mut self, p: CellPoint) -> f32 {
+        let d = *self.values();
+        segment::point_value(self.p.vol, self.p.iso, self.ijk, &d, &mut self.memo, p)
+    }
+
+    fn segment_vertex(&mut self, a: CellPoint, b: CellPoint) -> VertexId {
+        match CellPoint::axis_edge(a, b) {
+            Some(e) => self.edge_vertex(e),
+            None => unreachable!("an extractor with Counting::Known named a segment off the lattice edges"),
+        }
+    }
+
+    fn place_vertex(&mut self, local: [f32; 3], _edges: u16) -> VertexId {
+        let (id, n) = (self.state.next_placed, self.placed);
+        self.state.next_placed += 1;
+        self.placed += 1;
+        let at = (id - self.state.plane_v) as usize;
+        let p = [0, 1, 2].map(|a| self.ijk[a] as f64 + local[a] as f64);
+        let w = self.p.vol.lattice().to_world(p);
+        self.out.positions[at] = [w[0] as f32, w[1] as f32, w[2] as f32];
+        if self.p.normals {
+            let g = (self.p.vol.gradient_at(p) * self.p.iso.sign()).normalize_or_zero();
+            self.out.normals[at] = g.to_array();
+        }
+        let key = VertexKey::Cell { ijk: self.ijk, n };
+        if self.p.records(&key) {
+            self.out.keys.push((id as u32, key));
+        }
+        VertexId(id as u32)
+    }
+
+    fn placed_vertex(&mut self, _offset: [i8; 3], _e: CubeEdge) -> Option<VertexId> {
+        debug_assert!(false, "an extractor with Counting::Known asked for a neighbour's placed vertex");
+        None
+    }
+
+    #[inline(always)]
+    fn push_triangle(&mut self, t: [VertexId; 3]) {
+        let t = if self.p.reverse { [t[0].0, t[2].0, t[1].0] } else { [t[0].0, t[1].0, t[2].0] };
+        self.out.triangles[self.state.t] = t;
+        self.state.t += 1;
+    }
+
+    #[inline]
+    fn push_quad(&mut self, q: [VertexId; 4]) {
+        let q = if self.p.reverse { [q[0].0, q[3].0, q[2].0, q[1].0] } else { q.map(|v| v.0) };
+        self.out.quads[self.state.q] = q;
+        self.state.q += 1;
+    }
+}

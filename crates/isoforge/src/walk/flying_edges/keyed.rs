@@ -1,0 +1,148 @@
+//! Extractors whose output is not known before processing: fixed groups of cell layers walked in
+//! parallel, each into its own mesh with the keys of the vertices it shares, stitched by key.
+//!
+//! ```text
+//!   group g: cell layers k0 .. k1   (layers per group fixed by the lattice's size, never by the
+//!                                    thread count, so the output is the same for every count)
+//!   plane k0 is shared with group g − 1, plane k1 with group g + 1: vertices there are made by
+//!   both and kept once, where they first occur (walk::stitch)
+//! ```
+
+use std::sync::atomic::{AtomicU64, Ordering};
+
+use super::bits::{case_at, cell_rows, for_each_bit, mark_active, Bits};
+use super::{cell_values, map_tasks, Passes};
+use crate::cube::CellRange;
+use crate::error::Result;
+use crate::extract::Extractor;
+use crate::mesh::{KeyRecord, MeshBuilder, Normals};
+use crate::volume::SampleSlabs;
+use crate::walk::cached::{CachedCell, LayerCaches};
+use crate::walk::stitch::{stitch_keyed, KeyedMesh};
+use crate::walk::{wants_cell, Progress, WalkStats};
+
+/// Groups of cell layers: about this many, whatever the thread count.
+const GROUPS: u32 = 64;
+
+impl<V: SampleSlabs + Sync, X: Extractor + Sync> Passes<'_, V, X> {
+    /// Walks the range in layer groups and stitches their meshes into `out`.
+    pub(super) fn keyed(
+        &self,
+        bits: &Bits,
+        out: &mut MeshBuilder,
+        progress: Option<&dyn Progress>,
+    ) -> Result<WalkStats> {
+        let r = self.range;
+        let layers = r.hi[2] - r.lo[2];
+        let per = layers.div_ceil(GROUPS).max(1);
+        let groups: Vec<CellRange> =
+            (r.lo[2]..r.hi[2]).step_by(per as usize).map(|k0| r.layers(k0, k0 + per)).collect();
+        let done = AtomicU64::new(0);
+        let total = groups.len() as u64;
+        let normals = if self.normals { Normals::Gradient } else { Normals::None };
+        let parts = map_tasks(groups, |g| {
+            let mut b = MeshBuilder::new(normals).with_keys(KeyRecord::Boundary(g));
+            b.set_reverse_winding(self.reverse);
+            let mut caches = LayerCaches::default();
+            let stats = self.walk_group(bits, &g, &mut caches, &mut b);
+            if let Some(p) = progress {
+                p.advance(done.fetch_add(1, Ordering::Relaxed) + 1, total);
+            }
+            Ok::<_, crate::Error>((KeyedMesh::from_builder(b)?, stats))
+        });
+        let mut stats = WalkStats::default();
+        let mut meshes = Vec::with_capacity(parts.len());
+        for part in parts {
+            let (m, s) = part?;
+            stats.add(s);
+            meshes.push(m);
+        }
+        let stitched = stitch_keyed(&meshes)?;
+        let keys = stitched.keys.into_iter().filter(|(_, k)| self.records(k)).collect();
+        out.set_assembled(stitched.mesh, keys);
+        Ok(stats)
+    }
+
+    /// Walks the cells of group `g` (and, for placing extractors, places the cells just before
+    /// it) into `out`.
+    pub(super) fn walk_group(
+        &self,
+        bits: &Bits,
+        g: &CellRange,
+        caches: &mut LayerCaches,
+        out: &mut MeshBuilder,
+    ) -> WalkStats {
+        let bx = &self.bx;
+        let places = X::PLACES_VERTICES;
+        let first_k = if places { g.lo[2].saturating_sub(1).max(bx.lo[2]) } else { g.lo[2] };
+        caches.reset([bx.lo[0], bx.lo[1]], bx.dims[0], bx.dims[1], places);
+        let mut stats = WalkStats::default();
+        for gk in first_k..g.hi[2] {
+            stats.add(self.walk_layer(bits, gk, gk >= g.lo[2], caches, out));
+            caches.advance(places);
+        }
+        stats
+    }
+
+    /// Walks cell layer `gk` (global) with active cells found from the bits; its cells are
+    /// processed when `process` is set (otherwise only placed: the layer before a group).
+    pub(super) fn walk_layer(
+        &self,
+        bits: &Bits,
+        gk: u32,
+        process: bool,
+        caches: &mut LayerCaches,
+        out: &mut MeshBuilder,
+    ) -> WalkStats {
+        let bx = &self.bx;
+        let [nx, ny, _] = bx.dims;
+        let places = X::PLACES_VERTICES;
+        let uniform_too = self.x.visits_uniform_cells();
+        let mut stats = WalkStats::default();
+        let mut active = vec![0u64; bits.words];
+        // Box-local first cell of the range (the box starts one cell early for placing extractors).
+        let lo = [0, 1, 2].map(|a| (self.range.lo[a] - bx.lo[a]) as usize);
+        let k = (gk - bx.lo[2]) as usize;
+        for j in 0..ny - 1 {
+            let r = k * ny + j;
+            let rows = cell_rows(bits, r, ny);
+            let (mut outside, mut inside) = mark_active(rows, nx - 1, &mut active);
+            let row_in = process && j >= lo[1];
+            if row_in {
+                // Cells before the range on x (placing extractors' halo) are not counted.
+                for i in 0..lo[0] {
+                    if active[i / 64] >> (i % 64) & 1 == 0 {
+                        if rows[0][i / 64] >> (i % 64) & 1 == 1 {
+                            inside -= 1;
+                        } else {
+                            outside -= 1;
+                        }
+                    }
+                }
+                stats.add(WalkStats { cells: (nx - 1 - lo[0]) as u64, cells_outside: outside, cells_inside: inside });
+            }
+            let mut visit = |i: usize, case: u8| {
+                if !wants_cell(self.x, case) {
+                    return;
+                }
+                let l = [i, j, k];
+                let d = cell_values(self.vol, bx, self.iso, l);
+                let mut cell = CachedCell::new(bx.global(l), d, case, self.vol, self.iso, caches, out);
+                if places {
+                    self.x.place(&mut cell);
+                }
+                if row_in && i >= lo[0] {
+                    self.x.process(&mut cell);
+                }
+            };
+            if uniform_too {
+                for i in 0..nx - 1 {
+                    visit(i, case_at(&rows, i));
+                }
+            } else {
+                for_each_bit(&active, |i| visit(i, case_at(&rows, i)));
+            }
+        }
+        stats
+    }
+}

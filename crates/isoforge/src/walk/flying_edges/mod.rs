@@ -1,0 +1,312 @@
+//! The Flying Edges walker [Schroeder15]: any extractor on sampled grids, in passes over x-rows,
+//! parallel over z-slabs, with output identical for every thread count.
+//!
+//! ```text
+//! PASS 1 classify   every x-row → one bit per point (inside), in the sample's own type (AVX2 for f32);
+//!                   blocks whose bounds exclude the iso are set without reading their samples
+//! PASS 2 count      every row (j, k) → crossed x-, y-, z-edges starting in it (popcounts of XORed
+//!                   bit rows); every cell row → its active cells' triangles, quads and placed
+//!                   vertices (the extractor's counts: a table per case, the values where the
+//!                   case does not decide)
+//! PASS 3 prefix     running sums → each row's first vertex, triangle and quad; exact allocation
+//! PASS 4 fill       every slab in parallel writes its rows' vertices and its cells' polygons at
+//!                   those offsets, no locks; an edge's vertex id = its row's base + its rank in
+//!                   the row; the extractor sees each active cell through `Cell`
+//! ```
+//! Vertex order: rows in (k, j) order; within a row its x-edges by i, then y-edges, then z-edges,
+//! then the vertices its cells place. Crossings and normals come from the shared
+//! [`edge_crossing`](super::edge_crossing) on the volume, so every vertex is bit-identical to the
+//! [`SlabWalker`](super::SlabWalker)'s; only the numbering differs.
+//!
+//! Extractors whose output is not known before processing ([`Counting::Unknown`]: tetrahedra,
+//! dual methods) run on the same slab partition: fixed groups of cell layers are walked in
+//! parallel (active cells from the bits), each into its own mesh, and the meshes are stitched by
+//! vertex key in group order (`keyed.rs`).
+//!
+//! [`stream`](FlyingEdgesWalker::stream) runs the same passes on a window that slides up a
+//! [`SlabSource`](crate::volume::SlabSource) (4 slabs of samples, 3 of bits, 2 of row counts)
+//! and hands each slab's vertices and polygons to a [`MeshSink`](crate::mesh::MeshSink): a volume
+//! larger than memory in O(nx·ny) memory, with the same output.
+
+mod bits;
+mod classify;
+mod count;
+mod fill;
+mod keyed;
+mod stream;
+
+use std::sync::atomic::{AtomicU64, Ordering};
+
+pub use stream::StreamStats;
+
+use self::bits::Bits;
+use self::count::{CaseCounts, RowCount};
+use self::fill::{RowTable, SlabOut};
+use super::{range_of, Progress, WalkStats, Walker};
+use crate::cube::{CellRange, VertexKey};
+use crate::error::{Error, Result};
+use crate::extract::{Counting, Extractor};
+use crate::grid::Sample;
+use crate::mesh::{huge_vec, KeyRecord, Mesh, MeshBuilder};
+use crate::volume::{Iso, SampleSlabs};
+
+/// The parallel walker for sampled grids (and streamed slabs): see the module documentation.
+///
+/// Runs on the current rayon pool (the `parallel` feature); the mesh is the same for every
+/// thread count, byte for byte.
+#[derive(Default, Clone, Copy)]
+pub struct FlyingEdgesWalker<'p> {
+    range: Option<CellRange>,
+    progress: Option<&'p dyn Progress>,
+}
+
+impl<'p> FlyingEdgesWalker<'p> {
+    /// A walker over the whole lattice.
+    pub fn new() -> Self {
+        FlyingEdgesWalker::default()
+    }
+
+    /// Walks only the cells of `range` (global lattice indices).
+    pub fn with_range(mut self, range: CellRange) -> Self {
+        self.range = Some(range);
+        self
+    }
+
+    /// Reports progress once per slab.
+    pub fn with_progress(mut self, progress: &'p dyn Progress) -> Self {
+        self.progress = Some(progress);
+        self
+    }
+}
+
+/// The box of points a walk reads: the corners of its range's cells (and, for extractors that
+/// place vertices, of the cells just before it). Rows and planes are box-local from here on.
+#[derive(Debug, Clone, Copy)]
+struct PointBox {
+    /// Global index of the first point.
+    lo: [u32; 3],
+    /// Points per axis.
+    dims: [usize; 3],
+    /// The sample box of the volume (first point, points per x-row and per slab).
+    s_lo: [u32; 3],
+    s_nx: usize,
+}
+
+impl PointBox {
+    /// The points of `cells`' corners, checked against the volume's samples.
+    fn of<V: SampleSlabs>(vol: &V, first: [u32; 3], cells: &CellRange) -> Result<Self> {
+        let (s_lo, s_dims) = vol.sample_box();
+        let hi = cells.hi; // the last point on each axis (inclusive)
+        for a in 0..3 {
+            if first[a] < s_lo[a] || hi[a] >= s_lo[a] + s_dims[a] {
+                return Err(Error::InvalidInput(format!(
+                    "cells {:?}..{:?} need points {first:?}..={hi:?}, the samples hold {s_lo:?} and {s_dims:?} more",
+                    cells.lo, cells.hi
+                )));
+            }
+        }
+        Ok(PointBox {
+            lo: first,
+            dims: [0, 1, 2].map(|a| (hi[a] - first[a] + 1) as usize),
+            s_lo,
+            s_nx: s_dims[0] as usize,
+        })
+    }
+
+    /// Global index of box-local point `l`.
+    #[inline(always)]
+    fn global(&self, l: [usize; 3]) -> [u32; 3] {
+        [0, 1, 2].map(|a| self.lo[a] + l[a] as u32)
+    }
+
+    /// Index in a slab of the volume of box-local point `(i, j)`.
+    #[inline(always)]
+    fn in_slab(&self, i: usize, j: usize) -> usize {
+        (self.lo[1] - self.s_lo[1]) as usize * self.s_nx + j * self.s_nx + (self.lo[0] - self.s_lo[0]) as usize + i
+    }
+
+    /// Stride between neighbouring rows of a slab.
+    #[inline(always)]
+    fn row_stride(&self) -> usize {
+        self.s_nx
+    }
+
+    /// Words of one bit row.
+    fn words(&self) -> usize {
+        self.dims[0].div_ceil(64)
+    }
+}
+
+/// The offset values of the eight corners of box-local cell `[i, j, k]`.
+#[inline]
+fn cell_values<V: SampleSlabs>(vol: &V, bx: &PointBox, iso: Iso, [i, j, k]: [usize; 3]) -> [f32; 8] {
+    let z = bx.lo[2] + k as u32;
+    let (s0, s1) = (vol.slab(z), vol.slab(z + 1));
+    let (a, b) = (bx.in_slab(i, j), bx.in_slab(i, j + 1));
+    let v = |s: &[V::Sample], at: usize| iso.offset(s[at].to_f64());
+    [v(s0, a), v(s0, a + 1), v(s0, b), v(s0, b + 1), v(s1, a), v(s1, a + 1), v(s1, b), v(s1, b + 1)]
+}
+
+/// What every pass of one walk shares.
+struct Passes<'a, V, X> {
+    vol: &'a V,
+    x: &'a X,
+    iso: Iso,
+    bx: PointBox,
+    table: &'a CaseCounts,
+    /// The walked range (the box may start one cell earlier, for placing extractors).
+    range: CellRange,
+    /// Mirrored lattice: polygons are reversed so they stay counter-clockwise from outside.
+    reverse: bool,
+    normals: bool,
+    record: KeyRecord,
+}
+
+impl<V: SampleSlabs + Sync> Walker<V> for FlyingEdgesWalker<'_> {
+    fn walk<X: Extractor + Sync>(&mut self, vol: &V, iso: Iso, x: &X, out: &mut MeshBuilder) -> Result<WalkStats> {
+        walk_in_memory(self, vol, iso, x, out)
+    }
+}
+
+fn walk_in_memory<V: SampleSlabs + Sync, X: Extractor + Sync>(
+    w: &FlyingEdgesWalker<'_>,
+    vol: &V,
+    iso: Iso,
+    x: &X,
+    out: &mut MeshBuilder,
+) -> Result<WalkStats> {
+    let lattice = vol.lattice();
+    let range = range_of(w.range, lattice.dims());
+    if range.is_empty() {
+        return Ok(WalkStats::default());
+    }
+    let first = if X::PLACES_VERTICES { range.lo.map(|v| v.saturating_sub(1)) } else { range.lo };
+    let bx = PointBox::of(vol, first, &range)?;
+    let table = CaseCounts::of(x);
+    let p = Passes {
+        vol,
+        x,
+        iso,
+        bx,
+        table: &table,
+        range,
+        reverse: lattice.is_mirrored(),
+        normals: out.wants_normals(),
+        record: out.key_record(),
+    };
+    // PASS 1: classify every row.
+    let [_, ny, nz] = bx.dims;
+    let words = bx.words();
+    let mut bits = Bits { words, row0: 0, data: huge_vec(ny * nz * words, 0u64) };
+    for_each_chunk(&mut bits.data, ny * words, |k, plane| {
+        classify::classify_plane(vol, &bx, bx.lo[2] + k as u32, iso, plane);
+    });
+    match X::COUNTING {
+        Counting::Known => p.counted(&bits, out, w.progress),
+        Counting::Unknown => p.keyed(&bits, out, w.progress),
+    }
+}
+
+impl<V: SampleSlabs + Sync, X: Extractor + Sync> Passes<'_, V, X> {
+    /// PASS 2–4 for extractors whose output is counted in advance.
+    fn counted(&self, bits: &Bits, out: &mut MeshBuilder, progress: Option<&dyn Progress>) -> Result<WalkStats> {
+        let [_, ny, nz] = self.bx.dims;
+        let rows = ny * nz;
+        // PASS 2: count.
+        let mut counts = vec![RowCount::default(); rows];
+        let mut cell_stats = vec![[0u64; 2]; nz];
+        for_each_chunk_with(&mut counts, ny, &mut cell_stats, |k, plane, cs| {
+            *cs = self.count_plane(bits, k, plane);
+        });
+        let mut stats = WalkStats { cells: self.range.num_cells(), ..Default::default() };
+        stats.cells_outside = cell_stats.iter().map(|c| c[0]).sum();
+        stats.cells_inside = cell_stats.iter().map(|c| c[1]).sum();
+        // PASS 3: prefix sums; exact allocation.
+        let table = RowTable::prefix(counts)?;
+        let [v, t, q] = table.totals();
+        let mut mesh = Mesh {
+            positions: huge_vec(v, [0.0; 3]),
+            normals: if self.normals { huge_vec(v, [0.0; 3]) } else { Vec::new() },
+            triangles: huge_vec(t, [0; 3]),
+            quads: vec![[0; 4]; q],
+        };
+        // PASS 4: fill, one task per slab, each owning its slices of the output.
+        let mut tasks = Vec::with_capacity(nz);
+        {
+            let (mut pos, mut nrm, mut tri, mut qua) =
+                (&mut mesh.positions[..], &mut mesh.normals[..], &mut mesh.triangles[..], &mut mesh.quads[..]);
+            for k in 0..nz {
+                let [dv, dt, dq] = table.plane_sizes(k, ny);
+                let (p, rest) = pos.split_at_mut(dv);
+                pos = rest;
+                let (n, rest) = if self.normals { nrm.split_at_mut(dv) } else { (&mut [][..], nrm) };
+                nrm = rest;
+                let (tr, rest) = tri.split_at_mut(dt);
+                tri = rest;
+                let (qu, rest) = qua.split_at_mut(dq);
+                qua = rest;
+                tasks.push((k, SlabOut { positions: p, normals: n, triangles: tr, quads: qu, keys: Vec::new() }));
+            }
+        }
+        let done = AtomicU64::new(0);
+        let keys = map_tasks(tasks, |(k, mut slab)| {
+            self.fill_plane(bits, &table, k, &mut slab);
+            if let Some(p) = progress {
+                p.advance(done.fetch_add(1, Ordering::Relaxed) + 1, nz as u64);
+            }
+            slab.keys
+        });
+        out.set_assembled(mesh, keys.concat());
+        Ok(stats)
+    }
+}
+
+impl<V, X> Passes<'_, V, X> {
+    /// Whether a vertex with this key is recorded.
+    #[inline]
+    fn records(&self, key: &VertexKey) -> bool {
+        match self.record {
+            KeyRecord::None => false,
+            KeyRecord::All => true,
+            KeyRecord::Boundary(r) => crate::mesh::touches_boundary(key, &r),
+        }
+    }
+}
+
+/// Calls `f(k, chunk)` for each of the `data.len() / per` chunks, in parallel when enabled.
+fn for_each_chunk<D: Send>(data: &mut [D], per: usize, f: impl Fn(usize, &mut [D]) + Sync) {
+    #[cfg(feature = "parallel")]
+    {
+        use rayon::prelude::*;
+        data.par_chunks_mut(per).enumerate().for_each(|(k, s)| f(k, s));
+    }
+    #[cfg(not(feature = "parallel"))]
+    data.chunks_mut(per).enumerate().for_each(|(k, s)| f(k, s));
+}
+
+/// As [`for_each_chunk`], with one extra per-chunk accumulator.
+fn for_each_chunk_with<D: Send, A: Send>(
+    data: &mut [D],
+    per: usize,
+    acc: &mut [A],
+    f: impl Fn(usize, &mut [D], &mut A) + Sync,
+) {
+    #[cfg(feature = "parallel")]
+    {
+        use rayon::prelude::*;
+        data.par_chunks_mut(per).zip(acc.par_iter_mut()).enumerate().for_each(|(k, (s, a))| f(k, s, a));
+    }
+    #[cfg(not(feature = "parallel"))]
+    data.chunks_mut(per).zip(acc.iter_mut()).enumerate().for_each(|(k, (s, a))| f(k, s, a));
+}
+
+/// Runs `f` on every task, in parallel when enabled; results in task order.
+fn map_tasks<T: Send, R: Send>(tasks: Vec<T>, f: impl Fn(T) -> R + Sync + Send) -> Vec<R> {
+    #[cfg(feature = "parallel")]
+    {
+        use rayon::prelude::*;
+        tasks.into_par_iter().map(f).collect()
+    }
+    #[cfg(not(feature = "parallel"))]
+    tasks.into_iter().map(f).collect()
+}

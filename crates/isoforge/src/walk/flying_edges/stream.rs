@@ -1,0 +1,242 @@
+//! The walker over a [`SlabSource`]: the same passes on a window sliding up the volume.
+//!
+//! ```text
+//!   samples  ring of 4 slabs: k − 1 (gradients), k, k + 1, k + 2 (the next plane's counts)
+//!   bits     planes k, k + 1, k + 2
+//!   counts   planes k, k + 1 (their running sums continue from the first vertex of plane k)
+//!   step k   count plane k + 1 → fill plane k → hand its batch to the sink → slide, read k + 3
+//! ```
+//! Extractors without counts walk the window layer by layer with the same caches as a
+//! [`SlabWalker`](crate::walk::SlabWalker), handing each layer's new vertices and polygons on.
+
+use super::bits::Bits;
+use super::count::CaseCounts;
+use super::fill::{RowTable, SlabOut};
+use super::{classify, FlyingEdgesWalker, Passes, PointBox};
+use crate::cube::{CellRange, EdgeKey};
+use crate::error::{Error, Result};
+use crate::extract::{Counting, Extractor};
+use crate::grid::{Lattice, Sample};
+use crate::mesh::{ExternalError, KeyRecord, MeshBatch, MeshBuilder, MeshSink, Normals};
+use crate::volume::{Iso, SampleSlabs, SlabSource, Volume};
+use crate::walk::cached::LayerCaches;
+use crate::walk::WalkStats;
+
+/// Counts of a streamed walk.
+#[derive(Debug, Clone, Copy, Default, PartialEq, Eq)]
+pub struct StreamStats {
+    /// Cell counts, as for an in-memory walk.
+    pub walk: WalkStats,
+    /// Vertices pushed.
+    pub vertices: u64,
+    /// Triangles pushed.
+    pub triangles: u64,
+    /// Quads pushed.
+    pub quads: u64,
+}
+
+/// Four consecutive slabs k − 1 … k + 2 of a streamed volume, slab k in slot k mod 4; indices
+/// are global, so crossings and normals are computed exactly as on the whole grid.
+struct SlabRing<S> {
+    slabs: [Vec<S>; 4],
+    slab_len: usize,
+    lattice: Lattice,
+}
+
+impl<S: Sample> SlabRing<S> {
+    #[inline(always)]
+    fn get(&self, p: [u32; 3]) -> f64 {
+        let [nx, _, _] = self.lattice.dims();
+        self.slabs[p[2] as usize % 4][p[1] as usize * nx as usize + p[0] as usize].to_f64()
+    }
+}
+
+impl<S: Sample> Volume for SlabRing<S> {
+    fn lattice(&self) -> &Lattice {
+        &self.lattice
+    }
+    fn fill_slab(&self, k: u32, iso: Iso, out: &mut [f32]) {
+        for (o, v) in out.iter_mut().zip(&self.slabs[k as usize % 4]) {
+            *o = iso.offset(v.to_f64());
+        }
+    }
+    #[inline]
+    fn crossing(&self, _e: EdgeKey, d0: f32, d1: f32, _iso: Iso) -> f32 {
+        crate::volume::linear_crossing(d0, d1)
+    }
+    fn gradient(&self, e: EdgeKey, t: f32) -> glam::Vec3 {
+        crate::volume::edge_gradient(&self.lattice, e, t, &|p| self.get(p))
+    }
+    fn value_at(&self, p: [f64; 3], iso: Iso) -> f32 {
+        iso.offset(crate::volume::trilinear_value(self.lattice.dims(), p, &|q| self.get(q)))
+    }
+    fn gradient_at(&self, p: [f64; 3]) -> glam::Vec3 {
+        crate::volume::point_gradient_at(&self.lattice, p, &|q| self.get(q))
+    }
+}
+
+impl<S: Sample> SampleSlabs for SlabRing<S> {
+    type Sample = S;
+    fn sample_box(&self) -> ([u32; 3], [u32; 3]) {
+        ([0; 3], self.lattice.dims())
+    }
+    #[inline]
+    fn slab(&self, k: u32) -> &[S] {
+        &self.slabs[k as usize % 4][..self.slab_len]
+    }
+}
+
+/// What the passes of a streamed walk share, but the window.
+struct Ctx<'a, X> {
+    x: &'a X,
+    iso: Iso,
+    bx: PointBox,
+    table: &'a CaseCounts,
+    range: CellRange,
+    normals: bool,
+}
+
+impl<'a, X> Ctx<'a, X> {
+    fn on<'r, S: Sample>(&'r self, ring: &'r SlabRing<S>) -> Passes<'r, SlabRing<S>, X> {
+        Passes {
+            vol: ring,
+            x: self.x,
+            iso: self.iso,
+            bx: self.bx,
+            table: self.table,
+            range: self.range,
+            reverse: ring.lattice.is_mirrored(),
+            normals: self.normals,
+            record: KeyRecord::None,
+        }
+    }
+}
+
+impl FlyingEdgesWalker<'_> {
+    /// Walks a volume that arrives slab by slab, handing the mesh to `sink` as it is produced
+    /// (one batch per slab), in O(nx·ny) memory. The vertices and polygons arrive in exactly the
+    /// order an in-memory walk stores them, with the same values. The whole lattice is walked
+    /// (a range given to the walker is not used here).
+    ///
+    /// # Errors
+    /// [`Error::External`] from the source or the sink; [`Error::Limit`] past `u32` vertex indices.
+    pub fn stream<S: Sample, X: Extractor + Sync>(
+        &self,
+        src: &mut dyn SlabSource<S>,
+        iso: Iso,
+        x: &X,
+        normals: Normals,
+        sink: &mut dyn MeshSink,
+    ) -> Result<StreamStats> {
+        let lattice = src.lattice().clone();
+        let mut out = StreamStats::default();
+        let range = CellRange::all(lattice.dims());
+        if range.is_empty() {
+            return Ok(out);
+        }
+        let [nx, ny, nz] = lattice.dims().map(|d| d as usize);
+        let slab_len = nx * ny;
+        let mut ring = SlabRing { slabs: std::array::from_fn(|_| vec![S::from_f64(0.0); slab_len]), slab_len, lattice };
+        let bx = PointBox { lo: [0; 3], dims: [nx, ny, nz], s_lo: [0; 3], s_nx: nx };
+        let words = bx.words();
+        let mut bits = Bits { words, row0: 0, data: vec![0u64; 3 * ny * words] };
+        let table = CaseCounts::of(x);
+        let external = |e: ExternalError| Error::External(e);
+        // Reads slab k into the ring and classifies it into the bit window.
+        let load = |k: usize, ring: &mut SlabRing<S>, bits: &mut Bits, src: &mut dyn SlabSource<S>| -> Result<()> {
+            src.read_slab(&mut ring.slabs[k % 4]).map_err(external)?;
+            let at = (k * ny - bits.row0) * words;
+            classify::classify_plane(&*ring, &bx, k as u32, iso, &mut bits.data[at..at + ny * words]);
+            Ok(())
+        };
+        for k in 0..nz.min(3) {
+            load(k, &mut ring, &mut bits, src)?;
+        }
+        let ctx = Ctx { x, iso, bx, table: &table, range, normals: normals == Normals::Gradient };
+        let progress = self.progress;
+        match X::COUNTING {
+            Counting::Known => {
+                let mut rows = RowTable::window(2 * ny);
+                let mut start = [0u64; 3];
+                let cs = ctx.on(&ring).count_plane(&bits, 0, &mut rows.counts[..ny]);
+                out.walk.cells_outside += cs[0];
+                out.walk.cells_inside += cs[1];
+                let (mut pos, mut nrm, mut tri, mut qua) = (Vec::new(), Vec::new(), Vec::new(), Vec::new());
+                for k in 0..nz {
+                    if k + 1 < nz {
+                        let cs = ctx.on(&ring).count_plane(&bits, k + 1, &mut rows.counts[ny..]);
+                        out.walk.cells_outside += cs[0];
+                        out.walk.cells_inside += cs[1];
+                    } else {
+                        rows.counts[ny..].fill(Default::default());
+                    }
+                    rows.restart(k * ny, start)?;
+                    // PASS 4 for slab k, into reused buffers sized from the counts.
+                    let [dv, dt, dq] = rows.plane_sizes(k, ny);
+                    pos.clear();
+                    pos.resize(dv, [0.0f32; 3]);
+                    nrm.clear();
+                    nrm.resize(if normals == Normals::Gradient { dv } else { 0 }, [0.0f32; 3]);
+                    tri.clear();
+                    tri.resize(dt, [0u32; 3]);
+                    qua.clear();
+                    qua.resize(dq, [0u32; 4]);
+                    let mut slab = SlabOut {
+                        positions: &mut pos,
+                        normals: &mut nrm,
+                        triangles: &mut tri,
+                        quads: &mut qua,
+                        keys: Vec::new(),
+                    };
+                    ctx.on(&ring).fill_plane(&bits, &rows, k, &mut slab);
+                    sink.push(MeshBatch { positions: &pos, normals: &nrm, triangles: &tri, quads: &qua })
+                        .map_err(external)?;
+                    out.vertices += dv as u64;
+                    out.triangles += dt as u64;
+                    out.quads += dq as u64;
+                    start = rows.base((k + 1) * ny);
+                    // Slide the windows up one slab.
+                    rows.counts.copy_within(ny.., 0);
+                    bits.data.copy_within(ny * words.., 0);
+                    bits.row0 += ny;
+                    if k + 3 < nz {
+                        load(k + 3, &mut ring, &mut bits, src)?;
+                    }
+                    if let Some(p) = progress {
+                        p.advance(k as u64 + 1, nz as u64);
+                    }
+                }
+            }
+            Counting::Unknown => {
+                let mut caches = LayerCaches::default();
+                caches.reset([0, 0], nx, ny, X::PLACES_VERTICES);
+                let mut b = MeshBuilder::new(normals);
+                b.set_reverse_winding(ring.lattice.is_mirrored());
+                for k in 0..nz - 1 {
+                    let s = ctx.on(&ring).walk_layer(&bits, k as u32, true, &mut caches, &mut b);
+                    out.walk.cells_outside += s.cells_outside;
+                    out.walk.cells_inside += s.cells_inside;
+                    caches.advance(X::PLACES_VERTICES);
+                    let before = b.num_vertices();
+                    let (t, q) = b.polygon_counts();
+                    b.drain_into(sink).map_err(external)?;
+                    out.vertices = before;
+                    out.triangles += t as u64;
+                    out.quads += q as u64;
+                    // Slide: bits of plane k leave, slab k + 3 comes in.
+                    bits.data.copy_within(ny * words.., 0);
+                    bits.row0 += ny;
+                    if k + 3 < nz {
+                        load(k + 3, &mut ring, &mut bits, src)?;
+                    }
+                    if let Some(p) = progress {
+                        p.advance(k as u64 + 1, nz as u64 - 1);
+                    }
+                }
+                b.finish()?;
+            }
+        }
+        out.walk.cells = range.num_cells();
+        Ok(out)
+    }
+}
