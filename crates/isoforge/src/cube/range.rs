@@ -5,10 +5,11 @@
 /// the whole lattice, and its vertices carry the same [`VertexKey`](super::VertexKey)s, so the
 /// meshes of ranges that tile the lattice stitch by key into the whole-lattice mesh.
 ///
-/// A range reads the points `lo ..= hi` (the corners of its cells); gradients (central
-/// differences) and body-centred extractors also read one point further on every side, so a
-/// chunk of data for range `r` is the points `r.lo − 1 ..= r.hi + 1` clamped to the lattice (its
-/// *halo*, see [`halo_points`](CellRange::halo_points)).
+/// A range reads the points `lo ..= hi` (the corners of its cells) and, for gradients (central
+/// differences), one point further on every side. Cells just before the range also matter to
+/// dual methods (their placed vertices) and body-centred ones (their centres), whose normals read
+/// one more point: a chunk of data for range `r` is the points `r.lo − 2 ..= r.hi + 1` clamped to
+/// the lattice (its *halo*, see [`halo_points`](CellRange::halo_points)).
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Hash)]
 pub struct CellRange {
     /// First cell on each axis (inclusive).
@@ -62,10 +63,10 @@ impl CellRange {
     }
 
     /// The points a chunk of data must hold to walk this range exactly as the whole lattice is
-    /// walked, gradients and body-centred methods included: one point beyond the cells' corners
-    /// on every side, clamped to a lattice with `dims` points. Returns `(first, one past last)`.
+    /// walked, every method and gradient normals included: two points before the cells' corners
+    /// and one after, clamped to a lattice with `dims` points. Returns `(first, one past last)`.
     pub fn halo_points(&self, dims: [u32; 3]) -> ([u32; 3], [u32; 3]) {
-        let lo = self.lo.map(|x| x.saturating_sub(1));
+        let lo = self.lo.map(|x| x.saturating_sub(2));
         let hi = [0, 1, 2].map(|a| (self.hi[a] + 2).min(dims[a]));
         (lo, hi)
     }
@@ -113,7 +114,7 @@ mod tests {
         let dims = [10, 10, 10];
         let r = CellRange::clipped([2, 0, 7], [5, 3, 20], dims);
         assert_eq!(r, CellRange { lo: [2, 0, 7], hi: [5, 3, 9] });
-        assert_eq!(r.halo_points(dims), ([1, 0, 6], [7, 5, 10]));
+        assert_eq!(r.halo_points(dims), ([0, 0, 5], [7, 5, 10]));
         assert!(CellRange::all([1, 5, 5]).is_empty());
         assert_eq!(r.layers(8, 100), CellRange { lo: [2, 0, 8], hi: [5, 3, 9] });
     }

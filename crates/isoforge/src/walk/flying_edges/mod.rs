@@ -24,7 +24,7 @@
 //! vertex key in group order (`keyed.rs`).
 //!
 //! [`stream`](FlyingEdgesWalker::stream) runs the same passes on a window that slides up a
-//! [`SlabSource`](crate::volume::SlabSource) (4 slabs of samples, 3 of bits, 2 of row counts)
+//! [`SlabSource`](crate::volume::SlabSource) (5 slabs of samples, 3 of bits, 2 of row counts)
 //! and hands each slab's vertices and polygons to a [`MeshSink`](crate::mesh::MeshSink): a volume
 //! larger than memory in O(nx·ny) memory, with the same output.
 

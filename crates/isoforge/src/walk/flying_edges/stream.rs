@@ -1,7 +1,8 @@
 //! The walker over a [`SlabSource`]: the same passes on a window sliding up the volume.
 //!
 //! ```text
-//!   samples  ring of 4 slabs: k − 1 (gradients), k, k + 1, k + 2 (the next plane's counts)
+//!   samples  ring of 5 slabs: k − 2, k − 1 (gradients, also at body-centred vertices of the
+//!            layer below), k, k + 1, k + 2 (the next plane's counts)
 //!   bits     planes k, k + 1, k + 2
 //!   counts   planes k, k + 1 (their running sums continue from the first vertex of plane k)
 //!   step k   count plane k + 1 → fill plane k → hand its batch to the sink → slide, read k + 3
@@ -35,10 +36,13 @@ pub struct StreamStats {
     pub quads: u64,
 }
 
-/// Four consecutive slabs k − 1 … k + 2 of a streamed volume, slab k in slot k mod 4; indices
+/// Slabs in a streamed volume's window.
+const RING: usize = 5;
+
+/// Five consecutive slabs k − 2 … k + 2 of a streamed volume, slab k in slot k mod 5; indices
 /// are global, so crossings and normals are computed exactly as on the whole grid.
 struct SlabRing<S> {
-    slabs: [Vec<S>; 4],
+    slabs: [Vec<S>; RING],
     slab_len: usize,
     lattice: Lattice,
 }
@@ -47,7 +51,7 @@ impl<S: Sample> SlabRing<S> {
     #[inline(always)]
     fn get(&self, p: [u32; 3]) -> f64 {
         let [nx, _, _] = self.lattice.dims();
-        self.slabs[p[2] as usize % 4][p[1] as usize * nx as usize + p[0] as usize].to_f64()
+        self.slabs[p[2] as usize % RING][p[1] as usize * nx as usize + p[0] as usize].to_f64()
     }
 }
 
@@ -56,7 +60,7 @@ impl<S: Sample> Volume for SlabRing<S> {
         &self.lattice
     }
     fn fill_slab(&self, k: u32, iso: Iso, out: &mut [f32]) {
-        for (o, v) in out.iter_mut().zip(&self.slabs[k as usize % 4]) {
+        for (o, v) in out.iter_mut().zip(&self.slabs[k as usize % RING]) {
             *o = iso.offset(v.to_f64());
         }
     }
@@ -82,7 +86,7 @@ impl<S: Sample> SampleSlabs for SlabRing<S> {
     }
     #[inline]
     fn slab(&self, k: u32) -> &[S] {
-        &self.slabs[k as usize % 4][..self.slab_len]
+        &self.slabs[k as usize % RING][..self.slab_len]
     }
 }
 
@@ -144,7 +148,7 @@ impl FlyingEdgesWalker<'_> {
         let external = |e: ExternalError| Error::External(e);
         // Reads slab k into the ring and classifies it into the bit window.
         let load = |k: usize, ring: &mut SlabRing<S>, bits: &mut Bits, src: &mut dyn SlabSource<S>| -> Result<()> {
-            src.read_slab(&mut ring.slabs[k % 4]).map_err(external)?;
+            src.read_slab(&mut ring.slabs[k % RING]).map_err(external)?;
             let at = (k * ny - bits.row0) * words;
             classify::classify_plane(&*ring, &bx, k as u32, iso, &mut bits.data[at..at + ny * words]);
             Ok(())
