@@ -6,6 +6,8 @@ rotated from one repetition to the next), N fresh-process repetitions of:
 
   isoforge   `isoforge extract -i CT.nrrd --iso V -o out.ply --threads T` (T = 1 and 2)
   isoforge-NAME  the same with the extra arguments of `--variant NAME=ARGS`
+  NAME       any command given as `--command NAME[@T]=TEMPLATE` (a prototype, another build):
+             one row per thread count, or at T only
   vtk        e2e_vtk.py: vtkNrrdReader -> vtkFlyingEdges3D -> vtkPLYWriter (binary), SMP threads T
   zlib-c     zlib_inflate.c (built here with gcc against the system zlib): header, then inflate
              the gzip body to /dev/null: the floor a gzip file sets on one core
@@ -191,6 +193,12 @@ def commands(args, vol, iso, workdir, zlib_c):
             cmds.append(dict(id=f"isoforge-{name} {t}T", group="isoforge", threads=t, output=o,
                              argv=[args.isoforge, "extract", "-i", vol, "--iso", repr(iso), "-o", o,
                                    "--threads", str(t)] + extra.split()))
+    for name, template in args.command:
+        name, _, fixed = name.partition("@")
+        for t in [int(fixed)] if fixed else args.threads:
+            o = out(f"{name}-{t}.ply")
+            argv = [a.format(input=vol, iso=repr(iso), output=o, threads=t) for a in template.split()]
+            cmds.append(dict(id=f"{name} {t}T", group="isoforge", threads=t, output=o, argv=argv))
     if not args.no_vtk:
         for t in args.threads:
             o = out(f"vtk-{t}.ply")
@@ -230,7 +238,8 @@ def check(cmd, rc, stdout, stderr, want_bytes):
 
 def measure_volume(args, name, workdir, zlib_c):
     vol = os.path.join(args.data, name + ".nrrd")
-    sidecar = json.load(open(os.path.join(args.data, name + ".json")))
+    with open(os.path.join(args.data, name + ".json")) as f:
+        sidecar = json.load(f)
     iso = iso_of(sidecar, name, args.iso)
     _, fields = nrrd_header(vol)
     want = declared_bytes(fields, vol)
@@ -386,6 +395,11 @@ def main():
     ap.add_argument("--threads", default="1,2", help="thread counts for isoforge and VTK")
     ap.add_argument("--variant", action="append", default=[], metavar="NAME=ARGS",
                     help="extra isoforge rows with these arguments appended, e.g. 'stream=--max-memory 1MiB'")
+    ap.add_argument("--command", action="append", default=[], metavar="NAME[@T]=TEMPLATE",
+                    help="another gzip-NRRD -> binary-PLY command, compared like isoforge; TEMPLATE is split "
+                    "on spaces and {input} {iso} {output} {threads} are substituted (e.g. a prototype); NAME@T: "
+                    "one row, at T threads, instead of one per --threads; commands run in the work folder, so give "
+                    "absolute paths")
     ap.add_argument("--no-vtk", action="store_true")
     ap.add_argument("--python", default=sys.executable, help="interpreter with VTK (default: this one)")
     ap.add_argument("--workdir", help="where outputs go (default: a temporary folder, removed)")
@@ -400,6 +414,7 @@ def main():
     args.threads = [int(t) for t in args.threads.split(",")]
     args.iso = {k: float(v) for k, v in (s.split("=", 1) for s in args.iso)}
     args.variant = [tuple(s.split("=", 1)) for s in args.variant]
+    args.command = [tuple(s.split("=", 1)) for s in args.command]
     if args.repeats < 1:
         raise SystemExit("--repeats must be at least 1")
     env = environment(args)
