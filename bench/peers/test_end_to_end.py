@@ -21,6 +21,7 @@ import unittest
 HERE = os.path.dirname(os.path.abspath(__file__))
 sys.path.insert(0, HERE)
 import end_to_end as e2e  # noqa: E402
+import perf_phases  # noqa: E402
 
 ROOT = os.path.normpath(os.path.join(HERE, "../.."))
 
@@ -111,6 +112,31 @@ class Checks(unittest.TestCase):
         r = subprocess.run([e2e.build_zlib_c(self.dir), p], capture_output=True, text=True)
         self.assertEqual(r.returncode, 2)
         self.assertIn("encoding is not gzip", r.stderr)
+
+
+class PerfPhases(unittest.TestCase):
+    SCRIPT = """isoforge 1 [000] 1.0: cpu-clock:
+\tffffffff81000000 clear_page_erms ([kernel.kallsyms])
+\t5555 miniz_oxide::inflate::core::decompress_fast (/x/isoforge)
+\t5556 isoforge_io::read::stream::VolumeReader::fill (/x/isoforge)
+
+isoforge 1 [000] 1.1: cpu-clock:
+\t5557 isoforge::walk::flying_edges::count_slab (/x/isoforge)
+
+isoforge 1 [000] 1.2: cpu-clock:
+\t5558 <isoforge_io::write::ply::PlyStream as isoforge::walk::flying_edges::MeshSink>::push (/x/isoforge)
+\t5559 isoforge::walk::flying_edges::flying_edges_streaming (/x/isoforge)
+
+isoforge 1 [000] 1.3: cpu-clock:
+\t5560 main (/x/isoforge)
+"""
+
+    def test_samples_go_to_the_first_matching_phase(self):
+        chains = list(perf_phases.samples(self.SCRIPT.splitlines(True)))
+        self.assertEqual(len(chains), 4)
+        self.assertEqual([perf_phases.classify(c) for c in chains],
+                         ["inflate", "extract (walker)", "PLY write", perf_phases.OTHER])
+        self.assertIn("[kernel", chains[0][0])
 
 
 def have_vtk():
