@@ -75,4 +75,10 @@ def main():
 
 
 if __name__ == "__main__":
-    main()
+    try:
+        main()
+    except SystemExit as e:
+        if isinstance(e.code, str):  # one-line errors exit 2, as isoforge's
+            print(e.code, file=sys.stderr)
+            sys.exit(2)
+        raise

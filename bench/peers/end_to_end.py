@@ -238,6 +238,9 @@ def check(cmd, rc, stdout, stderr, want_bytes):
 
 def measure_volume(args, name, workdir, zlib_c):
     vol = os.path.join(args.data, name + ".nrrd")
+    for path in (vol, os.path.join(args.data, name + ".json")):
+        if not os.path.isfile(path):
+            raise SystemExit(f"--volumes {name}: {path} is missing (an NRRD file and its JSON sidecar)")
     with open(os.path.join(args.data, name + ".json")) as f:
         sidecar = json.load(f)
     iso = iso_of(sidecar, name, args.iso)
@@ -381,6 +384,17 @@ def environment(args):
     )
 
 
+def parse_pair(flag, text, conv):
+    """`NAME=VALUE` of a repeatable option, VALUE converted by `conv`."""
+    name, eq, value = text.partition("=")
+    try:
+        if not (name and eq and value):
+            raise ValueError
+        return name, conv(value)
+    except ValueError:
+        raise SystemExit(f"{flag} {text!r}: expected NAME=VALUE") from None
+
+
 def main():
     if len(sys.argv) == 3 and sys.argv[1] == "--zlib-py":
         return zlib_py(sys.argv[2])
@@ -411,10 +425,13 @@ def main():
         raise SystemExit(f"{TIME} is missing (apt-get install time)")
     if not os.access(args.isoforge, os.X_OK):
         raise SystemExit(f"--isoforge {args.isoforge}: not an executable (cargo build --release -p isoforge-cli)")
-    args.threads = [int(t) for t in args.threads.split(",")]
-    args.iso = {k: float(v) for k, v in (s.split("=", 1) for s in args.iso)}
-    args.variant = [tuple(s.split("=", 1)) for s in args.variant]
-    args.command = [tuple(s.split("=", 1)) for s in args.command]
+    try:
+        args.threads = [int(t) for t in args.threads.split(",")]
+    except ValueError:
+        raise SystemExit(f"--threads {args.threads!r}: expected comma-separated whole numbers") from None
+    args.iso = dict(parse_pair("--iso", s, float) for s in args.iso)
+    args.variant = [parse_pair("--variant", s, str) for s in args.variant]
+    args.command = [parse_pair("--command", s, str) for s in args.command]
     if args.repeats < 1:
         raise SystemExit("--repeats must be at least 1")
     env = environment(args)
@@ -438,4 +455,10 @@ def main():
 
 
 if __name__ == "__main__":
-    main()
+    try:
+        main()
+    except SystemExit as e:
+        if isinstance(e.code, str):  # our one-line errors: bad input or a failed check, exit 2
+            print(e.code, file=sys.stderr)
+            sys.exit(2)
+        raise

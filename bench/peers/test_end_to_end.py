@@ -102,7 +102,7 @@ class Checks(unittest.TestCase):
         self.assertEqual(r.returncode, 2)
         self.assertIn(p, r.stderr)
         r = subprocess.run([sys.executable, e2e.__file__, "--zlib-py", p], capture_output=True, text=True)
-        self.assertNotEqual(r.returncode, 0)
+        self.assertEqual(r.returncode, 2)
         self.assertIn(p, r.stderr)
 
     def test_zlib_c_rejects_a_raw_nrrd(self):
@@ -112,6 +112,32 @@ class Checks(unittest.TestCase):
         r = subprocess.run([e2e.build_zlib_c(self.dir), p], capture_output=True, text=True)
         self.assertEqual(r.returncode, 2)
         self.assertIn("encoding is not gzip", r.stderr)
+
+
+class BadArguments(unittest.TestCase):
+    def run_e2e(self, *args):
+        return subprocess.run([sys.executable, e2e.__file__, *args], capture_output=True, text=True)
+
+    def test_bad_arguments_give_one_line_and_exit_2(self):
+        exe = sys.executable  # any executable: the run stops before using it
+        cases = [
+            (["--isoforge", "/nonexistent/isoforge"], "--isoforge /nonexistent/isoforge: not an executable (cargo build --release -p isoforge-cli)"),
+            (["--isoforge", exe, "--iso", "bunny"], "--iso 'bunny': expected NAME=VALUE"),
+            (["--isoforge", exe, "--iso", "bunny=abc"], "--iso 'bunny=abc': expected NAME=VALUE"),
+            (["--isoforge", exe, "--variant", "stream"], "--variant 'stream': expected NAME=VALUE"),
+            (["--isoforge", exe, "--threads", "1,x"], "--threads '1,x': expected comma-separated whole numbers"),
+            (["--isoforge", exe, "--repeats", "0"], "--repeats must be at least 1"),
+        ]
+        for args, message in cases:
+            r = self.run_e2e(*args)
+            self.assertEqual(r.returncode, 2, (args, r.stderr))
+            self.assertEqual(r.stderr.strip(), message)
+
+    def test_missing_volume_is_named(self):
+        with tempfile.TemporaryDirectory() as d:
+            r = self.run_e2e("--isoforge", sys.executable, "--data", d, "--volumes", "nothere", "--no-vtk")
+            self.assertEqual(r.returncode, 2)
+            self.assertIn("--volumes nothere: " + os.path.join(d, "nothere.nrrd") + " is missing", r.stderr)
 
 
 class PerfPhases(unittest.TestCase):
@@ -185,7 +211,7 @@ class SmallRun(unittest.TestCase):
             r = subprocess.run([sys.executable, e2e.__file__, "--isoforge", ISOFORGE, "--data", d, "--volumes",
                                 "sphere_16", "--repeats", "1", "--no-vtk", "--command", f"other@1={other}"],
                                capture_output=True, text=True)
-            self.assertNotEqual(r.returncode, 0)
+            self.assertEqual(r.returncode, 2)
             self.assertIn("triangle counts differ", r.stderr)
 
 
