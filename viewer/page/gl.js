@@ -195,6 +195,19 @@ export class Renderer {
     gl.drawElements(mode, this.counts[which], this.types[which], 0);
   }
 
-  // Waits for the GPU to finish (a one-pixel read), so a timing taken after it counts drawing.
-  finish() { this.gl.readPixels(0, 0, 1, 1, this.gl.RGBA, this.gl.UNSIGNED_BYTE, new Uint8Array(4)); }
+  // Resolves once the GPU has finished the commands issued so far (a fence, polled: the page
+  // stays responsive while a software renderer works through millions of triangles); rejects
+  // when `signal` aborts.
+  drawn(signal) {
+    const gl = this.gl, fence = gl.fenceSync(gl.SYNC_GPU_COMMANDS_COMPLETE, 0);
+    gl.flush();
+    return new Promise((resolve, reject) => {
+      const poll = () => {
+        if (signal.aborted) { gl.deleteSync(fence); reject(new DOMException("aborted", "AbortError")); return; }
+        if (gl.getSyncParameter(fence, gl.SYNC_STATUS) === gl.SIGNALED) { gl.deleteSync(fence); resolve(); return; }
+        setTimeout(poll, 4);
+      };
+      poll();
+    });
+  }
 }

@@ -68,13 +68,16 @@ async function update() {
       return mesh;
     };
     let mesh = await load(state.info.kind === "volume" ? "preview" : "full");
-    show(mesh, started, timings, generation);
     if (mesh.head.level === "preview") {
+      await show(mesh, started, timings, generation, signal);
       await sleep(FULL_AFTER_MS, signal);
       mesh = await load("full");
-      show(mesh, started, timings, generation);
     }
-    const check = decodeCheck(await fetchBuffer(ask("/api/check", {}), signal));
+    // The check is computed on the server while the page draws the full resolution.
+    const checked = fetchBuffer(ask("/api/check", {}), signal);
+    checked.catch(() => {}); // handled below; an abort during the draw must not go unhandled
+    await show(mesh, started, timings, generation, signal);
+    const check = decodeCheck(await checked);
     renderer.setDefects(check.edges);
     // Over the frame already drawn, unless a new frame is coming anyway.
     if (!drawQueued) draw(true);
@@ -87,7 +90,7 @@ async function update() {
   }
 }
 
-function show(mesh, started, timings, generation) {
+async function show(mesh, started, timings, generation, signal) {
   const t0 = performance.now();
   renderer.setMesh(mesh);
   timings.parts.upload = performance.now() - t0;
@@ -101,7 +104,7 @@ function show(mesh, started, timings, generation) {
   }
   const t1 = performance.now();
   draw();
-  renderer.finish();
+  await renderer.drawn(signal);
   const now = performance.now();
   timings[h.level] = now - started;
   timings.parts.draw = now - t1;
@@ -113,7 +116,7 @@ function show(mesh, started, timings, generation) {
     generation, level: h.level, step: h.step, state: "mesh", vertices: h.vertices, triangles: h.triangles,
     decodedVertices: s.vertices, decodedTriangles: s.triangles, maxIndex: s.maxIndex,
     bounds: JSON.stringify([s.min, s.max]), previewMs: timings.preview ?? "", fullMs: timings.full ?? "",
-    [h.level + "Parts"]: JSON.stringify(Object.fromEntries(Object.entries(timings.parts).map(([k, v]) => [k, Math.round(v)]))),
+    [h.level + "Step"]: h.step, [h.level + "Parts"]: JSON.stringify(Object.fromEntries(Object.entries(timings.parts).map(([k, v]) => [k, Math.round(v)]))),
   });
 }
 
