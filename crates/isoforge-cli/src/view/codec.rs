@@ -13,9 +13,9 @@
 //! Why this shape (the 512×512×450 shoulder CT at iso 46.3: 4.1 M vertices, 8.1 M triangles):
 //! `f32` positions and `u32` indices are 147 MB; this is 82 MB (positions 24.5 MB, normals
 //! 8.2 MB, indices 49.4 MB, two bytes an index: walk order keeps consecutive indices close).
-//! Deflate (zlib level 1) would shrink the indices to 22 MB but costs 0.47 s per mesh to
-//! compress, far more than the 27 MB it saves take on loopback; positions deflate by a third
-//! only. Positions err by at most 1/131070 of the box (0.004 voxel on the shoulder), below a
+//! Deflate (zlib level 1, measured with node's zlib) would shrink the indices to 22 MB but costs
+//! 0.47 s per mesh to compress, far more than the 27 MB it saves take on loopback; positions
+//! deflate by a third only. Positions err by at most 1/131070 of the box (0.004 voxel on the shoulder), below a
 //! pixel at any zoom the page offers; normals by under a degree.
 
 use isoforge::mesh::Mesh;
