@@ -481,6 +481,13 @@ mod tests {
         assert_eq!(ask(&addr, format!("GET http://x/ HTTP/1.1\r\nHost: {addr}\r\n\r\n").as_bytes()), 400);
         let with_body = format!("GET / HTTP/1.1\r\nHost: {addr}\r\nContent-Length: 5\r\n\r\nhello");
         assert_eq!(ask(&addr, with_body.as_bytes()), 200);
+        // HEAD: the length of the body, not the body.
+        let mut s = TcpStream::connect(&addr).unwrap();
+        write!(s, "HEAD /x HTTP/1.1\r\nHost: {addr}\r\n\r\n").unwrap();
+        let mut out = String::new();
+        s.read_to_string(&mut out).unwrap();
+        assert!(out.starts_with("HTTP/1.1 200 OK\r\n") && out.contains("Content-Length: 10\r\n"), "{out}");
+        assert!(out.ends_with("\r\n\r\n"), "{out}");
         assert_eq!(stats.refused.load(Ordering::Relaxed), 11);
     }
 
