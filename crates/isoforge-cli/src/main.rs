@@ -4,9 +4,6 @@
 //! file and the problem). A closed stdout (broken pipe) counts as success.
 
 mod args;
-mod assets {
-    include!(concat!(env!("OUT_DIR"), "/assets.rs"));
-}
 mod config;
 mod progress;
 mod report;

@@ -790,12 +790,6 @@ pub fn view(a: &crate::args::ViewArgs) -> Result<Outcome> {
             }
         }
     };
-    let server = tiny_http::Server::http(("127.0.0.1", a.port))
-        .map_err(|e| anyhow!("cannot listen on 127.0.0.1:{}: {e}", a.port))?;
-    let addr = server.server_addr().to_ip().ok_or_else(|| anyhow!("the server has no IP address"))?;
-    println!("http://{addr}/");
-    use std::io::Write as _;
-    let _ = std::io::stdout().flush();
-    crate::view::serve(&server, &shown);
+    crate::view::serve(a.port, shown)?;
     Ok(Outcome::Success)
 }

@@ -15,5 +15,5 @@ pub use dense::{AnyGrid, DenseGrid, NonFinite, ValueRange};
 pub use histogram::Histogram;
 pub use lattice::{Lattice, WorldSpace, IDENTITY};
 pub(crate) use resample::blend;
-pub use resample::upsample_trilinear;
+pub use resample::{downsample_mean, upsample_trilinear};
 pub use sample::{as_bytes, as_bytes_mut, DType, Sample, Threshold};

@@ -1,4 +1,5 @@
-//! Resampling a dense grid onto a finer lattice covering the same world box.
+//! Resampling a dense grid: onto a finer lattice covering the same world box, or onto a coarser
+//! one by block means (previews).
 
 use super::{DenseGrid, Lattice, Sample};
 use crate::error::{Error, Result};
@@ -100,6 +101,52 @@ pub fn upsample_trilinear<S: Sample>(grid: &DenseGrid<S>, factor: u32) -> Result
     DenseGrid::new(lattice, data)
 }
 
+/// The grid coarsened `factor` times along each axis: each output point is the mean of a
+/// `factor`³ block of input points and sits at the block's centre (spacing times `factor`, same
+/// direction). Trailing points that do not fill a block are dropped, so the result covers the
+/// input's box less up to `factor − 1` points at the max faces. Used for quick previews of large
+/// volumes (`isoforge view`).
+///
+/// # Errors
+/// [`Error::InvalidInput`] for `factor` 0 or when an axis has fewer than `factor` points.
+pub fn downsample_mean<S: Sample>(grid: &DenseGrid<S>, factor: u32) -> Result<DenseGrid<f32>> {
+    let lat = grid.lattice();
+    let dims = lat.dims();
+    if factor == 0 || dims.iter().any(|&n| n < factor) {
+        return Err(Error::InvalidInput(format!(
+            "downsample factor {factor}: must be from 1 to the smallest dimension of {dims:?}"
+        )));
+    }
+    let f = factor as usize;
+    let coarse = dims.map(|n| n / factor);
+    let [cx, cy, cz] = coarse.map(|n| n as usize);
+    let [nx, ny, _] = dims.map(|n| n as usize);
+    let centre = (factor - 1) as f64 / 2.0;
+    let origin = lat.to_world([centre; 3]);
+    let spacing = lat.spacing().map(|s| s * factor as f64);
+    let lattice =
+        Lattice::with_geometry(coarse, spacing, origin)?.with_direction(lat.direction())?.with_space(lat.space());
+    let scale = 1.0 / (f * f * f) as f64;
+    let data = grid.data();
+    let mut out = Vec::with_capacity(cx * cy * cz);
+    // One output slab at a time: sum its `f` input slabs row by row (contiguous reads).
+    let mut sums = vec![0.0f64; cx * cy];
+    for k in 0..cz {
+        sums.fill(0.0);
+        for z in k * f..(k + 1) * f {
+            for y in 0..cy * f {
+                let row = &data[(z * ny + y) * nx..][..cx * f];
+                let sum_row = &mut sums[(y / f) * cx..][..cx];
+                for (s, block) in sum_row.iter_mut().zip(row.chunks_exact(f)) {
+                    *s += block.iter().map(|v| v.to_f64()).sum::<f64>();
+                }
+            }
+        }
+        out.extend(sums.iter().map(|s| (s * scale) as f32));
+    }
+    DenseGrid::new(lattice, out)
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -116,5 +163,21 @@ mod tests {
         assert_eq!(u.get([2, 2, 2]), 3.5); // the centre: mean of the corners
         assert_eq!(u.lattice().spacing(), [0.25; 3]);
         assert!(upsample_trilinear(&g, 0).is_err());
+    }
+
+    #[test]
+    fn downsampling_takes_block_means_at_block_centres() {
+        // 5 x 4 x 4 points, value = i + 10 j + 100 k: a block mean is the value at its centre.
+        let l = Lattice::with_geometry([5, 4, 4], [0.5, 1.0, 2.0], [1.0, 2.0, 3.0]).unwrap();
+        let g = DenseGrid::from_fn(l, |p| (p[0] + 10 * p[1] + 100 * p[2]) as u16);
+        let d = downsample_mean(&g, 2).unwrap();
+        assert_eq!(d.lattice().dims(), [2, 2, 2], "the fifth x point fills no block");
+        assert_eq!(d.lattice().spacing(), [1.0, 2.0, 4.0]);
+        assert_eq!(d.lattice().origin(), [1.25, 2.5, 4.0]);
+        assert_eq!(d.get([0, 0, 0]), 0.5 + 5.0 + 50.0);
+        assert_eq!(d.get([1, 1, 1]), 2.5 + 25.0 + 250.0);
+        assert_eq!(downsample_mean(&g, 1).unwrap().data(), g.data().iter().map(|&v| v as f32).collect::<Vec<_>>());
+        assert!(downsample_mean(&g, 0).is_err());
+        assert!(downsample_mean(&g, 6).is_err());
     }
 }

@@ -133,7 +133,6 @@ pub fn parse(spec: &str) -> Result<Builtin> {
         }
     };
     let centered = |dims| Lattice::spanning(dims, [-1.0; 3], [1.0; 3]);
-    let unit = |dims| Lattice::spanning(dims, [0.0; 3], [1.0; 3]);
     let dims = [n; 3];
     let below0 = Iso::below(0.0);
     Ok(match name {
@@ -162,22 +161,66 @@ pub fn parse(spec: &str) -> Result<Builtin> {
             lattice: centered(dims)?,
             iso: below0,
         },
-        "metaballs" => Builtin {
-            field: BuiltinField::ChargePoints(ChargePoints::at_time(get("t", DEFAULT_TIME as f64) as f32)),
-            lattice: unit(dims)?,
-            iso: Iso::above(CLASSIC_ISO),
-        },
-        "lines" => Builtin {
-            field: BuiltinField::ChargeLines(ChargeLines::at_time(get("t", DEFAULT_TIME as f64) as f32)),
-            lattice: unit(dims)?,
-            iso: Iso::above(CLASSIC_ISO),
-        },
-        _ => Builtin {
-            field: BuiltinField::HeightField(HeightField::default()),
-            lattice: unit(dims)?,
-            iso: Iso::below(CLASSIC_ISO),
-        },
+        "metaballs" => Classic::Metaballs.builtin(n, get("t", DEFAULT_TIME as f64) as f32)?,
+        "lines" => Classic::Lines.builtin(n, get("t", DEFAULT_TIME as f64) as f32)?,
+        _ => Classic::Height.builtin(n, DEFAULT_TIME)?,
     })
+}
+
+/// The classic demo's three fields: the typed form of `metaballs`, `lines` and `height`.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum Classic {
+    /// [`ChargePoints`].
+    Metaballs,
+    /// [`ChargeLines`].
+    Lines,
+    /// [`HeightField`] (does not move).
+    Height,
+}
+
+impl Classic {
+    /// All three, in the demo's order.
+    pub const ALL: [Classic; 3] = [Classic::Metaballs, Classic::Lines, Classic::Height];
+
+    /// The catalogue name.
+    pub fn name(self) -> &'static str {
+        match self {
+            Classic::Metaballs => "metaballs",
+            Classic::Lines => "lines",
+            Classic::Height => "height",
+        }
+    }
+
+    /// Parses a catalogue name.
+    pub fn parse(s: &str) -> Option<Classic> {
+        Classic::ALL.into_iter().find(|c| c.name() == s)
+    }
+
+    /// The field at animation time `t` (ignored by the height field) on the unit cube with `n`
+    /// points per axis, with the demo's iso.
+    ///
+    /// # Errors
+    /// As [`Lattice::spanning`] (`n` below 2 or too large).
+    pub fn builtin(self, n: u32, t: f32) -> Result<Builtin> {
+        let lattice = Lattice::spanning([n; 3], [0.0; 3], [1.0; 3])?;
+        Ok(match self {
+            Classic::Metaballs => Builtin {
+                field: BuiltinField::ChargePoints(ChargePoints::at_time(t)),
+                lattice,
+                iso: Iso::above(CLASSIC_ISO),
+            },
+            Classic::Lines => Builtin {
+                field: BuiltinField::ChargeLines(ChargeLines::at_time(t)),
+                lattice,
+                iso: Iso::above(CLASSIC_ISO),
+            },
+            Classic::Height => Builtin {
+                field: BuiltinField::HeightField(HeightField::default()),
+                lattice,
+                iso: Iso::below(CLASSIC_ISO),
+            },
+        })
+    }
 }
 
 #[cfg(test)]
@@ -192,6 +235,20 @@ mod tests {
         for (name, _) in NAMES {
             assert!(parse(name).is_ok(), "{name}");
         }
+    }
+
+    #[test]
+    fn classic_fields_equal_their_specs() {
+        for (c, spec) in [
+            (Classic::Metaballs, "metaballs?n=24&t=0.25"),
+            (Classic::Lines, "lines?n=24&t=0.25"),
+            (Classic::Height, "height?n=24"),
+        ] {
+            assert_eq!(Classic::parse(c.name()), Some(c));
+            assert_eq!(c.builtin(24, 0.25).unwrap(), parse(spec).unwrap(), "{spec}");
+        }
+        assert_eq!(Classic::parse("sphere"), None);
+        assert!(Classic::Metaballs.builtin(1, 0.5).is_err());
     }
 
     #[test]

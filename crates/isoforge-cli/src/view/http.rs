@@ -1,0 +1,556 @@
+//! The viewer's HTTP/1.1 server: `GET` and `HEAD`, one request per connection
+//! (`Connection: close`), hardened for a loopback port any local page or process can reach.
+//!
+//! - Connections are served concurrently by a bounded pool of workers fed by a bounded queue; when
+//!   the queue is full the accepting thread answers 503 itself, so it never blocks.
+//! - The request line, the header block and the body are capped ([`Limits`]) and must arrive
+//!   within one deadline, so a client that trickles bytes (slowloris) holds a worker for a bounded
+//!   time; a response must be read at [`Limits::min_read_rate`], so a client that never reads
+//!   frees its worker too.
+//! - `Host` must name this server (`127.0.0.1:PORT`, `localhost:PORT` or `[::1]:PORT`): a page
+//!   whose DNS name was rebound to 127.0.0.1 still sends its own name and gets 403.
+//! - A handler can ask [`Request::is_abandoned`] between steps of long work: true once the client
+//!   closed its end (a page aborts a stale request), so the work can stop.
+
+use std::io::{ErrorKind, Read, Write};
+use std::net::{Shutdown, TcpListener, TcpStream};
+use std::sync::atomic::{AtomicU64, Ordering};
+use std::sync::mpsc::{sync_channel, Receiver, TrySendError};
+use std::sync::{Arc, Mutex};
+use std::time::{Duration, Instant};
+
+/// Caps and timeouts of the server.
+#[derive(Debug, Clone)]
+pub struct Limits {
+    /// Worker threads (connections served at once).
+    pub workers: usize,
+    /// Accepted connections waiting for a worker; beyond this, 503.
+    pub queue: usize,
+    /// Longest request line (`GET /path?query HTTP/1.1`), bytes; longer is 414.
+    pub request_line: usize,
+    /// Largest header block after the request line, bytes; larger is 431.
+    pub headers: usize,
+    /// Largest request body (the API reads none), bytes; larger is 413.
+    pub body: usize,
+    /// The whole request (line, headers, body) must arrive within this; later is 408.
+    pub request_deadline: Duration,
+    /// Longest wait for one read or write to make progress.
+    pub io_timeout: Duration,
+    /// A response of `n` bytes must be read within `io_timeout + n / min_read_rate` seconds.
+    pub min_read_rate: u64,
+}
+
+impl Default for Limits {
+    fn default() -> Self {
+        Limits {
+            workers: 8,
+            queue: 32,
+            request_line: 8 * 1024,
+            headers: 16 * 1024,
+            body: 64 * 1024,
+            request_deadline: Duration::from_secs(5),
+            io_timeout: Duration::from_secs(10),
+            min_read_rate: 1 << 20,
+        }
+    }
+}
+
+/// Counters of what the server did, for `/api/status` and the tests.
+#[derive(Debug, Default)]
+pub struct Stats {
+    /// Responses written in full.
+    pub served: AtomicU64,
+    /// Requests whose client went away before the response was written (work skipped or cut).
+    pub abandoned: AtomicU64,
+    /// Requests refused for a limit, a timeout, a bad `Host` or a full queue.
+    pub refused: AtomicU64,
+}
+
+/// A parsed request, and its connection for [`Request::is_abandoned`].
+pub struct Request<'a> {
+    /// The path, still percent-encoded.
+    pub path: String,
+    /// The query string after `?`, still percent-encoded (empty when absent).
+    pub query: String,
+    stream: &'a TcpStream,
+}
+
+impl Request<'_> {
+    /// True once the client has closed its end of the connection or reset it: nobody will read
+    /// the response. Costs one non-blocking `peek`.
+    pub fn is_abandoned(&self) -> bool {
+        if self.stream.set_nonblocking(true).is_err() {
+            return true;
+        }
+        let r = self.stream.peek(&mut [0u8; 1]);
+        let _ = self.stream.set_nonblocking(false);
+        match r {
+            Ok(0) => true,
+            Ok(_) => false,
+            Err(e) => e.kind() != ErrorKind::WouldBlock,
+        }
+    }
+}
+
+/// What a handler answers.
+pub struct Response {
+    /// HTTP status code.
+    pub status: u16,
+    /// `Content-Type`.
+    pub content_type: &'static str,
+    /// Extra headers (`Content-Disposition`, …).
+    pub headers: Vec<(&'static str, String)>,
+    /// The body.
+    pub body: Body,
+}
+
+/// A response body: computed, or embedded in the binary.
+pub enum Body {
+    /// Made for this request.
+    Owned(Vec<u8>),
+    /// A static file of the page.
+    Static(&'static [u8]),
+}
+
+impl Response {
+    /// A body of the given type with status 200.
+    pub fn ok(content_type: &'static str, body: Body) -> Response {
+        Response { status: 200, content_type, headers: Vec::new(), body }
+    }
+
+    /// A plain-text error.
+    pub fn error(status: u16, message: impl Into<String>) -> Response {
+        let mut m = message.into();
+        m.push('\n');
+        Response { status, content_type: "text/plain; charset=utf-8", headers: Vec::new(), body: Body::Owned(m.into()) }
+    }
+
+    /// Marks the response as abandoned: the client went away, nothing is written.
+    pub fn abandoned() -> Response {
+        Response::error(STATUS_ABANDONED, "")
+    }
+}
+
+/// Not sent: tells [`serve`] that the handler stopped because the client went away.
+const STATUS_ABANDONED: u16 = 499;
+
+fn reason(status: u16) -> &'static str {
+    match status {
+        200 => "OK",
+        400 => "Bad Request",
+        403 => "Forbidden",
+        404 => "Not Found",
+        405 => "Method Not Allowed",
+        408 => "Request Timeout",
+        413 => "Content Too Large",
+        414 => "URI Too Long",
+        431 => "Request Header Fields Too Large",
+        500 => "Internal Server Error",
+        501 => "Not Implemented",
+        503 => "Service Unavailable",
+        505 => "HTTP Version Not Supported",
+        _ => "Error",
+    }
+}
+
+/// A handler: one request in, one response out; may run on several workers at once.
+pub type Handler = dyn Fn(&Request) -> Response + Send + Sync;
+
+/// Serves `listener` until the process ends: accepts on this thread, answers on the workers.
+pub fn serve(listener: TcpListener, limits: Limits, stats: Arc<Stats>, handler: Arc<Handler>) {
+    let port = listener.local_addr().map(|a| a.port()).unwrap_or(0);
+    let hosts = Arc::new([format!("127.0.0.1:{port}"), format!("localhost:{port}"), format!("[::1]:{port}")]);
+    let (tx, rx) = sync_channel::<TcpStream>(limits.queue);
+    let rx = Arc::new(Mutex::new(rx));
+    for _ in 0..limits.workers.max(1) {
+        let (rx, limits, stats, handler, hosts) =
+            (rx.clone(), limits.clone(), stats.clone(), handler.clone(), hosts.clone());
+        std::thread::spawn(move || worker(&rx, &limits, &stats, &*handler, &hosts));
+    }
+    for stream in listener.incoming() {
+        let Ok(stream) = stream else { continue };
+        match tx.try_send(stream) {
+            Ok(()) => {}
+            Err(TrySendError::Full(mut stream)) => {
+                // A few bytes always fit an empty socket buffer: this write does not block.
+                stats.refused.fetch_add(1, Ordering::Relaxed);
+                let _ = stream.set_write_timeout(Some(Duration::from_millis(100)));
+                let _ = write_head(&mut stream, &Response::error(503, "busy: too many connections"), 0);
+            }
+            Err(TrySendError::Disconnected(_)) => return,
+        }
+    }
+}
+
+fn worker(rx: &Mutex<Receiver<TcpStream>>, limits: &Limits, stats: &Stats, handler: &Handler, hosts: &[String; 3]) {
+    loop {
+        let next = match rx.lock() {
+            Ok(rx) => rx.recv(),
+            Err(_) => return,
+        };
+        let Ok(stream) = next else { return };
+        let _ = stream.set_nodelay(true);
+        connection(stream, limits, stats, handler, hosts);
+    }
+}
+
+/// Why a request was not handed to the handler.
+struct Refusal(u16, String);
+
+fn connection(mut stream: TcpStream, limits: &Limits, stats: &Stats, handler: &Handler, hosts: &[String; 3]) {
+    let deadline = Instant::now() + limits.request_deadline;
+    let response = match read_request(&mut stream, limits, deadline, hosts) {
+        Ok((method, path, query)) => {
+            let req = Request { path, query, stream: &stream };
+            // A panic in a handler is a bug; it costs this request, not the server.
+            let r = std::panic::catch_unwind(std::panic::AssertUnwindSafe(|| handler(&req)))
+                .unwrap_or_else(|_| Response::error(500, "internal error: this is a bug, please report it"));
+            if r.status == STATUS_ABANDONED {
+                stats.abandoned.fetch_add(1, Ordering::Relaxed);
+                return;
+            }
+            (r, method == "HEAD")
+        }
+        Err(Refusal(0, _)) => return, // the client closed before sending a request
+        Err(Refusal(status, message)) => {
+            stats.refused.fetch_add(1, Ordering::Relaxed);
+            (Response::error(status, message), false)
+        }
+    };
+    let (response, head_only) = response;
+    let body: &[u8] = match &response.body {
+        Body::Owned(b) => b,
+        Body::Static(b) => b,
+    };
+    let budget = limits.io_timeout + Duration::from_secs_f64(body.len() as f64 / limits.min_read_rate.max(1) as f64);
+    let written = write_head(&mut stream, &response, body.len()).and_then(|()| {
+        if head_only {
+            Ok(())
+        } else {
+            write_all_by(&mut stream, body, Instant::now() + budget, limits)
+        }
+    });
+    if written.is_ok() {
+        if response.status < 400 {
+            stats.served.fetch_add(1, Ordering::Relaxed);
+        }
+        close_gently(stream);
+    } else {
+        stats.abandoned.fetch_add(1, Ordering::Relaxed);
+    }
+}
+
+/// Reads and checks the request line and headers, and reads (and drops) the body.
+fn read_request(
+    stream: &mut TcpStream,
+    limits: &Limits,
+    deadline: Instant,
+    hosts: &[String; 3],
+) -> Result<(&'static str, String, String), Refusal> {
+    let mut buf: Vec<u8> = Vec::with_capacity(1024);
+    let cap = limits.request_line + 2 + limits.headers + 2;
+    let end = loop {
+        if let Some(p) = buf.windows(4).position(|w| w == b"\r\n\r\n") {
+            break p;
+        }
+        let line_end = buf.windows(2).position(|w| w == b"\r\n");
+        if line_end.unwrap_or(buf.len()) > limits.request_line {
+            return Err(Refusal(414, format!("request line longer than {} bytes", limits.request_line)));
+        }
+        if buf.len() >= cap {
+            return Err(Refusal(431, format!("headers longer than {} bytes", limits.headers)));
+        }
+        let mut chunk = [0u8; 4096];
+        let room = (cap - buf.len()).min(chunk.len());
+        match read_by(stream, &mut chunk[..room], deadline, limits)? {
+            0 if buf.is_empty() => return Err(Refusal(0, String::new())),
+            0 => return Err(Refusal(400, "connection closed inside the request".into())),
+            n => buf.extend_from_slice(&chunk[..n]),
+        }
+    };
+    let head = std::str::from_utf8(&buf[..end]).map_err(|_| Refusal(400, "request head is not UTF-8".into()))?;
+    let mut lines = head.split("\r\n");
+    let line = lines.next().unwrap_or("");
+    if line.len() > limits.request_line {
+        return Err(Refusal(414, format!("request line longer than {} bytes", limits.request_line)));
+    }
+    if end - line.len() > limits.headers + 2 {
+        return Err(Refusal(431, format!("headers longer than {} bytes", limits.headers)));
+    }
+    let mut parts = line.split(' ');
+    let (Some(method), Some(target), Some(version), None) = (parts.next(), parts.next(), parts.next(), parts.next())
+    else {
+        return Err(Refusal(400, "malformed request line".into()));
+    };
+    let method = match method {
+        "GET" => "GET",
+        "HEAD" => "HEAD",
+        m => return Err(Refusal(405, format!("method {m:?}: only GET and HEAD"))),
+    };
+    if version != "HTTP/1.1" && version != "HTTP/1.0" {
+        return Err(Refusal(505, format!("{version:?}: only HTTP/1.0 and HTTP/1.1")));
+    }
+    if !target.starts_with('/') {
+        return Err(Refusal(400, "the request target must be a path".into()));
+    }
+    let (mut host, mut length): (Option<&str>, Option<usize>) = (None, None);
+    for h in lines {
+        let (name, value) = h.split_once(':').ok_or_else(|| Refusal(400, format!("malformed header {h:?}")))?;
+        let value = value.trim();
+        if name.eq_ignore_ascii_case("host") {
+            if host.is_some() {
+                return Err(Refusal(400, "more than one Host header".into()));
+            }
+            host = Some(value);
+        } else if name.eq_ignore_ascii_case("content-length") {
+            let n = value.parse().map_err(|_| Refusal(400, format!("Content-Length {value:?}: not a number")))?;
+            if length.is_some_and(|l| l != n) {
+                return Err(Refusal(400, "conflicting Content-Length headers".into()));
+            }
+            length = Some(n);
+        } else if name.eq_ignore_ascii_case("transfer-encoding") {
+            return Err(Refusal(501, "Transfer-Encoding in a request is not accepted".into()));
+        }
+    }
+    match host {
+        None => return Err(Refusal(400, "Host header required".into())),
+        Some(h) if !hosts.iter().any(|ok| ok.eq_ignore_ascii_case(h)) => {
+            return Err(Refusal(403, format!("Host {h:?} is not this server (accepted: {})", hosts.join(", "))));
+        }
+        Some(_) => {}
+    }
+    let length = length.unwrap_or(0);
+    if length > limits.body {
+        return Err(Refusal(413, format!("body of {length} bytes: at most {}", limits.body)));
+    }
+    // The body (if any) is read to its end so the response is not lost to a reset.
+    let mut left = length.saturating_sub(buf.len() - (end + 4));
+    let mut sink = [0u8; 4096];
+    while left > 0 {
+        let room = left.min(sink.len());
+        match read_by(stream, &mut sink[..room], deadline, limits)? {
+            0 => return Err(Refusal(400, "connection closed inside the body".into())),
+            n => left -= n,
+        }
+    }
+    let (path, query) = target.split_once('?').unwrap_or((target, ""));
+    Ok((method, path.to_string(), query.to_string()))
+}
+
+/// One read that must make progress before `deadline` (and within `io_timeout`).
+fn read_by(stream: &mut TcpStream, buf: &mut [u8], deadline: Instant, limits: &Limits) -> Result<usize, Refusal> {
+    let timeout = || Refusal(408, format!("request not received within {:?}", limits.request_deadline));
+    let left = deadline.checked_duration_since(Instant::now()).filter(|d| !d.is_zero()).ok_or_else(timeout)?;
+    let _ = stream.set_read_timeout(Some(left.min(limits.io_timeout)));
+    loop {
+        match stream.read(buf) {
+            Ok(n) => return Ok(n),
+            Err(e) if e.kind() == ErrorKind::Interrupted => continue,
+            Err(e) if matches!(e.kind(), ErrorKind::WouldBlock | ErrorKind::TimedOut) => return Err(timeout()),
+            Err(_) => return Err(Refusal(0, String::new())),
+        }
+    }
+}
+
+fn write_head(stream: &mut TcpStream, r: &Response, len: usize) -> std::io::Result<()> {
+    let mut head = format!(
+        "HTTP/1.1 {} {}\r\nContent-Type: {}\r\nContent-Length: {len}\r\nConnection: close\r\n\
+         Cache-Control: no-store\r\nX-Content-Type-Options: nosniff\r\nCross-Origin-Resource-Policy: same-origin\r\n",
+        r.status,
+        reason(r.status),
+        r.content_type
+    );
+    if r.status == 405 {
+        head.push_str("Allow: GET, HEAD\r\n");
+    }
+    for (k, v) in &r.headers {
+        head.push_str(&format!("{k}: {v}\r\n"));
+    }
+    head.push_str("\r\n");
+    stream.write_all(head.as_bytes())
+}
+
+/// Writes `body`, giving up at `deadline` or when one write makes no progress for `io_timeout`.
+fn write_all_by(stream: &mut TcpStream, mut body: &[u8], deadline: Instant, limits: &Limits) -> std::io::Result<()> {
+    const CHUNK: usize = 256 * 1024;
+    while !body.is_empty() {
+        let left = deadline
+            .checked_duration_since(Instant::now())
+            .filter(|d| !d.is_zero())
+            .ok_or_else(|| std::io::Error::from(ErrorKind::TimedOut))?;
+        stream.set_write_timeout(Some(left.min(limits.io_timeout)))?;
+        match stream.write(&body[..body.len().min(CHUNK)]) {
+            Ok(0) => return Err(ErrorKind::WriteZero.into()),
+            Ok(n) => body = &body[n..],
+            Err(e) if e.kind() == ErrorKind::Interrupted => {}
+            Err(e) => return Err(e),
+        }
+    }
+    Ok(())
+}
+
+/// Ends the connection after a response: our side first, then whatever the client still sends is
+/// read for a moment (at most [`LINGER`], 64 KiB), so unread request bytes do not turn the close
+/// into a reset that loses the response.
+fn close_gently(mut stream: TcpStream) {
+    let _ = stream.shutdown(Shutdown::Write);
+    let until = Instant::now() + LINGER;
+    let mut sink = [0u8; 4096];
+    let mut budget = 64 * 1024usize;
+    while let Some(left) = until.checked_duration_since(Instant::now()).filter(|d| !d.is_zero()) {
+        let _ = stream.set_read_timeout(Some(left));
+        match stream.read(&mut sink) {
+            Ok(n) if n > 0 && n < budget => budget -= n,
+            _ => break,
+        }
+    }
+}
+
+/// How long [`close_gently`] waits for the client to close.
+const LINGER: Duration = Duration::from_millis(500);
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use std::io::{Read, Write};
+
+    /// A server with short timeouts on a free port, answering `size` bytes of 'x' on every path.
+    fn server(limits: Limits, size: usize) -> (String, Arc<Stats>) {
+        let listener = TcpListener::bind("127.0.0.1:0").unwrap();
+        let addr = listener.local_addr().unwrap().to_string();
+        let stats = Arc::new(Stats::default());
+        let s = stats.clone();
+        let body: &'static [u8] = Box::leak(vec![b'x'; size].into_boxed_slice());
+        std::thread::spawn(move || {
+            serve(listener, limits, s, Arc::new(move |_: &Request| Response::ok("text/plain", Body::Static(body))))
+        });
+        (addr, stats)
+    }
+
+    fn quick() -> Limits {
+        Limits {
+            workers: 2,
+            queue: 2,
+            request_deadline: Duration::from_millis(400),
+            io_timeout: Duration::from_millis(300),
+            min_read_rate: 1 << 20,
+            ..Limits::default()
+        }
+    }
+
+    /// The status code of the answer to `raw`, read until the server closes.
+    fn ask(addr: &str, raw: &[u8]) -> u16 {
+        let mut s = TcpStream::connect(addr).unwrap();
+        s.set_read_timeout(Some(Duration::from_secs(5))).unwrap();
+        let _ = s.write_all(raw);
+        let mut out = Vec::new();
+        let _ = s.read_to_end(&mut out);
+        let head = String::from_utf8_lossy(&out[..out.len().min(64)]).into_owned();
+        head.split_whitespace().nth(1).and_then(|c| c.parse().ok()).unwrap_or(0)
+    }
+
+    fn get(host: &str) -> Vec<u8> {
+        format!("GET /x HTTP/1.1\r\nHost: {host}\r\n\r\n").into_bytes()
+    }
+
+    #[test]
+    fn limits_and_host_are_enforced() {
+        let (addr, stats) = server(quick(), 10);
+        let port = addr.rsplit(':').next().unwrap();
+        assert_eq!(ask(&addr, &get(&addr)), 200);
+        assert_eq!(ask(&addr, &get(&format!("localhost:{port}"))), 200);
+        assert_eq!(ask(&addr, &get(&format!("LOCALHOST:{port}"))), 200);
+        assert_eq!(ask(&addr, &get(&format!("[::1]:{port}"))), 200);
+        assert_eq!(ask(&addr, &get(&format!("evil.example:{port}"))), 403);
+        assert_eq!(ask(&addr, &get("127.0.0.1:1")), 403);
+        assert_eq!(ask(&addr, &get("localhost")), 403);
+        assert_eq!(ask(&addr, b"GET /x HTTP/1.1\r\n\r\n"), 400);
+        let long = format!("GET /{} HTTP/1.1\r\nHost: {addr}\r\n\r\n", "a".repeat(9000));
+        assert_eq!(ask(&addr, long.as_bytes()), 414);
+        let many = format!(
+            "GET / HTTP/1.1\r\nHost: {addr}\r\n{}\r\n",
+            "X-Pad: 0123456789012345678901234567890123456789\r\n".repeat(400)
+        );
+        assert_eq!(ask(&addr, many.as_bytes()), 431);
+        let big = format!("GET / HTTP/1.1\r\nHost: {addr}\r\nContent-Length: 1000000000\r\n\r\n");
+        assert_eq!(ask(&addr, big.as_bytes()), 413);
+        let chunked = format!("GET / HTTP/1.1\r\nHost: {addr}\r\nTransfer-Encoding: chunked\r\n\r\n");
+        assert_eq!(ask(&addr, chunked.as_bytes()), 501);
+        assert_eq!(ask(&addr, format!("POST / HTTP/1.1\r\nHost: {addr}\r\n\r\n").as_bytes()), 405);
+        assert_eq!(ask(&addr, format!("GET / HTTP/2\r\nHost: {addr}\r\n\r\n").as_bytes()), 505);
+        assert_eq!(ask(&addr, format!("GET http://x/ HTTP/1.1\r\nHost: {addr}\r\n\r\n").as_bytes()), 400);
+        let with_body = format!("GET / HTTP/1.1\r\nHost: {addr}\r\nContent-Length: 5\r\n\r\nhello");
+        assert_eq!(ask(&addr, with_body.as_bytes()), 200);
+        // HEAD: the length of the body, not the body.
+        let mut s = TcpStream::connect(&addr).unwrap();
+        write!(s, "HEAD /x HTTP/1.1\r\nHost: {addr}\r\n\r\n").unwrap();
+        let mut out = String::new();
+        s.read_to_string(&mut out).unwrap();
+        assert!(out.starts_with("HTTP/1.1 200 OK\r\n") && out.contains("Content-Length: 10\r\n"), "{out}");
+        assert!(out.ends_with("\r\n\r\n"), "{out}");
+        assert_eq!(stats.refused.load(Ordering::Relaxed), 11);
+    }
+
+    #[test]
+    fn a_trickling_client_is_cut_at_the_deadline() {
+        let (addr, stats) = server(quick(), 10);
+        let mut s = TcpStream::connect(&addr).unwrap();
+        let start = Instant::now();
+        write!(s, "GET /x HTTP/1.1\r\nHost: {addr}\r\nContent-Length: 100\r\n\r\n").unwrap();
+        // One byte every 50 ms: every read makes progress, the whole request never arrives.
+        let mut cut = false;
+        for _ in 0..100 {
+            std::thread::sleep(Duration::from_millis(50));
+            if s.write_all(b"x").is_err() {
+                cut = true;
+                break;
+            }
+            s.set_nonblocking(true).unwrap();
+            let mut b = [0u8; 64];
+            let r = s.read(&mut b);
+            s.set_nonblocking(false).unwrap();
+            if let Ok(n) = r {
+                assert!(n == 0 || String::from_utf8_lossy(&b[..n]).starts_with("HTTP/1.1 408"), "{:?}", &b[..n]);
+                cut = true;
+                break;
+            }
+        }
+        assert!(cut, "still connected after 5 s");
+        let t = start.elapsed();
+        assert!(t >= Duration::from_millis(350) && t < Duration::from_millis(1500), "cut after {t:?}");
+        assert_eq!(stats.refused.load(Ordering::Relaxed), 1);
+    }
+
+    #[test]
+    fn a_client_that_never_reads_frees_its_worker() {
+        // 32 MB: more than the socket buffers hold, so the write blocks until the deadline
+        // (io_timeout + 32 MB at 1 MB/s would be 32 s; io_timeout alone bounds one stuck write).
+        let (addr, stats) = server(quick(), 32 << 20);
+        let mut stalled = TcpStream::connect(&addr).unwrap();
+        stalled.write_all(&get(&addr)).unwrap();
+        let start = Instant::now();
+        while stats.abandoned.load(Ordering::Relaxed) == 0 {
+            assert!(start.elapsed() < Duration::from_secs(5), "the stalled response is still being written");
+            std::thread::sleep(Duration::from_millis(20));
+        }
+        drop(stalled);
+    }
+
+    #[test]
+    fn a_full_queue_is_answered_503() {
+        let limits = Limits { workers: 1, queue: 1, ..quick() };
+        let (addr, stats) = server(limits, 10);
+        // The worker waits on one silent client, a second fills the queue; the third is refused.
+        let _a = TcpStream::connect(&addr).unwrap();
+        std::thread::sleep(Duration::from_millis(50));
+        let _b = TcpStream::connect(&addr).unwrap();
+        std::thread::sleep(Duration::from_millis(50));
+        // Sending nothing: the refusal is not lost to a reset over unread bytes.
+        let mut c = TcpStream::connect(&addr).unwrap();
+        c.set_read_timeout(Some(Duration::from_secs(5))).unwrap();
+        let mut out = String::new();
+        c.read_to_string(&mut out).unwrap();
+        assert!(out.starts_with("HTTP/1.1 503"), "{out}");
+        assert!(stats.refused.load(Ordering::Relaxed) >= 1);
+    }
+}

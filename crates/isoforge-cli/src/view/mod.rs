@@ -1,0 +1,621 @@
+//! `isoforge view`: a loopback HTTP server that extracts on request, so a browser shows exactly
+//! what `isoforge extract` writes. The page (`viewer/page/`, plain JavaScript and WebGL2, no
+//! third-party code) is embedded in the binary as it is in the tree.
+//!
+//! - `GET /api/info` → JSON: what is shown (`demo`, `volume`, `mesh`), the query parameters the
+//!   API accepts for it, methods, demo fields, value range and histogram of a volume.
+//! - `GET /api/mesh?…&level=preview|full` → the mesh in the compact form of [`codec`]; the head
+//!   holds counts and timings only. A volume larger than [`PREVIEW_POINTS`] points has a preview:
+//!   the volume (or its region) block-averaged by `step` along each axis, which the page draws
+//!   first while it asks for the full resolution.
+//! - `GET /api/check?…` → the full check (`isoforge check --json`'s report) of the
+//!   full-resolution mesh, then its defect edges (boundary and non-manifold) as vertex pairs.
+//!   Deferred because it costs more than the extraction on large meshes.
+//! - `GET /api/export?format=ply|obj|stl|glb&…` → the full-resolution mesh as a file.
+//! - `GET /api/status` → JSON counters of the server (served, abandoned, refused requests).
+//!
+//! Parameters: `method`, `iso` (volumes and the demo), `roi` (volumes: `i0:i1,j0:j1,k0:k1`),
+//! `field` (`metaballs|lines|height`), `n` (8–160) and `t` (animation time) for the demo. Each is
+//! validated: unknown ones and out-of-range values are a 400 with the reason, so no request can
+//! make the server allocate without bound.
+//!
+//! Work follows the page: the last full-resolution mesh and its check are kept, so the check and
+//! export reuse it; full-resolution extractions and checks run one at a time, and a request
+//! whose client went away (the page aborts stale ones) is dropped before it starts and before
+//! its answer is encoded. An extraction once started runs to its end: the library has no
+//! cancellation hook.
+
+mod codec;
+mod http;
+
+use std::net::TcpListener;
+use std::sync::{Arc, Mutex, MutexGuard};
+use std::time::{Duration, Instant};
+
+use anyhow::{anyhow, bail, Context, Result};
+use isoforge::grid::{downsample_mean, AnyGrid, Histogram};
+use isoforge::mesh::Mesh;
+use isoforge::pipeline::{self, Method, Options};
+use isoforge::topo::{self, CheckOptions};
+use isoforge::volume::catalog::Classic;
+use isoforge::volume::{Inside, Iso};
+use serde_json::{json, Value};
+
+use self::http::{Body, Request, Response, Stats};
+
+/// What the viewer shows.
+pub enum Shown {
+    /// The classic demo fields.
+    Demo,
+    /// A volume, meshed at the requested iso.
+    Volume { name: String, grid: AnyGrid, inside: Inside },
+    /// A fixed mesh.
+    Mesh { name: String, mesh: Mesh },
+}
+
+/// Largest demo resolution (points per axis).
+pub const MAX_N: u32 = 160;
+
+/// Smallest demo resolution.
+const MIN_N: u32 = 8;
+
+/// Volumes (or regions) with more points than this get a preview: block means over `step`³
+/// points, `step` the smallest that brings the count under this (the 512×512×450 shoulder:
+/// step 4, 1.8 M points, about 1/16 of the triangles).
+pub const PREVIEW_POINTS: u64 = 2_000_000;
+
+/// At most this many defect edges are sent to the page (the report counts them all).
+const MAX_DEFECT_EDGES: usize = 1 << 20;
+
+/// The page, embedded as it is in `viewer/page/` (no build step).
+const PAGE: [(&str, &str, &str); 5] = [
+    ("/", include_str!("../../../../viewer/page/index.html"), "text/html; charset=utf-8"),
+    ("/main.js", include_str!("../../../../viewer/page/main.js"), "text/javascript; charset=utf-8"),
+    ("/gl.js", include_str!("../../../../viewer/page/gl.js"), "text/javascript; charset=utf-8"),
+    ("/orbit.js", include_str!("../../../../viewer/page/orbit.js"), "text/javascript; charset=utf-8"),
+    ("/codec.js", include_str!("../../../../viewer/page/codec.js"), "text/javascript; charset=utf-8"),
+];
+
+/// Listens on 127.0.0.1:`port` (0: any free port), prints the URL, and serves until the process
+/// ends.
+///
+/// # Errors
+/// When the port cannot be bound.
+pub fn serve(port: u16, shown: Shown) -> Result<()> {
+    let listener =
+        TcpListener::bind(("127.0.0.1", port)).with_context(|| format!("cannot listen on 127.0.0.1:{port}"))?;
+    let addr = listener.local_addr().context("the server has no address")?;
+    let viewer = Arc::new(Viewer::new(shown));
+    let stats = viewer.stats.clone();
+    println!("http://{addr}/");
+    use std::io::Write as _;
+    let _ = std::io::stdout().flush();
+    http::serve(listener, http::Limits::default(), stats, Arc::new(move |req: &Request| viewer.route(req)));
+    Ok(())
+}
+
+/// A mesh request, validated and typed.
+#[derive(Debug, Clone, PartialEq)]
+struct Query {
+    method: Method,
+    /// The iso value (volumes and the demo).
+    iso: Option<f64>,
+    /// A volume region.
+    roi: Option<Roi>,
+    demo: Option<Demo>,
+}
+
+/// Half-open point ranges of a volume region: (lower corner, upper corner).
+type Roi = ([u32; 3], [u32; 3]);
+
+/// A block-averaged volume (or region) for previews.
+struct Preview {
+    roi: Option<Roi>,
+    step: u32,
+    grid: Arc<AnyGrid>,
+}
+
+#[derive(Debug, Clone, Copy, PartialEq)]
+struct Demo {
+    field: Classic,
+    n: u32,
+    t: f32,
+}
+
+/// The server's state: what is shown, and the work it keeps between requests.
+struct Viewer {
+    shown: Shown,
+    /// Histogram of a volume, made once.
+    histogram: Option<Histogram>,
+    /// The last preview grid.
+    preview: Mutex<Option<Preview>>,
+    /// The last full-resolution mesh and its query.
+    last_mesh: Mutex<Option<(Query, Arc<Mesh>)>>,
+    /// The last check (report JSON and defect edges) and its query.
+    last_check: Mutex<Option<(Query, Arc<Vec<u8>>)>>,
+    /// Held while a full-resolution extraction runs (one at a time).
+    extracting: Mutex<()>,
+    /// Held while a check runs (one at a time).
+    checking: Mutex<()>,
+    stats: Arc<Stats>,
+}
+
+/// Why a request ended without an answer: its client went away.
+struct Abandoned;
+
+/// A handler's failure: the client went away, or a message for a 400.
+enum Failure {
+    Abandoned,
+    Bad(anyhow::Error),
+}
+
+impl From<anyhow::Error> for Failure {
+    fn from(e: anyhow::Error) -> Self {
+        Failure::Bad(e)
+    }
+}
+
+impl From<Abandoned> for Failure {
+    fn from(_: Abandoned) -> Self {
+        Failure::Abandoned
+    }
+}
+
+impl From<isoforge::Error> for Failure {
+    fn from(e: isoforge::Error) -> Self {
+        Failure::Bad(e.into())
+    }
+}
+
+fn lock<T>(m: &Mutex<T>) -> MutexGuard<'_, T> {
+    m.lock().unwrap_or_else(|p| p.into_inner())
+}
+
+/// Takes `m` as soon as it is free, or gives up when the client goes away.
+fn lock_or_abandon<'a, T>(m: &'a Mutex<T>, req: &Request) -> Result<MutexGuard<'a, T>, Abandoned> {
+    loop {
+        match m.try_lock() {
+            Ok(g) => return Ok(g),
+            Err(std::sync::TryLockError::Poisoned(p)) => return Ok(p.into_inner()),
+            Err(std::sync::TryLockError::WouldBlock) => {
+                if req.is_abandoned() {
+                    return Err(Abandoned);
+                }
+                std::thread::sleep(Duration::from_millis(5));
+            }
+        }
+    }
+}
+
+fn still_wanted(req: &Request) -> Result<(), Abandoned> {
+    if req.is_abandoned() {
+        Err(Abandoned)
+    } else {
+        Ok(())
+    }
+}
+
+impl Viewer {
+    fn new(shown: Shown) -> Viewer {
+        let histogram = match &shown {
+            Shown::Volume { grid, .. } => Histogram::of(grid, 128),
+            _ => None,
+        };
+        Viewer {
+            shown,
+            histogram,
+            preview: Mutex::new(None),
+            last_mesh: Mutex::new(None),
+            last_check: Mutex::new(None),
+            extracting: Mutex::new(()),
+            checking: Mutex::new(()),
+            stats: Arc::new(Stats::default()),
+        }
+    }
+
+    fn route(&self, req: &Request) -> Response {
+        let params = match parse_query(&req.query) {
+            Ok(p) => p,
+            Err(e) => return Response::error(400, format!("{e:#}")),
+        };
+        let answer = match req.path.as_str() {
+            "/api/info" => Ok(json_response(&self.info())),
+            "/api/status" => Ok(json_response(&self.status())),
+            "/api/mesh" => self.mesh_reply(&params, req),
+            "/api/check" => self.check_reply(&params, req),
+            "/api/export" => self.export_reply(&params, req),
+            p => {
+                return match PAGE.iter().find(|(path, _, _)| *path == p || (p == "/index.html" && *path == "/")) {
+                    Some((_, text, mime)) => Response::ok(mime, Body::Static(text.as_bytes())),
+                    None => Response::error(404, format!("{p}: not found")),
+                }
+            }
+        };
+        match answer {
+            Ok(r) => r,
+            Err(Failure::Abandoned) => Response::abandoned(),
+            Err(Failure::Bad(e)) => Response::error(400, format!("{e:#}")),
+        }
+    }
+
+    /// The query parameters `/api/mesh` and `/api/check` accept for what is shown.
+    fn accepted(&self) -> &'static [&'static str] {
+        match self.shown {
+            Shown::Demo => &["method", "iso", "field", "n", "t"],
+            Shown::Volume { .. } => &["method", "iso", "roi"],
+            Shown::Mesh { .. } => &[],
+        }
+    }
+
+    fn info(&self) -> Value {
+        let methods: Vec<&str> = Method::ALL.iter().map(|m| m.name()).collect();
+        let parameters = self.accepted();
+        match &self.shown {
+            Shown::Demo => json!({
+                "kind": "demo", "parameters": parameters, "methods": methods,
+                "fields": Classic::ALL.map(|c| c.name()), "iso": isoforge::volume::classic::CLASSIC_ISO,
+                "n": {"min": MIN_N, "max": MAX_N, "default": 40}
+            }),
+            Shown::Volume { name, grid, inside } => {
+                let h = self.histogram.as_ref();
+                json!({
+                    "kind": "volume", "name": name, "parameters": parameters, "methods": methods,
+                    "dims": grid.lattice().dims(), "inside": if *inside == Inside::Above { "above" } else { "below" },
+                    "range": h.map(|h| [h.min, h.max]), "histogram": h.map(|h| h.counts.clone()),
+                    "iso": h.map(|h| h.otsu()), "preview_step": preview_step(grid.lattice().num_points()),
+                })
+            }
+            Shown::Mesh { name, mesh } => json!({
+                "kind": "mesh", "name": name, "parameters": parameters,
+                "vertices": mesh.num_vertices(), "triangles": mesh.num_triangles()
+            }),
+        }
+    }
+
+    fn status(&self) -> Value {
+        use std::sync::atomic::Ordering::Relaxed;
+        json!({
+            "served": self.stats.served.load(Relaxed),
+            "abandoned": self.stats.abandoned.load(Relaxed),
+            "refused": self.stats.refused.load(Relaxed),
+        })
+    }
+
+    /// Checks `params` against what is shown (`extra` are the endpoint's own) and types them.
+    fn query(&self, params: &[(String, String)], extra: &[&str]) -> Result<Query> {
+        let accepted = self.accepted();
+        if let Some((k, _)) =
+            params.iter().find(|(k, _)| !accepted.contains(&k.as_str()) && !extra.contains(&k.as_str()))
+        {
+            let all: Vec<&str> = accepted.iter().chain(extra).copied().collect();
+            bail!("parameter {k:?} is not accepted here (accepted: {})", all.join(", "));
+        }
+        let method = match get(params, "method") {
+            None => Method::MarchingCubes,
+            Some(m) => Method::parse(m).ok_or_else(|| anyhow!("method={m:?}: unknown"))?,
+        };
+        let iso = number(params, "iso")?;
+        let mut q = Query { method, iso, roi: None, demo: None };
+        match &self.shown {
+            Shown::Demo => {
+                let name = get(params, "field").unwrap_or("metaballs");
+                let field =
+                    Classic::parse(name).ok_or_else(|| anyhow!("field={name:?}: metaballs, lines or height"))?;
+                let n = number(params, "n")?.unwrap_or(40.0);
+                if !(MIN_N as f64..=MAX_N as f64).contains(&n) || n.fract() != 0.0 {
+                    bail!("n={n}: a whole number from {MIN_N} to {MAX_N}");
+                }
+                let t = number(params, "t")?.unwrap_or(isoforge::volume::catalog::DEFAULT_TIME as f64);
+                if !(-1e6..=1e6).contains(&t) {
+                    bail!("t={t}: out of range");
+                }
+                q.demo = Some(Demo { field, n: n as u32, t: t as f32 });
+            }
+            Shown::Volume { grid, .. } => {
+                if iso.is_none() {
+                    bail!("iso is required");
+                }
+                q.roi = match get(params, "roi").filter(|r| !r.trim().is_empty()) {
+                    None => None,
+                    Some(roi) => Some(parse_roi(roi, grid.lattice().dims())?),
+                };
+            }
+            Shown::Mesh { .. } => {}
+        }
+        Ok(q)
+    }
+
+    fn mesh_reply(&self, params: &[(String, String)], req: &Request) -> Result<Response, Failure> {
+        let level = get(params, "level").unwrap_or("full");
+        let q = self.query(params, &["level"])?;
+        let preview = match level {
+            "full" => false,
+            "preview" => true,
+            l => return Err(Failure::Bad(anyhow!("level={l:?}: preview or full"))),
+        };
+        still_wanted(req)?;
+        let start = Instant::now();
+        let (mesh, step) = match self.preview_grid(&q, preview, req)? {
+            Some((grid, step)) => {
+                let opts = Options { method: q.method, ..Options::default() };
+                (Arc::new(drawable(pipeline::extract_grid(&grid, self.iso(&q)?, &opts, None)?.mesh)), step)
+            }
+            None => (self.full_mesh(&q, req)?, 1),
+        };
+        let ms = start.elapsed().as_secs_f64() * 1e3;
+        still_wanted(req)?;
+        let head = json!({
+            "level": if step > 1 { "preview" } else { "full" }, "step": step, "method": q.method.name(),
+            "vertices": mesh.num_vertices(), "triangles": mesh.num_triangles(), "extraction_ms": ms,
+        });
+        Ok(Response::ok("application/octet-stream", Body::Owned(codec::encode_mesh(&mesh, head))))
+    }
+
+    fn iso(&self, q: &Query) -> Result<Iso> {
+        Ok(match (&self.shown, q.demo) {
+            (Shown::Volume { inside, .. }, _) => {
+                Iso { value: q.iso.ok_or_else(|| anyhow!("iso is required"))?, inside: *inside }
+            }
+            (_, Some(d)) => {
+                let default = d.field.builtin(MIN_N, d.t)?.iso;
+                Iso { value: q.iso.unwrap_or(default.value), inside: default.inside }
+            }
+            _ => bail!("internal: no iso for a mesh; this is a bug, please report it"),
+        })
+    }
+
+    /// For a preview of a large volume: its block-averaged grid (kept for the next request) and
+    /// the step. `None` when the full resolution is wanted or small enough to be the preview.
+    fn preview_grid(&self, q: &Query, preview: bool, req: &Request) -> Result<Option<(Arc<AnyGrid>, u32)>, Failure> {
+        let Shown::Volume { grid, .. } = &self.shown else { return Ok(None) };
+        let points = match q.roi {
+            None => grid.lattice().num_points(),
+            Some((lo, hi)) => (0..3).map(|a| (hi[a] - lo[a]) as u64).product(),
+        };
+        let step = preview_step(points);
+        if !preview || step == 1 {
+            return Ok(None);
+        }
+        let mut cached = lock_or_abandon(&self.preview, req)?;
+        if let Some(p) = cached.as_ref().filter(|p| p.roi == q.roi && p.step == step) {
+            return Ok(Some((p.grid.clone(), step)));
+        }
+        let down = |g: &AnyGrid| -> Result<AnyGrid> {
+            Ok(AnyGrid::F32(isoforge::with_grid!(g, g => downsample_mean(g, step))?))
+        };
+        let g = Arc::new(match q.roi {
+            None => down(grid)?,
+            Some((lo, hi)) => down(&grid.crop(lo, hi)?)?,
+        });
+        *cached = Some(Preview { roi: q.roi, step, grid: g.clone() });
+        Ok(Some((g, step)))
+    }
+
+    /// The full-resolution mesh: the last one when the query is the same, else extracted (one
+    /// extraction at a time; a request whose client left while waiting is dropped).
+    fn full_mesh(&self, q: &Query, req: &Request) -> Result<Arc<Mesh>, Failure> {
+        let cached = || lock(&self.last_mesh).as_ref().filter(|(k, _)| k == q).map(|(_, m)| m.clone());
+        if let Some(m) = cached() {
+            return Ok(m);
+        }
+        let _turn = lock_or_abandon(&self.extracting, req)?;
+        if let Some(m) = cached() {
+            return Ok(m);
+        }
+        still_wanted(req)?;
+        let opts = Options { method: q.method, ..Options::default() };
+        let mesh = match (&self.shown, q.demo) {
+            (Shown::Mesh { mesh, .. }, _) => mesh.clone(),
+            (Shown::Volume { grid, .. }, _) => match q.roi {
+                None => pipeline::extract_grid(grid, self.iso(q)?, &opts, None)?.mesh,
+                Some((lo, hi)) => pipeline::extract_grid(&grid.crop(lo, hi)?, self.iso(q)?, &opts, None)?.mesh,
+            },
+            (Shown::Demo, Some(d)) => {
+                pipeline::extract_builtin(&d.field.builtin(d.n, d.t)?, self.iso(q)?, &opts, None)?.mesh
+            }
+            (Shown::Demo, None) => return Err(Failure::Bad(anyhow!("internal: a demo query without a field"))),
+        };
+        let mesh = Arc::new(drawable(mesh));
+        *lock(&self.last_mesh) = Some((q.clone(), mesh.clone()));
+        Ok(mesh)
+    }
+
+    fn check_reply(&self, params: &[(String, String)], req: &Request) -> Result<Response, Failure> {
+        let q = self.query(params, &[])?;
+        let cached = || lock(&self.last_check).as_ref().filter(|(k, _)| *k == q).map(|(_, b)| b.clone());
+        if let Some(b) = cached() {
+            return Ok(Response::ok("application/octet-stream", Body::Owned(b.to_vec())));
+        }
+        let mesh = self.full_mesh(&q, req)?;
+        let _turn = lock_or_abandon(&self.checking, req)?;
+        if let Some(b) = cached() {
+            return Ok(Response::ok("application/octet-stream", Body::Owned(b.to_vec())));
+        }
+        still_wanted(req)?;
+        let start = Instant::now();
+        let mut r = topo::check_with(&mesh, &CheckOptions { max_examples: MAX_DEFECT_EDGES, lattice: None });
+        let ms = start.elapsed().as_secs_f64() * 1e3;
+        // The defect edges go to the page as pairs; the JSON keeps the CLI's ten examples.
+        let mut edges: Vec<[u32; 2]> = r.boundary_edges.examples.iter().map(|f| f.edge).collect();
+        edges.extend(r.non_manifold_edges.examples.iter().map(|f| f.edge));
+        edges.truncate(MAX_DEFECT_EDGES);
+        trim_examples(&mut r, 10);
+        let mut head = crate::report::mesh_json(&r);
+        head["method"] = json!(q.method.name());
+        head["check_ms"] = json!(ms);
+        head["components"] = json!(r.components.len());
+        head["defect_edges"] = json!(r.boundary_edges.count + r.non_manifold_edges.count);
+        head["defect_edges_sent"] = json!(edges.len());
+        let bytes = Arc::new(codec::encode_edges(&edges, &head));
+        *lock(&self.last_check) = Some((q, bytes.clone()));
+        still_wanted(req)?;
+        Ok(Response::ok("application/octet-stream", Body::Owned(bytes.to_vec())))
+    }
+
+    fn export_reply(&self, params: &[(String, String)], req: &Request) -> Result<Response, Failure> {
+        let q = self.query(params, &["format"])?;
+        let mesh = self.full_mesh(&q, req)?;
+        let data = isoforge_io::MeshData::default();
+        let mut bytes = Vec::new();
+        let (written, mime, file) = match get(params, "format").unwrap_or("ply") {
+            "ply" => (isoforge_io::write::ply::write_ply(&mut bytes, &mesh, false), "application/octet-stream", "ply"),
+            "obj" => (isoforge_io::write::obj::write_obj(&mut bytes, &mesh), "text/plain; charset=utf-8", "obj"),
+            "stl" => (isoforge_io::write::stl::write_stl(&mut bytes, &mesh), "application/octet-stream", "stl"),
+            "glb" => {
+                let named = [isoforge_io::NamedMesh { name: "isosurface", mesh: &mesh, data: &data }];
+                (isoforge_io::write::gltf::write_glb(&mut bytes, &named), "model/gltf-binary", "glb")
+            }
+            f => return Err(Failure::Bad(anyhow!("format={f:?}: ply, obj, stl or glb"))),
+        };
+        written.map_err(|e| anyhow!("export: {e}"))?;
+        let mut r = Response::ok(mime, Body::Owned(bytes));
+        r.headers.push(("Content-Disposition", format!("attachment; filename=\"isosurface.{file}\"")));
+        Ok(r)
+    }
+}
+
+/// The smallest block size that brings `points` under [`PREVIEW_POINTS`] (1: no preview).
+fn preview_step(points: u64) -> u32 {
+    let mut step = 1u32;
+    while points / (step as u64).pow(3) > PREVIEW_POINTS {
+        step += 1;
+    }
+    step
+}
+
+/// Keeps at most `max` examples of each finding.
+fn trim_examples(r: &mut topo::MeshReport, max: usize) {
+    r.isolated_vertices.examples.truncate(max);
+    r.boundary_edges.examples.truncate(max);
+    r.non_manifold_edges.examples.truncate(max);
+    r.non_manifold_vertices.examples.truncate(max);
+    r.inconsistent_edges.examples.truncate(max);
+    r.collapsed_triangles.examples.truncate(max);
+    r.zero_area_triangles.examples.truncate(max);
+    r.duplicate_triangles.examples.truncate(max);
+}
+
+fn json_response(v: &Value) -> Response {
+    Response::ok("application/json", Body::Owned(v.to_string().into_bytes()))
+}
+
+fn parse_query(q: &str) -> Result<Vec<(String, String)>> {
+    let mut out = Vec::new();
+    for pair in q.split('&').filter(|p| !p.is_empty()) {
+        let (k, v) = pair.split_once('=').unwrap_or((pair, ""));
+        if k.len() > 32 || v.len() > 64 {
+            bail!("parameter {:?}: too long", k.get(..k.len().min(32)).unwrap_or(""));
+        }
+        let k = decode(k)?;
+        if out.iter().any(|(seen, _)| *seen == k) {
+            bail!("parameter {k:?} given twice");
+        }
+        out.push((k, decode(v)?));
+    }
+    Ok(out)
+}
+
+/// Percent-decoding of a query component (`%3A` → `:`, `+` → space).
+fn decode(s: &str) -> Result<String> {
+    let b = s.as_bytes();
+    let mut out = Vec::with_capacity(b.len());
+    let mut i = 0;
+    while i < b.len() {
+        match b[i] {
+            b'%' => {
+                let hex = s.get(i + 1..i + 3).and_then(|h| u8::from_str_radix(h, 16).ok());
+                out.push(hex.ok_or_else(|| anyhow!("{s:?}: bad percent escape"))?);
+                i += 3;
+            }
+            b'+' => {
+                out.push(b' ');
+                i += 1;
+            }
+            c => {
+                out.push(c);
+                i += 1;
+            }
+        }
+    }
+    String::from_utf8(out).map_err(|_| anyhow!("{s:?}: not UTF-8"))
+}
+
+fn get<'a>(params: &'a [(String, String)], key: &str) -> Option<&'a str> {
+    params.iter().find(|(k, _)| k == key).map(|(_, v)| v.as_str())
+}
+
+fn number(params: &[(String, String)], key: &str) -> Result<Option<f64>> {
+    match get(params, key) {
+        None => Ok(None),
+        Some(v) => {
+            let x: f64 = v.trim().parse().map_err(|_| anyhow!("{key}={v:?}: not a number"))?;
+            if !x.is_finite() {
+                bail!("{key}={v:?}: must be finite");
+            }
+            Ok(Some(x))
+        }
+    }
+}
+
+/// `i0:i1,j0:j1,k0:k1` (half-open point indices; empty bounds take the whole axis), as in
+/// `extract --roi`, checked against `dims`: at least two points per axis.
+fn parse_roi(roi: &str, dims: [u32; 3]) -> Result<Roi> {
+    let parts: Vec<&str> = roi.split(',').collect();
+    if parts.len() != 3 {
+        bail!("roi={roi:?}: expected i0:i1,j0:j1,k0:k1");
+    }
+    let (mut lo, mut hi) = ([0u32; 3], dims);
+    for (a, part) in parts.iter().enumerate() {
+        let (l, h) = part.split_once(':').ok_or_else(|| anyhow!("roi={roi:?}: {part:?} has no ':'"))?;
+        let num = |t: &str, default: u32| -> Result<u32> {
+            if t.trim().is_empty() {
+                Ok(default)
+            } else {
+                t.trim().parse().map_err(|_| anyhow!("roi={roi:?}: {t:?} is not a point index"))
+            }
+        };
+        lo[a] = num(l, 0)?;
+        hi[a] = num(h, dims[a])?;
+        if hi[a] > dims[a] || lo[a] + 2 > hi[a] {
+            bail!("roi={roi:?}: axis {a} range {}:{} must hold at least 2 of the {} points", lo[a], hi[a], dims[a]);
+        }
+    }
+    Ok((lo, hi))
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn preview_steps_bring_points_under_the_budget() {
+        assert_eq!(preview_step(100), 1);
+        assert_eq!(preview_step(PREVIEW_POINTS), 1);
+        assert_eq!(preview_step(256 * 256 * 128), 2);
+        assert_eq!(preview_step(512 * 512 * 450), 4);
+        assert_eq!(preview_step(512 * 512 * 361), 4);
+    }
+
+    #[test]
+    fn regions_are_checked_against_the_dims() {
+        assert_eq!(parse_roi("1:4,:,2:", [5, 6, 7]).unwrap(), ([1, 0, 2], [4, 6, 7]));
+        for bad in ["1:99,:,:", "3:4,:,:", ":,:", "a:b,:,:", "4:2,:,:"] {
+            assert!(parse_roi(bad, [5, 6, 7]).is_err(), "{bad}");
+        }
+    }
+
+    #[test]
+    fn queries_are_decoded_and_checked() {
+        let p = parse_query("roi=1%3A4%2C%3A%2C2%3A&iso=10.5").unwrap();
+        assert_eq!(get(&p, "roi"), Some("1:4,:,2:"));
+        assert!(parse_query("iso=1&iso=2").is_err());
+        assert!(parse_query("iso=%zz").is_err());
+        assert!(parse_query(&format!("iso={}", "1".repeat(65))).is_err());
+    }
+}
+
+/// The mesh as the page draws it: triangles only (quads of dual methods split).
+fn drawable(mut mesh: isoforge::mesh::Mesh) -> isoforge::mesh::Mesh {
+    mesh.triangulate();
+    mesh
+}

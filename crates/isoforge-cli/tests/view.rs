@@ -1,0 +1,458 @@
+//! `isoforge view` end to end, against the real binary over raw TCP: the API shows what
+//! `extract` writes (decoded here from the compact binary form), previews of large volumes,
+//! mesh files (issue 10), and the hardening of issue 10 item 1 (stalled and trickling clients,
+//! oversize requests, foreign `Host` headers, abandoned requests).
+
+use std::io::{BufRead, Read, Write};
+use std::net::TcpStream;
+use std::path::{Path, PathBuf};
+use std::process::{Command, Output};
+use std::time::{Duration, Instant};
+
+use serde_json::Value;
+
+fn isoforge(args: &[&str]) -> Output {
+    Command::new(env!("CARGO_BIN_EXE_isoforge")).args(args).output().expect("run isoforge")
+}
+
+fn p(path: &Path) -> &str {
+    path.to_str().unwrap()
+}
+
+fn repo() -> PathBuf {
+    Path::new(env!("CARGO_MANIFEST_DIR")).join("../..")
+}
+
+/// `isoforge view` running in the background, killed when dropped.
+struct Viewer {
+    child: std::process::Child,
+    addr: String,
+}
+
+impl Viewer {
+    fn start(args: &[&str]) -> Viewer {
+        let mut child = Command::new(env!("CARGO_BIN_EXE_isoforge"))
+            .arg("view")
+            .args(args)
+            .stdout(std::process::Stdio::piped())
+            .spawn()
+            .expect("start isoforge view");
+        let mut line = String::new();
+        std::io::BufReader::new(child.stdout.take().unwrap()).read_line(&mut line).unwrap();
+        let addr = line.trim().trim_start_matches("http://").trim_end_matches('/').to_string();
+        assert!(addr.starts_with("127.0.0.1:"), "view printed {line:?}");
+        Viewer { child, addr }
+    }
+
+    /// (status, body) of GET `path`.
+    fn get(&self, path: &str) -> (u16, Vec<u8>) {
+        self.raw(format!("GET {path} HTTP/1.1\r\nHost: {}\r\n\r\n", self.addr).as_bytes())
+    }
+
+    /// (status, body) of the answer to `request`, sent as it is.
+    fn raw(&self, request: &[u8]) -> (u16, Vec<u8>) {
+        let mut s = TcpStream::connect(&self.addr).unwrap();
+        s.set_read_timeout(Some(Duration::from_secs(60))).unwrap();
+        let _ = s.write_all(request);
+        let mut raw = Vec::new();
+        let _ = s.read_to_end(&mut raw);
+        let Some(split) = raw.windows(4).position(|w| w == b"\r\n\r\n") else { return (0, raw) };
+        let head = String::from_utf8_lossy(&raw[..split]).into_owned();
+        let status = head.split_whitespace().nth(1).unwrap().parse().unwrap();
+        (status, raw[split + 4..].to_vec())
+    }
+
+    fn json(&self, path: &str) -> Value {
+        let (code, body) = self.get(path);
+        assert_eq!(code, 200, "{path}: {}", String::from_utf8_lossy(&body));
+        serde_json::from_slice(&body).unwrap()
+    }
+
+    /// The decoded `/api/mesh` answer.
+    fn mesh(&self, query: &str) -> Decoded {
+        let (code, body) = self.get(&format!("/api/mesh?{query}"));
+        assert_eq!(code, 200, "{query}: {}", String::from_utf8_lossy(&body));
+        decode_mesh(&body)
+    }
+}
+
+impl Drop for Viewer {
+    fn drop(&mut self) {
+        let _ = self.child.kill();
+        let _ = self.child.wait();
+    }
+}
+
+/// A mesh as the page receives it, decoded: the head, dequantised positions, triangles.
+struct Decoded {
+    head: Value,
+    positions: Vec<[f32; 3]>,
+    triangles: Vec<[u32; 3]>,
+}
+
+/// The JSON head and the offset of what follows it (see src/view/codec.rs for the layout).
+fn head(body: &[u8]) -> (Value, usize) {
+    let n = u32::from_le_bytes(body[..4].try_into().unwrap()) as usize;
+    (serde_json::from_slice(&body[4..4 + n]).unwrap(), (4 + n).div_ceil(4) * 4)
+}
+
+fn decode_mesh(body: &[u8]) -> Decoded {
+    let (head, mut at) = head(body);
+    let (v, t) = (head["vertices"].as_u64().unwrap() as usize, head["triangles"].as_u64().unwrap() as usize);
+    let b = |k: &str, a: usize| head["box"][k][a].as_f64().unwrap() as f32;
+    let u16_at = |i: usize| u16::from_le_bytes([body[i], body[i + 1]]);
+    let positions = (0..v)
+        .map(|i| {
+            [0, 1, 2].map(|a| b("min", a) + u16_at(at + 6 * i + 2 * a) as f32 / 65535.0 * (b("max", a) - b("min", a)))
+        })
+        .collect();
+    at = (at + 6 * v).div_ceil(4) * 4;
+    at = (at + 2 * v).div_ceil(4) * 4; // normals: checked by the codec's unit tests
+    let mut flat = Vec::with_capacity(3 * t);
+    match head["index"]["encoding"].as_str().unwrap() {
+        "u16" => {
+            assert_eq!(body.len() - at, 6 * t, "u16 indices fill the rest");
+            flat.extend((0..3 * t).map(|i| u16_at(at + 2 * i) as u32));
+        }
+        "varint" => {
+            let (mut prev, mut z, mut shift) = (0i64, 0u64, 0);
+            for &byte in &body[at..] {
+                z |= ((byte & 0x7f) as u64) << shift;
+                shift += 7;
+                if byte < 0x80 {
+                    prev += (z >> 1) as i64 ^ -((z & 1) as i64);
+                    flat.push(u32::try_from(prev).unwrap());
+                    (z, shift) = (0, 0);
+                }
+            }
+            assert_eq!(shift, 0, "the last varint is complete");
+        }
+        e => panic!("index encoding {e}"),
+    }
+    assert_eq!(flat.len(), 3 * t, "{head}");
+    let triangles = flat.chunks_exact(3).map(|c| [c[0], c[1], c[2]]).collect();
+    Decoded { head, positions, triangles }
+}
+
+/// `isoforge extract ARGS -o mesh.ply`, read back.
+fn extract(args: &[&str]) -> isoforge::mesh::Mesh {
+    let dir = tempfile::tempdir().unwrap();
+    let out = dir.path().join("m.ply");
+    let o = isoforge(&[&["extract"], args, &["-o", p(&out)]].concat());
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    isoforge_io::read_mesh(&out, &isoforge_io::Limits::default()).unwrap()
+}
+
+/// The page's mesh is extract's: the same triangles, positions within the quantisation step.
+fn assert_same(what: &str, got: &Decoded, want: &isoforge::mesh::Mesh) {
+    assert_eq!((got.positions.len(), got.triangles.len()), (want.num_vertices(), want.num_triangles()), "{what}");
+    assert_eq!(got.triangles, want.triangles, "{what}: triangles");
+    let b = &got.head["box"];
+    for (g, w) in got.positions.iter().zip(&want.positions) {
+        for a in 0..3 {
+            let step = (b["max"][a].as_f64().unwrap() - b["min"][a].as_f64().unwrap()) as f32 / 65535.0;
+            assert!((g[a] - w[a]).abs() <= step * 0.5 + 1e-5 * w[a].abs().max(1.0), "{what}: {g:?} vs {w:?}");
+        }
+    }
+}
+
+#[test]
+fn the_viewer_serves_what_extract_writes() {
+    let demo = Viewer::start(&[]);
+    let info = demo.json("/api/info");
+    assert_eq!(info["kind"], "demo");
+    assert_eq!(info["methods"].as_array().unwrap().len(), isoforge::pipeline::Method::ALL.len());
+    assert_eq!(info["fields"], serde_json::json!(["metaballs", "lines", "height"]));
+    // The typed demo fields equal the catalogue's `field:` specs, through every method class.
+    for (query, spec, method, iso) in [
+        ("field=metaballs&n=48&t=0.25&method=mc33", "field:metaballs?n=48&t=0.25", "mc33", None),
+        ("field=lines&n=32&method=mt6&iso=40", "field:lines?n=32", "mt6", Some("40")),
+        ("field=height&n=24", "field:height?n=24", "mc", None),
+    ] {
+        let got = demo.mesh(&format!("{query}&level=full"));
+        assert_eq!(got.head["level"], "full");
+        let mut args = vec!["-i", spec, "--method", method];
+        if let Some(iso) = iso {
+            args.extend(["--iso", iso]);
+        }
+        assert_same(query, &got, &extract(&args));
+        assert_eq!(got.head["index"]["encoding"], "u16", "small meshes take two bytes an index");
+    }
+    // Every parameter is checked; nothing unbounded gets through.
+    for bad in [
+        "/api/mesh?n=100000",
+        "/api/mesh?n=7.5",
+        "/api/mesh?iso=nan",
+        "/api/mesh?method=dc",
+        "/api/mesh?zoom=2",
+        "/api/mesh?field=sphere",
+        "/api/mesh?level=half",
+        "/api/mesh?n=40&n=41",
+        "/api/export?format=fbx",
+        "/api/check?format=ply",
+    ] {
+        let (code, body) = demo.get(bad);
+        assert_eq!(code, 400, "{bad}: {}", String::from_utf8_lossy(&body));
+    }
+    assert_eq!(demo.get("/nothing-here").0, 404);
+    // The page is the tree's viewer/page, embedded as it is: no build step.
+    for (path, file) in [("/", "index.html"), ("/main.js", "main.js"), ("/gl.js", "gl.js"), ("/codec.js", "codec.js")] {
+        let (code, body) = demo.get(path);
+        assert_eq!(code, 200, "{path}");
+        assert_eq!(body, std::fs::read(repo().join("viewer/page").join(file)).unwrap(), "{path}");
+    }
+    // Export: a PLY that reads back watertight; the check of the same mesh.
+    let (code, ply) = demo.get("/api/export?format=ply&n=24");
+    assert_eq!(code, 200);
+    let dir = tempfile::tempdir().unwrap();
+    let f = dir.path().join("e.ply");
+    std::fs::write(&f, ply).unwrap();
+    assert!(isoforge(&["check", p(&f), "--require", "watertight"]).status.success());
+    let (code, body) = demo.get("/api/check?n=24");
+    assert_eq!(code, 200);
+    let (report, _) = head(&body);
+    assert_eq!((report["closed"].as_bool(), report["manifold"].as_bool()), (Some(true), Some(true)), "{report}");
+    assert_eq!(report["defect_edges"], 0);
+
+    // A volume: iso over its range, the same mesh as extract, its open faces as defect edges.
+    let vol = repo().join("testdata/volumes/u8_raw.nrrd");
+    let v = Viewer::start(&[p(&vol)]);
+    let info = v.json("/api/info");
+    assert_eq!(info["kind"], "volume");
+    assert_eq!(info["range"], serde_json::json!([0.0, 22.0]));
+    assert_eq!(info["preview_step"], 1, "small volumes need no preview");
+    let got = v.mesh("iso=10.5&level=preview");
+    assert_eq!(got.head["level"], "full", "the preview of a small volume is the full resolution");
+    let want = extract(&["-i", p(&vol), "--iso", "10.5"]);
+    assert_same("volume", &got, &want);
+    let (code, body) = v.get("/api/check?iso=10.5");
+    assert_eq!(code, 200);
+    let (report, at) = head(&body);
+    let defects = report["defect_edges"].as_u64().unwrap() as usize;
+    assert!(defects > 0 && report["closed"] == false, "open at the volume faces: {report}");
+    assert_eq!(report["defect_edges_sent"].as_u64().unwrap() as usize, defects);
+    // The defect edges sent are the edges used by one triangle, every one of them.
+    let mut uses = std::collections::HashMap::new();
+    for t in &want.triangles {
+        for k in 0..3 {
+            let (a, b) = (t[k], t[(k + 1) % 3]);
+            *uses.entry((a.min(b), a.max(b))).or_insert(0) += 1;
+        }
+    }
+    let mut boundary: Vec<[u32; 2]> = uses.into_iter().filter(|&(_, n)| n == 1).map(|((a, b), _)| [a, b]).collect();
+    boundary.sort_unstable();
+    let mut sent: Vec<[u32; 2]> = body[at..]
+        .chunks_exact(8)
+        .map(|c| [0, 4].map(|o| u32::from_le_bytes(c[o..o + 4].try_into().unwrap())))
+        .collect();
+    sent.sort_unstable();
+    assert_eq!(sent, boundary);
+    assert_eq!(v.get("/api/mesh?iso=10.5&field=lines").0, 400, "demo parameters are refused for a volume");
+    assert_eq!(v.get("/api/mesh?level=full").0, 400, "a volume needs an iso");
+    // A region, percent-encoded as browsers send it, equals extract --roi.
+    let got = v.mesh("iso=10.5&roi=1%3A4%2C%3A%2C2%3A&level=full");
+    assert_same("roi", &got, &extract(&["-i", p(&vol), "--iso", "10.5", "--roi", "1:4,:,2:"]));
+    assert_eq!(v.get("/api/mesh?iso=10.5&roi=1:99,:,:").0, 400);
+}
+
+#[test]
+fn issue_10_mesh_files_are_shown() {
+    // Issue 10: the page sent method=mc for a mesh file and the server refused it, so the page
+    // stayed blank. The server now says which parameters it accepts (none for a mesh), the page
+    // sends only those (viewer/e2e.mjs opens a mesh file in Chromium).
+    let mesh = repo().join("testdata/meshes/tetra_ascii.ply");
+    let m = Viewer::start(&[p(&mesh)]);
+    let info = m.json("/api/info");
+    assert_eq!(info["kind"], "mesh");
+    assert_eq!(info["parameters"], serde_json::json!([]));
+    let got = m.mesh("level=preview");
+    assert_eq!((got.positions.len(), got.triangles.len()), (4, 4));
+    assert_same("tetra", &got, &isoforge_io::read_mesh(&mesh, &isoforge_io::Limits::default()).unwrap());
+    let (code, body) = m.get("/api/check");
+    assert_eq!(code, 200);
+    assert_eq!(head(&body).0["closed"], true);
+    let (code, body) = m.get("/api/mesh?method=mc");
+    assert_eq!(code, 400);
+    assert!(String::from_utf8_lossy(&body).contains("\"method\" is not accepted here"));
+    assert_eq!(m.get("/api/export?format=stl").0, 200);
+}
+
+/// A NRRD of `n`³ u8 points: an egg crate, 127 + 120 sin(i/4) sin(j/4) sin(k/4) (much surface).
+fn write_crate(path: &Path, n: u32) {
+    let mut data = Vec::with_capacity((n * n * n) as usize);
+    for k in 0..n {
+        for j in 0..n {
+            for i in 0..n {
+                let s = [i, j, k].map(|x| (x as f32 / 4.0).sin()).iter().product::<f32>();
+                data.push((127.0 + 120.0 * s).round() as u8);
+            }
+        }
+    }
+    let header =
+        format!("NRRD0004\ntype: uint8\ndimension: 3\nsizes: {n} {n} {n}\nspacings: 0.5 0.5 0.5\nencoding: raw\n\n");
+    std::fs::write(path, [header.as_bytes(), &data].concat()).unwrap();
+}
+
+#[test]
+fn issue_10_large_volumes_get_a_preview_first() {
+    // Issue 10: each slider step sent the whole mesh (147 MB on the shoulder CT). Volumes over
+    // 2 M points now answer a preview first: the volume block-averaged, meshed the same way.
+    let dir = tempfile::tempdir().unwrap();
+    let vol = dir.path().join("crate.nrrd");
+    write_crate(&vol, 130); // 2.2 M points: step 2
+    let v = Viewer::start(&[p(&vol), "--inside", "above"]);
+    assert_eq!(v.json("/api/info")["preview_step"], 2);
+    let preview = v.mesh("iso=127.5&level=preview");
+    assert_eq!((preview.head["level"].as_str(), preview.head["step"].as_u64()), (Some("preview"), Some(2)));
+    // The preview is the block mean of the volume, meshed: computed here with the library.
+    let grid = isoforge_io::read_volume(&vol, &isoforge_io::Limits::default()).unwrap();
+    let coarse = isoforge::with_grid!(&grid, g => isoforge::grid::downsample_mean(g, 2)).unwrap();
+    let want = isoforge::pipeline::extract_grid(
+        &isoforge::grid::AnyGrid::F32(coarse),
+        isoforge::volume::Iso::above(127.5),
+        &Default::default(),
+        None,
+    )
+    .unwrap()
+    .mesh;
+    assert_same("preview", &preview, &want);
+    let full = v.mesh("iso=127.5&level=full");
+    assert_eq!(full.head["level"], "full");
+    assert_same("full", &full, &extract(&["-i", p(&vol), "--iso", "127.5", "--inside", "above"]));
+    assert_eq!(full.head["index"]["encoding"], "varint", "over 65536 vertices");
+    assert!(
+        preview.triangles.len() * 3 < full.triangles.len(),
+        "{} vs {}",
+        preview.triangles.len(),
+        full.triangles.len()
+    );
+    // The check of the full resolution reuses its mesh, and says what `isoforge check` says.
+    let (code, body) = v.get("/api/check?iso=127.5");
+    assert_eq!(code, 200);
+    let report = head(&body).0;
+    let out = dir.path().join("full.ply");
+    assert!(isoforge(&["extract", "-i", p(&vol), "--iso", "127.5", "--inside", "above", "-o", p(&out)])
+        .status
+        .success());
+    let o = isoforge(&["check", "--json", p(&out)]);
+    let cli: Value = serde_json::from_slice(&o.stdout).unwrap();
+    for key in ["vertices", "triangles", "edges", "closed", "manifold", "oriented", "euler", "genus"] {
+        assert_eq!(report[key], cli[key], "{key}");
+    }
+    assert_eq!(report["components"].as_u64(), cli["components"].as_array().map(|c| c.len() as u64));
+    assert_eq!(report["defect_edges"], cli["findings"]["boundary_edges"]["count"], "open at the faces");
+    // A region has its own preview (or none when small).
+    let r = v.mesh("iso=127.5&roi=0:130,0:130,0:65&level=preview");
+    assert_eq!(r.head["level"], "full", "1.1 M points need no preview");
+}
+
+#[test]
+#[cfg(unix)]
+fn issue_10_stalled_and_trickling_clients_do_not_block_others() {
+    // Issue 10, hardening 1: one client that never read its response (or trickled a body) froze
+    // every other request.
+    use std::os::unix::io::AsRawFd;
+    let v = Viewer::start(&[]);
+    // A client that asks for an 11 MB export and reads nothing: a tiny receive buffer makes
+    // the server's writes block once its send buffer is full.
+    let mut stalled = TcpStream::connect(&v.addr).unwrap();
+    let small: libc::c_int = 4096;
+    // SAFETY: a valid socket, an int option of the size given.
+    let rc = unsafe {
+        libc::setsockopt(
+            stalled.as_raw_fd(),
+            libc::SOL_SOCKET,
+            libc::SO_RCVBUF,
+            (&small as *const libc::c_int).cast(),
+            std::mem::size_of::<libc::c_int>() as libc::socklen_t,
+        )
+    };
+    assert_eq!(rc, 0);
+    write!(stalled, "GET /api/export?format=obj&n=160&method=mt-bcc HTTP/1.1\r\nHost: {}\r\n\r\n", v.addr).unwrap();
+    // A client that trickles its body, and one that trickles its headers.
+    let mut body = TcpStream::connect(&v.addr).unwrap();
+    write!(body, "GET /api/info HTTP/1.1\r\nHost: {}\r\nContent-Length: 1000\r\n\r\n", v.addr).unwrap();
+    let mut headers = TcpStream::connect(&v.addr).unwrap();
+    write!(headers, "GET /api/info HTTP/1.1\r\nHost: {}\r\n", v.addr).unwrap();
+    let start = Instant::now();
+    let mut answered = 0;
+    while start.elapsed() < Duration::from_secs(4) {
+        let _ = body.write_all(b"x");
+        let _ = headers.write_all(b"X-Slow: 1\r\n");
+        let t = Instant::now();
+        let (code, _) = v.get("/api/status");
+        assert_eq!(code, 200);
+        assert!(t.elapsed() < Duration::from_secs(1), "a normal request took {:?}", t.elapsed());
+        answered += 1;
+        std::thread::sleep(Duration::from_millis(100));
+    }
+    // The export is still stuck in its write (not served), the tricklers still unanswered.
+    let status = v.json("/api/status");
+    assert_eq!(status["served"].as_u64(), Some(answered), "{status}");
+    // The tricklers are cut at the 5 s request deadline with 408.
+    for (name, mut s) in [("body", body), ("headers", headers)] {
+        s.set_read_timeout(Some(Duration::from_secs(5))).unwrap();
+        let mut out = String::new();
+        let _ = s.read_to_string(&mut out);
+        assert!(out.starts_with("HTTP/1.1 408"), "{name}: {out:?}");
+    }
+    assert!(start.elapsed() < Duration::from_secs(8), "cut after {:?}", start.elapsed());
+    drop(stalled);
+}
+
+#[test]
+fn issue_10_oversize_requests_are_refused() {
+    let v = Viewer::start(&[]);
+    let line = format!("GET /api/info?{} HTTP/1.1\r\nHost: {}\r\n\r\n", "a=1&".repeat(3000), v.addr);
+    assert_eq!(v.raw(line.as_bytes()).0, 414);
+    let many =
+        format!("GET /api/info HTTP/1.1\r\nHost: {}\r\n{}\r\n", v.addr, "X-Pad: 0123456789abcdef\r\n".repeat(1000));
+    assert_eq!(v.raw(many.as_bytes()).0, 431);
+    let body = format!("GET /api/info HTTP/1.1\r\nHost: {}\r\nContent-Length: 100000000\r\n\r\n", v.addr);
+    assert_eq!(v.raw(body.as_bytes()).0, 413);
+    // Query parameters are capped too.
+    assert_eq!(v.get(&format!("/api/mesh?iso={}", "1".repeat(100))).0, 400);
+    assert_eq!(v.get("/api/info").0, 200, "the server is still up");
+}
+
+#[test]
+fn issue_10_foreign_hosts_are_refused() {
+    // DNS rebinding: a page of evil.example whose name now resolves to 127.0.0.1 still sends
+    // its own Host.
+    let v = Viewer::start(&[]);
+    let port = v.addr.rsplit(':').next().unwrap().to_string();
+    let ask = |host: Option<&str>| {
+        let h = host.map(|h| format!("Host: {h}\r\n")).unwrap_or_default();
+        v.raw(format!("GET /api/info HTTP/1.1\r\n{h}\r\n").as_bytes()).0
+    };
+    assert_eq!(ask(Some(&format!("evil.example:{port}"))), 403);
+    assert_eq!(ask(Some("127.0.0.1:1")), 403);
+    assert_eq!(ask(Some("127.0.0.1")), 403);
+    assert_eq!(ask(None), 400);
+    for ok in [format!("127.0.0.1:{port}"), format!("localhost:{port}"), format!("[::1]:{port}")] {
+        assert_eq!(ask(Some(&ok)), 200, "{ok}");
+    }
+    let (code, body) = v.raw(format!("GET / HTTP/1.1\r\nHost: evil.example:{port}\r\n\r\n").as_bytes());
+    assert_eq!(code, 403, "the page too: {}", String::from_utf8_lossy(&body));
+}
+
+#[test]
+fn issue_10_abandoned_requests_are_dropped() {
+    // The page aborts stale requests (a new slider position); the server notices the closed
+    // connection and drops the work instead of answering nobody.
+    let v = Viewer::start(&[]);
+    for _ in 0..3 {
+        let mut s = TcpStream::connect(&v.addr).unwrap();
+        write!(s, "GET /api/mesh?n=160&method=mt-bcc&level=full HTTP/1.1\r\nHost: {}\r\n\r\n", v.addr).unwrap();
+    }
+    let start = Instant::now();
+    for asked in 0.. {
+        let s = v.json("/api/status");
+        if s["abandoned"].as_u64() == Some(3) {
+            assert_eq!(s["served"].as_u64(), Some(asked), "only the status requests were answered: {s}");
+            break;
+        }
+        assert!(start.elapsed() < Duration::from_secs(20), "{s}");
+        std::thread::sleep(Duration::from_millis(50));
+    }
+}
