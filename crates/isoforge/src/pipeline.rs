@@ -158,11 +158,16 @@ pub fn extract_with_progress<V: Volume>(
 /// # Errors
 /// As [`extract`]; [`Error::InvalidInput`] when the thread pool cannot be built.
 pub fn extract_grid(grid: &AnyGrid, iso: Iso, opts: &Options, progress: Option<&dyn Progress>) -> Result<Extraction> {
-    fn go<S: Sample>(g: &DenseGrid<S>, iso: Iso, opts: &Options) -> Result<Extraction> {
+    fn go<S: Sample>(
+        g: &DenseGrid<S>,
+        iso: Iso,
+        opts: &Options,
+        progress: Option<&dyn Progress>,
+    ) -> Result<Extraction> {
         let normals = opts.normals == Normals::Gradient;
         if opts.method != Method::MarchingCubes || opts.mask.is_some() {
             // The other methods and masks run on the serial slab walker.
-            return extract(&GridVolume::new(g), iso, opts);
+            return extract_with_progress(&GridVolume::new(g), iso, opts, progress);
         }
         let (mesh, stats) = flying_edges(g, iso, &MarchingCubes, normals)?;
         Ok(Extraction { mesh, stats })
@@ -170,7 +175,7 @@ pub fn extract_grid(grid: &AnyGrid, iso: Iso, opts: &Options, progress: Option<&
     if !iso.value.is_finite() {
         return Err(Error::InvalidInput(format!("iso {}: must be a finite number", iso.value)));
     }
-    let run = || crate::with_grid!(grid, g => go(g, iso, opts));
+    let run = || crate::with_grid!(grid, g => go(g, iso, opts, progress));
     let out = in_pool(opts.threads, run)?;
     if let Some(p) = progress {
         p.advance(1, 1);
@@ -204,6 +209,20 @@ pub fn labels_present(grid: &AnyGrid) -> Vec<f64> {
 /// [`Error::InvalidInput`] when a label does not occur or more than 4096 labels are asked for; as
 /// [`extract_grid`] otherwise.
 pub fn extract_labels(grid: &AnyGrid, labels: &Labels, opts: &Options) -> Result<Vec<(f64, Extraction)>> {
+    extract_labels_with_progress(grid, labels, opts, None)
+}
+
+/// [`extract_labels`], reporting `advance(i, n)` before label `i` of `n` and `advance(n, n)` at
+/// the end.
+///
+/// # Errors
+/// As [`extract_labels`].
+pub fn extract_labels_with_progress(
+    grid: &AnyGrid,
+    labels: &Labels,
+    opts: &Options,
+    progress: Option<&dyn Progress>,
+) -> Result<Vec<(f64, Extraction)>> {
     const MAX_LABELS: usize = 4096;
     let present = labels_present(grid);
     let wanted = match labels {
@@ -217,12 +236,19 @@ pub fn extract_labels(grid: &AnyGrid, labels: &Labels, opts: &Options) -> Result
         return Err(Error::InvalidInput(format!("label {l} does not occur in the volume")));
     }
     let mut out = Vec::with_capacity(wanted.len());
-    for &label in &wanted {
+    let total = wanted.len() as u64;
+    for (i, &label) in wanted.iter().enumerate() {
+        if let Some(p) = progress {
+            p.advance(i as u64, total);
+        }
         let lattice = grid.lattice().clone();
         let data: Vec<u8> = grid.values_f64().map(|v| u8::from(v == label)).collect();
         let indicator = DenseGrid::new(lattice, data)?.pad(1, 0)?;
         let o = Options { method: opts.method, ..opts.clone() };
         out.push((label, extract_grid(&AnyGrid::U8(indicator), Iso::above(0.5), &o, None)?));
+    }
+    if let Some(p) = progress {
+        p.advance(total, total);
     }
     Ok(out)
 }
