@@ -174,7 +174,7 @@ fn info(shown: &Shown) -> Value {
             json!({
                 "kind": "volume", "name": name, "methods": methods, "dims": grid.lattice().dims(),
                 "range": h.as_ref().map(|h| [h.min, h.max]), "histogram": h.as_ref().map(|h| h.counts.clone()),
-                "iso": h.as_ref().map(|h| h.otsu()),
+                "iso": h.as_ref().map(|h| h.surface_iso()),
             })
         }
         Shown::Mesh { name, mesh } => json!({
