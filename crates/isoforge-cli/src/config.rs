@@ -224,7 +224,8 @@ impl InputConfig {
         Ok(InputConfig { source: Source::File { path, raw }, limits, placement })
     }
 
-    /// Whether `--spacing` or `--origin` placed the samples (raw files and images).
+    /// Whether the command line places the samples (raw files; images given `--spacing` or
+    /// `--origin`): contours are then written in those units rather than pixel indices.
     pub fn placed(&self) -> bool {
         self.placement.is_set() || matches!(&self.source, Source::File { raw: Some(_), .. })
     }
