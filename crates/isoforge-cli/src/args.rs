@@ -1,15 +1,83 @@
 //! Raw command-line arguments (clap). Converted once into a validated `Config` by `config.rs`.
+//!
+//! Format lists in help texts are generated from the io crate's format enums, so they cannot
+//! drift from what the readers and writers accept. Every numeric option takes values that start
+//! with `-` (`--origin -10,0,0`, `--iso -5`), and the validation says what is wrong with them.
 
 use std::path::PathBuf;
 
 use clap::{Args as ClapArgs, Parser, Subcommand};
+use isoforge_io::{MeshFormat, VolumeFormat};
+
+/// Every readable volume format with its extensions: `NRRD (.nrrd .nhdr), …`.
+pub fn volume_formats() -> String {
+    VolumeFormat::ALL
+        .iter()
+        .map(|f| {
+            let ext = f.extensions().join(" ");
+            match f {
+                VolumeFormat::Raw => format!("{} ({ext} or any name, with --dims and --dtype)", f.name()),
+                _ => format!("{} ({ext})", f.name()),
+            }
+        })
+        .collect::<Vec<_>>()
+        .join(", ")
+}
+
+/// The mesh extensions, as `.ply, .obj, …`; only those `check` reads when `readable`.
+pub fn mesh_extensions(readable: bool) -> String {
+    let ext: Vec<String> = MeshFormat::ALL
+        .iter()
+        .filter(|f| !readable || f.is_readable())
+        .filter_map(|f| f.extension())
+        .map(|e| format!(".{e}"))
+        .collect();
+    match ext.split_last() {
+        Some((last, rest)) if !rest.is_empty() => format!("{} or {last}", rest.join(", ")),
+        _ => ext.join(""),
+    }
+}
+
+/// Help for `-i`: every input the CLI reads.
+fn input_help() -> String {
+    let fields: Vec<&str> = isoforge::volume::catalog::NAMES.iter().map(|(n, _)| *n).collect();
+    format!(
+        "Volume: {}; a folder of DICOM files (one series); a folder of numbered PNG or TIFF slices; \
+         or a built-in field such as `field:gyroid?n=128` (fields: {})",
+        volume_formats(),
+        fields.join(" ")
+    )
+}
+
+/// Help for `extract -o`.
+fn output_help() -> String {
+    format!(
+        "Output mesh, format by extension: {} (binary PLY and STL; --ascii for text)",
+        MeshFormat::ALL
+            .iter()
+            .filter_map(|f| Some(format!("{} (.{})", f.name(), f.extension()?)))
+            .collect::<Vec<_>>()
+            .join(", ")
+    )
+}
+
+/// Help for `check MESH`.
+fn mesh_input_help() -> String {
+    format!("Mesh file ({})", mesh_extensions(true))
+}
+
+/// Help for `render INPUT`.
+fn render_input_help() -> String {
+    format!("Mesh ({}) or volume or field (as for `extract -i`)", mesh_extensions(true))
+}
 
 /// isoforge: turn volumes into meshes.
 #[derive(Debug, Parser)]
 #[command(name = "isoforge", version, about, long_about = None)]
 pub struct Args {
-    /// Worker threads for every command (default: all cores). Output does not depend on it.
-    #[arg(long, global = true, value_name = "N")]
+    /// Worker threads for extraction (default: all cores; at most 4 per core). Output does not
+    /// depend on it.
+    #[arg(long, global = true, value_name = "N", allow_hyphen_values = true)]
     pub threads: Option<usize>,
     #[command(subcommand)]
     pub command: Command,
@@ -39,9 +107,7 @@ pub enum Command {
 /// Where the volume comes from (`extract -i INPUT`).
 #[derive(Debug, ClapArgs)]
 pub struct InputArgs {
-    /// Volume file (.nrrd .nhdr .nii .nii.gz .mha .mhd, or raw with --dims/--dtype) or a
-    /// built-in field such as `field:gyroid?n=128` (fields: sphere torus box gyroid metaballs lines height).
-    #[arg(short = 'i', long = "input", value_name = "INPUT")]
+    #[arg(short = 'i', long = "input", value_name = "INPUT", help = input_help())]
     pub input: String,
     #[command(flatten)]
     pub layout: LayoutArgs,
@@ -51,7 +117,7 @@ pub struct InputArgs {
 #[derive(Debug, Clone, ClapArgs)]
 pub struct LayoutArgs {
     /// Raw input: points per axis, x fastest.
-    #[arg(long, value_name = "X,Y,Z")]
+    #[arg(long, value_name = "X,Y,Z", allow_hyphen_values = true)]
     pub dims: Option<String>,
     /// Raw input: sample type (u8 i8 u16 i16 u32 i32 f32 f64).
     #[arg(long, value_name = "TYPE")]
@@ -60,16 +126,17 @@ pub struct LayoutArgs {
     #[arg(long, value_name = "little|big")]
     pub endian: Option<String>,
     /// Raw input: bytes to skip before the samples.
-    #[arg(long, value_name = "N")]
+    #[arg(long, value_name = "N", allow_hyphen_values = true)]
     pub header_bytes: Option<u64>,
-    /// Raw input: spacing between points (default 1: voxel-index units).
-    #[arg(long, value_name = "SX,SY,SZ")]
+    /// Raw input and images (PNG, TIFF, folders of slices): spacing between points (default 1:
+    /// voxel-index units).
+    #[arg(long, value_name = "SX,SY,SZ", allow_hyphen_values = true)]
     pub spacing: Option<String>,
-    /// Raw input: world position of the first point.
-    #[arg(long, value_name = "OX,OY,OZ")]
+    /// Raw input and images: world position of the first point (default 0,0,0).
+    #[arg(long, value_name = "OX,OY,OZ", allow_hyphen_values = true)]
     pub origin: Option<String>,
     /// Largest volume or mesh a reader may allocate, in bytes (suffixes K, M, G accepted).
-    #[arg(long, value_name = "BYTES")]
+    #[arg(long, value_name = "BYTES", allow_hyphen_values = true)]
     pub max_bytes: Option<String>,
 }
 
@@ -77,8 +144,7 @@ pub struct LayoutArgs {
 pub struct ExtractArgs {
     #[command(flatten)]
     pub input: InputArgs,
-    /// Output mesh (.ply .obj .stl .off).
-    #[arg(short = 'o', long = "output", value_name = "OUTPUT")]
+    #[arg(short = 'o', long = "output", value_name = "OUTPUT", help = output_help())]
     pub output: PathBuf,
     /// Iso value, or several separated by commas (`--iso 300,1200`: one mesh per value, written to
     /// OUT-300.ply, OUT-1200.ply…). Required for volume files; built-in fields have a default.
@@ -90,7 +156,7 @@ pub struct ExtractArgs {
     pub labels: Option<String>,
     /// Only the half-open index box i0:i1,j0:j1,k0:k1 of the volume (empty bounds take the whole
     /// axis, e.g. `:,:,100:200`).
-    #[arg(long, value_name = "I0:I1,J0:J1,K0:K1")]
+    #[arg(long, value_name = "I0:I1,J0:J1,K0:K1", allow_hyphen_values = true)]
     pub roi: Option<String>,
     /// Only the lattice points inside this world box (x0:x1,y0:y1,z0:z1, in the file's units).
     #[arg(long, value_name = "X0:X1,Y0:Y1,Z0:Z1", conflicts_with = "roi", allow_hyphen_values = true)]
@@ -148,12 +214,13 @@ pub struct ExtractArgs {
     pub time_json: Option<PathBuf>,
     /// Benchmarking: extract N times in this process (the volume read once), report every run in
     /// --time-json as "runs" and keep the last mesh. Like a warm loop in VTK or scikit-image.
-    #[arg(long, value_name = "N", default_value_t = 1, value_parser = clap::value_parser!(u32).range(1..=1000))]
+    #[arg(long, value_name = "N", default_value_t = 1, value_parser = clap::value_parser!(u32).range(1..=1000), allow_hyphen_values = true)]
     pub repeat: u32,
-    /// Memory budget (suffixes K, M, G): a volume whose in-memory extraction would not fit is
-    /// meshed slab by slab from the file (raw, NRRD, NIfTI, MetaImage; binary PLY output), using
-    /// O(nx·ny) memory.
-    #[arg(long, value_name = "BYTES")]
+    /// Memory budget (suffixes K, M, G): unless the volume and the largest mesh the method can
+    /// make (and its check, with --require) fit, a volume is meshed slab by slab from the file
+    /// (raw, NRRD, NIfTI, MetaImage, MRC, VTK; --method mc; binary PLY output) in O(nx·ny)
+    /// memory, checked as it streams (4 bytes per vertex with --require).
+    #[arg(long, value_name = "BYTES", allow_hyphen_values = true)]
     pub max_memory: Option<String>,
     /// Check the mesh after extraction and exit 1 unless these hold (closed manifold oriented watertight no-degenerate).
     #[arg(long, value_delimiter = ',', value_name = "LIST")]
@@ -175,12 +242,13 @@ pub struct InfoArgs {
 #[derive(Debug, ClapArgs)]
 pub struct ContourArgs {
     /// Image (.png .tif .tiff) or volume file (as for `extract -i`; raw with --dims/--dtype).
+    /// Contours are in pixel indices, or in the units of --spacing/--origin when given.
     #[arg(value_name = "INPUT")]
     pub input: String,
     #[command(flatten)]
     pub layout: LayoutArgs,
     /// Iso value.
-    #[arg(long, value_name = "V")]
+    #[arg(long, value_name = "V", allow_hyphen_values = true)]
     pub iso: String,
     /// Which side of iso is inside (contours wind counter-clockwise around it, y up): below or above.
     #[arg(long, value_name = "below|above", default_value = "below")]
@@ -189,7 +257,7 @@ pub struct ContourArgs {
     #[arg(long, value_name = "x|y|z", default_value = "z")]
     pub axis: String,
     /// Slice index along --axis (default: the middle slice; 0 for 2D images).
-    #[arg(long, value_name = "K")]
+    #[arg(long, value_name = "K", allow_hyphen_values = true)]
     pub slice: Option<u32>,
     /// Saddle cells: decider (the bilinear interpolant decides), join-inside or join-outside
     /// (fixed rules; scikit-image's `fully_connected='low'` is join-inside for inside below).
@@ -229,8 +297,7 @@ impl ConvertArgs {
 
 #[derive(Debug, ClapArgs)]
 pub struct RenderArgs {
-    /// Mesh (.ply .obj .stl .off) or volume/field (as for `extract -i`).
-    #[arg(value_name = "INPUT")]
+    #[arg(value_name = "INPUT", help = render_input_help())]
     pub input: String,
     /// Output picture (.png).
     #[arg(short = 'o', long, value_name = "OUT.png")]
@@ -250,7 +317,7 @@ pub struct RenderArgs {
     #[arg(long, default_value = "iso", value_name = "iso|front|top")]
     pub view: String,
     /// Picture size in pixels.
-    #[arg(long, default_value = "1024x768", value_name = "WxH")]
+    #[arg(long, default_value = "1024x768", value_name = "WxH", allow_hyphen_values = true)]
     pub size: String,
     /// Face colouring: lambert (grey, lit) or normal (normal direction as RGB).
     #[arg(long, default_value = "lambert", value_name = "lambert|normal")]
@@ -277,7 +344,7 @@ pub struct ViewArgs {
     #[command(flatten)]
     pub layout: LayoutArgs,
     /// Port on 127.0.0.1 (0: any free port; the URL is printed).
-    #[arg(long, default_value_t = 0)]
+    #[arg(long, default_value_t = 0, allow_hyphen_values = true)]
     pub port: u16,
     /// Which side of iso is inside for a volume: below or above.
     #[arg(long, value_name = "below|above", default_value = "below")]
@@ -286,8 +353,7 @@ pub struct ViewArgs {
 
 #[derive(Debug, ClapArgs)]
 pub struct CheckArgs {
-    /// Mesh file (.ply .obj .stl .off).
-    #[arg(value_name = "MESH")]
+    #[arg(value_name = "MESH", help = mesh_input_help())]
     pub mesh: PathBuf,
     /// Print JSON instead of text.
     #[arg(long)]
@@ -296,9 +362,10 @@ pub struct CheckArgs {
     #[arg(long, value_delimiter = ',', value_name = "LIST")]
     pub require: Vec<String>,
     /// How many examples to list per finding.
-    #[arg(long, default_value_t = 10)]
+    #[arg(long, default_value_t = 10, allow_hyphen_values = true)]
     pub examples: usize,
-    #[arg(long, value_name = "BYTES")]
+    /// Largest mesh the reader may allocate, in bytes (suffixes K, M, G accepted).
+    #[arg(long, value_name = "BYTES", allow_hyphen_values = true)]
     pub max_bytes: Option<String>,
 }
 
@@ -308,7 +375,7 @@ pub struct DemoArgs {
     #[arg(short = 'o', long = "output", default_value = "demo.ply")]
     pub output: PathBuf,
     /// Points per axis.
-    #[arg(long, default_value_t = 64)]
+    #[arg(long, default_value_t = 64, allow_hyphen_values = true)]
     pub n: u32,
     /// Print JSON instead of text.
     #[arg(long)]
@@ -319,5 +386,65 @@ impl InfoArgs {
     /// The input options in the shape `extract` uses.
     pub fn input_args(&self) -> InputArgs {
         InputArgs { input: self.input.clone(), layout: self.layout.clone() }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use clap::CommandFactory;
+
+    /// Options whose values are names, paths or lists of names (not numbers).
+    const NOT_NUMERIC: &[&str] = &[
+        "input",
+        "output",
+        "dtype",
+        "endian",
+        "mask",
+        "attribute",
+        "color_by",
+        "color_volume",
+        "colormap",
+        "world",
+        "space",
+        "inside",
+        "method",
+        "normals",
+        "time_json",
+        "require",
+        "axis",
+        "saddle",
+        "view",
+        "shading",
+        "mesh",
+    ];
+
+    // Issue 10: `--origin -10,0,0` was taken for an unknown option.
+    #[test]
+    fn issue_10_every_numeric_option_takes_negative_values() {
+        let root = Args::command();
+        let mut checked = 0;
+        for cmd in std::iter::once(&root).chain(root.get_subcommands()) {
+            for arg in cmd.get_arguments() {
+                let takes_value = arg.get_num_args().is_none_or(|n| n.takes_values());
+                if arg.is_positional() || !takes_value || NOT_NUMERIC.contains(&arg.get_id().as_str()) {
+                    continue;
+                }
+                if matches!(
+                    arg.get_action(),
+                    clap::ArgAction::SetTrue | clap::ArgAction::Help | clap::ArgAction::Version
+                ) {
+                    continue;
+                }
+                assert!(
+                    arg.is_allow_hyphen_values_set(),
+                    "{} --{}: a numeric option must accept values starting with '-'",
+                    cmd.get_name(),
+                    arg.get_id()
+                );
+                checked += 1;
+            }
+        }
+        assert!(checked >= 20, "only {checked} numeric options seen");
     }
 }

@@ -29,6 +29,22 @@ pub enum Source {
 pub struct InputConfig {
     pub source: Source,
     pub limits: Limits,
+    /// `--spacing` / `--origin` given for an image or an image stack (raw files take them in
+    /// `Source::File::raw`).
+    pub placement: Placement,
+}
+
+/// Where `--spacing` and `--origin` put an image's samples (unset: spacing 1, origin 0).
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
+pub struct Placement {
+    pub spacing: Option<[f64; 3]>,
+    pub origin: Option<[f64; 3]>,
+}
+
+impl Placement {
+    pub fn is_set(&self) -> bool {
+        self.spacing.is_some() || self.origin.is_some()
+    }
 }
 
 #[derive(Clone)]
@@ -70,6 +86,7 @@ pub struct DemoConfig {
     pub output: PathBuf,
     pub n: u32,
     pub json: bool,
+    pub options: Options,
 }
 
 fn triplet<T: std::str::FromStr>(flag: &str, s: &str) -> Result<[T; 3]> {
@@ -112,21 +129,71 @@ fn limits(max_bytes: Option<&str>) -> Result<Limits> {
     })
 }
 
+/// `--spacing`: three positive finite numbers.
+fn spacing(s: &str) -> Result<[f64; 3]> {
+    let v: [f64; 3] = triplet("spacing", s)?;
+    if let Some(x) = v.iter().find(|x| !(x.is_finite() && **x > 0.0)) {
+        bail!("--spacing {s:?}: {x} is not a positive finite number");
+    }
+    Ok(v)
+}
+
+/// `--origin`: three finite numbers.
+fn origin(s: &str) -> Result<[f64; 3]> {
+    let v: [f64; 3] = triplet("origin", s)?;
+    if let Some(x) = v.iter().find(|x| !x.is_finite()) {
+        bail!("--origin {s:?}: {x} is not a finite number");
+    }
+    Ok(v)
+}
+
+/// Whether `path` is read as an image or an image stack, which carry no geometry: a PNG or TIFF
+/// file, or a folder holding PNG or TIFF files (the reader's rule: such a folder is a stack of
+/// numbered slices, any other folder a DICOM series).
+fn is_image_input(path: &std::path::Path) -> bool {
+    let image = |p: &std::path::Path| {
+        matches!(
+            isoforge_io::VolumeFormat::from_path(p),
+            Some(isoforge_io::VolumeFormat::Png | isoforge_io::VolumeFormat::Tiff)
+        )
+    };
+    if path.is_dir() {
+        return std::fs::read_dir(path)
+            .map(|d| d.filter_map(|e| e.ok()).any(|e| e.path().is_file() && image(&e.path())))
+            .unwrap_or(false);
+    }
+    image(path)
+}
+
 impl InputConfig {
     pub fn from_args(args: &InputArgs) -> Result<Self> {
         let a = &args.layout;
         let limits = limits(a.max_bytes.as_deref())?;
+        let mut placement = Placement::default();
         if let Some(spec) = args.input.strip_prefix("field:") {
-            if a.dims.is_some() || a.dtype.is_some() {
-                bail!("--dims/--dtype describe raw files; {} is a built-in field", args.input);
+            if a.dims.is_some() || a.dtype.is_some() || a.spacing.is_some() || a.origin.is_some() {
+                bail!("--dims, --dtype, --spacing and --origin describe files; {} is a built-in field", args.input);
             }
-            return Ok(InputConfig { source: Source::Field(catalog::parse(spec)?), limits });
+            return Ok(InputConfig { source: Source::Field(catalog::parse(spec)?), limits, placement });
         }
         let path = PathBuf::from(&args.input);
         let raw = match (&a.dims, &a.dtype) {
             (None, None) => {
-                if a.endian.is_some() || a.header_bytes.is_some() || a.spacing.is_some() || a.origin.is_some() {
-                    bail!("--endian, --header-bytes, --spacing and --origin describe raw files; pass --dims and --dtype too");
+                if a.endian.is_some() || a.header_bytes.is_some() {
+                    bail!("--endian and --header-bytes describe raw files; pass --dims and --dtype too");
+                }
+                if a.spacing.is_some() || a.origin.is_some() {
+                    if !is_image_input(&path) {
+                        bail!(
+                            "{}: --spacing and --origin place raw files and images (PNG, TIFF, folders of slices); \
+                             this file carries its own geometry (raw files need --dims and --dtype too)",
+                            path.display()
+                        );
+                    }
+                    placement = Placement {
+                        spacing: a.spacing.as_deref().map(spacing).transpose()?,
+                        origin: a.origin.as_deref().map(origin).transpose()?,
+                    };
                 }
                 None
             }
@@ -145,16 +212,22 @@ impl InputConfig {
                 };
                 spec.header_bytes = a.header_bytes.unwrap_or(0);
                 if let Some(s) = &a.spacing {
-                    spec.spacing = triplet("spacing", s)?;
+                    spec.spacing = spacing(s)?;
                 }
                 if let Some(o) = &a.origin {
-                    spec.origin = triplet("origin", o)?;
+                    spec.origin = origin(o)?;
                 }
                 Some(spec)
             }
             _ => bail!("raw input needs both --dims and --dtype"),
         };
-        Ok(InputConfig { source: Source::File { path, raw }, limits })
+        Ok(InputConfig { source: Source::File { path, raw }, limits, placement })
+    }
+
+    /// Whether the command line places the samples (raw files; images given `--spacing` or
+    /// `--origin`): contours are then written in those units rather than pixel indices.
+    pub fn placed(&self) -> bool {
+        self.placement.is_set() || matches!(&self.source, Source::File { raw: Some(_), .. })
     }
 }
 
@@ -169,9 +242,30 @@ fn guarantees(list: &[String]) -> Result<Vec<Guarantee>> {
         .collect()
 }
 
+/// `--threads`: at least 1 and at most [`MAX_THREADS_PER_CORE`] × the cores available; `None`
+/// leaves the choice to the library (all cores).
+///
+/// # Errors
+/// 0, or more than the cap (one line naming both).
+pub fn threads(n: Option<usize>) -> Result<Option<usize>> {
+    let Some(n) = n else { return Ok(None) };
+    let cores = std::thread::available_parallelism().map_or(1, |c| c.get());
+    let cap = MAX_THREADS_PER_CORE * cores;
+    if n == 0 {
+        bail!("--threads 0: must be at least 1");
+    }
+    if n > cap {
+        bail!("--threads {n}: at most {cap} ({MAX_THREADS_PER_CORE} × the {cores} cores available)");
+    }
+    Ok(Some(n))
+}
+
+/// More worker threads than this many per core only cost memory and switching.
+pub const MAX_THREADS_PER_CORE: usize = 4;
+
 pub fn output_format(path: &std::path::Path, ascii: bool) -> Result<MeshFormat> {
     let f = MeshFormat::from_path(path).with_context(|| {
-        format!("{}: unknown output format (use .ply, .obj, .stl, .off, .glb or .gltf)", path.display())
+        format!("{}: unknown output format (use {})", path.display(), crate::args::mesh_extensions(false))
     })?;
     Ok(match (f, ascii) {
         (MeshFormat::Ply, true) => MeshFormat::PlyAscii,
@@ -182,7 +276,7 @@ pub fn output_format(path: &std::path::Path, ascii: bool) -> Result<MeshFormat> 
 }
 
 impl ExtractConfig {
-    pub fn from_args(a: &ExtractArgs) -> Result<Self> {
+    pub fn from_args(a: &ExtractArgs, threads: Option<usize>) -> Result<Self> {
         let input = InputConfig::from_args(&a.input)?;
         let format = output_format(&a.output, a.ascii)?;
         let isos: Vec<f64> = match a.iso.as_deref() {
@@ -225,7 +319,7 @@ impl ExtractConfig {
             color: color(a)?,
             color_volume: a.color_volume.clone(),
             inside,
-            options: Options { method, normals, ..Default::default() },
+            options: Options { method, normals, threads, ..Default::default() },
             time_json: a.time_json.clone(),
             repeat: a.repeat,
             require: guarantees(&a.require)?,
@@ -238,7 +332,7 @@ impl ExtractConfig {
 #[derive(Clone)]
 pub enum AttributeSource {
     /// A co-registered volume, sampled trilinearly in world coordinates.
-    Volume(InputConfig),
+    Volume(Box<InputConfig>),
     /// A procedural solid texture; `scale` is its feature size in world units (default: an
     /// eighth of the mesh's bounding-box diagonal).
     Texture(SolidTexture, Option<f64>),
@@ -282,7 +376,7 @@ fn attributes(a: &ExtractArgs) -> Result<Vec<(String, AttributeSource)>> {
             if a.space == "index" {
                 bail!("--attribute samples volumes in world coordinates: drop --space index");
             }
-            AttributeSource::Volume(input)
+            AttributeSource::Volume(Box::new(input))
         };
         out.push((name.to_string(), source));
     }
@@ -436,6 +530,8 @@ fn parse_inside(s: &str) -> Result<Inside> {
 }
 
 pub struct ContourConfig {
+    /// With `--spacing`/`--origin` (raw files, images) contours are written in those units,
+    /// otherwise in pixel indices.
     pub input: InputConfig,
     pub iso: Iso,
     pub axis: usize,
@@ -492,7 +588,7 @@ pub struct RenderConfig {
 }
 
 impl RenderConfig {
-    pub fn from_args(a: &RenderArgs) -> Result<Self> {
+    pub fn from_args(a: &RenderArgs, threads: Option<usize>) -> Result<Self> {
         let ext = a.output.extension().map(|e| e.to_string_lossy().to_ascii_lowercase());
         if ext.as_deref() != Some("png") {
             bail!("{}: render writes .png pictures", a.output.display());
@@ -530,7 +626,7 @@ impl RenderConfig {
             input,
             iso,
             inside: a.inside.as_deref().map(parse_inside).transpose()?,
-            options: Options { method, ..Options::default() },
+            options: Options { method, threads, ..Options::default() },
             render: isoforge_io::render::RenderOptions {
                 size: [w, h],
                 view,
@@ -556,12 +652,17 @@ impl CheckConfig {
 }
 
 impl DemoConfig {
-    pub fn from_args(a: &DemoArgs) -> Result<Self> {
+    pub fn from_args(a: &DemoArgs, threads: Option<usize>) -> Result<Self> {
         if !(2..=1024).contains(&a.n) {
             bail!("--n {}: must be from 2 to 1024", a.n);
         }
         output_format(&a.output, false)?;
-        Ok(DemoConfig { output: a.output.clone(), n: a.n, json: a.json })
+        Ok(DemoConfig {
+            output: a.output.clone(),
+            n: a.n,
+            json: a.json,
+            options: Options { threads, ..Options::default() },
+        })
     }
 }
 
@@ -577,5 +678,42 @@ mod tests {
         assert_eq!(triplet::<u32>("dims", "1, 2,3").unwrap(), [1, 2, 3]);
         assert!(triplet::<u32>("dims", "1,2").is_err());
         assert!(triplet::<u32>("dims", "1,-2,3").is_err());
+    }
+
+    fn parse(argv: &[&str]) -> crate::args::Args {
+        <crate::args::Args as clap::Parser>::try_parse_from(argv).unwrap()
+    }
+
+    // Issue 10 (hardening 8): `--threads` built rayon's global pool and `Options.threads` stayed
+    // `None`; now it is checked and reaches the library through `Options.threads`.
+    #[test]
+    fn issue_10_threads_reach_the_library_options() {
+        let a = parse(&["isoforge", "--threads", "3", "extract", "-i", "field:sphere", "-o", "s.ply"]);
+        let crate::args::Command::Extract(e) = &a.command else { panic!("extract") };
+        let c = ExtractConfig::from_args(e, threads(a.threads).unwrap()).unwrap();
+        assert_eq!(c.options.threads, Some(3));
+        let a = parse(&["isoforge", "render", "field:sphere", "-o", "s.png", "--threads", "2"]);
+        let crate::args::Command::Render(r) = &a.command else { panic!("render") };
+        assert_eq!(RenderConfig::from_args(r, threads(a.threads).unwrap()).unwrap().options.threads, Some(2));
+        let a = parse(&["isoforge", "demo", "--threads", "1"]);
+        let crate::args::Command::Demo(d) = &a.command else { panic!("demo") };
+        assert_eq!(DemoConfig::from_args(d, threads(a.threads).unwrap()).unwrap().options.threads, Some(1));
+
+        let cores = std::thread::available_parallelism().unwrap().get();
+        assert_eq!(threads(None).unwrap(), None);
+        assert_eq!(threads(Some(MAX_THREADS_PER_CORE * cores)).unwrap(), Some(MAX_THREADS_PER_CORE * cores));
+        let e = threads(Some(MAX_THREADS_PER_CORE * cores + 1)).unwrap_err().to_string();
+        assert!(e.contains(&format!("at most {}", MAX_THREADS_PER_CORE * cores)), "{e}");
+        assert!(threads(Some(0)).unwrap_err().to_string().contains("at least 1"));
+    }
+
+    #[test]
+    fn spacing_and_origin_must_be_finite_and_spacing_positive() {
+        assert_eq!(spacing("0.5,1,2").unwrap(), [0.5, 1.0, 2.0]);
+        assert_eq!(origin("-10,0,1e3").unwrap(), [-10.0, 0.0, 1000.0]);
+        for bad in ["0,1,1", "-1,1,1", "inf,1,1", "1,1"] {
+            assert!(spacing(bad).is_err(), "{bad}");
+        }
+        assert!(origin("nan,0,0").is_err());
     }
 }

@@ -1,4 +1,4 @@
-//! The `isoforge` command line: `extract`, `info`, `check`, `demo`.
+//! The `isoforge` command line: `extract`, `info`, `check`, `demo`, `contour`, `convert`, `render`, `view`.
 //!
 //! Exit codes: 0 success, 1 a requested check failed, 2 an error (printed as one line naming the
 //! file and the problem). A closed stdout (broken pipe) counts as success.
@@ -34,25 +34,23 @@ fn main() -> ExitCode {
             return ExitCode::from(code);
         }
     };
-    if let Some(n) = args.threads {
-        let built = if n == 0 {
-            Err("must be at least 1".to_string())
-        } else {
-            rayon::ThreadPoolBuilder::new().num_threads(n).build_global().map_err(|e| e.to_string())
-        };
-        if let Err(e) = built {
-            eprintln!("isoforge: error: --threads {n}: {e}");
+    // `--threads` reaches the library as `Options::threads` (its own pool per extraction); it is
+    // checked here so a bad value fails before any work.
+    let threads = match config::threads(args.threads) {
+        Ok(t) => t,
+        Err(e) => {
+            eprintln!("isoforge: error: {e:#}");
             return ExitCode::from(2);
         }
-    }
+    };
     let result = match &args.command {
-        Command::Extract(a) => config::ExtractConfig::from_args(a).and_then(|c| run::extract(&c)),
+        Command::Extract(a) => config::ExtractConfig::from_args(a, threads).and_then(|c| run::extract(&c)),
         Command::Info(a) => config::InputConfig::from_args(&a.input_args()).and_then(|c| run::info(&c, a.json)),
         Command::Check(a) => config::CheckConfig::from_args(a).and_then(|c| run::check(&c)),
-        Command::Demo(a) => config::DemoConfig::from_args(a).and_then(|c| run::demo(&c)),
+        Command::Demo(a) => config::DemoConfig::from_args(a, threads).and_then(|c| run::demo(&c)),
         Command::Contour(a) => config::ContourConfig::from_args(a).and_then(|c| run::contour(&c)),
-        Command::View(a) => run::view(a),
-        Command::Render(a) => config::RenderConfig::from_args(a).and_then(|c| run::render(&c)),
+        Command::View(a) => run::view(a, threads),
+        Command::Render(a) => config::RenderConfig::from_args(a, threads).and_then(|c| run::render(&c)),
         Command::Convert(a) => {
             config::InputConfig::from_args(&a.input_args()).and_then(|c| run::convert(&c, &a.output))
         }

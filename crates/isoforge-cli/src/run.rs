@@ -5,19 +5,21 @@ use std::time::Instant;
 
 use anyhow::{anyhow, bail, Context, Result};
 use isoforge::grid::{AnyGrid, Histogram, IDENTITY};
-use isoforge::pipeline::{self, Extraction};
-use isoforge::topo::{self, CheckOptions, Guarantee, MeshReport};
+use isoforge::mesh::{ExternalError, MeshBatch, MeshSink, Normals};
+use isoforge::pipeline::{self, Extraction, Method};
+use isoforge::topo::{self, CheckOptions, Guarantee, MeshReport, StreamCheck};
 use isoforge::volume::catalog::{self, Builtin};
 use isoforge::volume::{Inside, Iso};
+use isoforge_io::write::contour::ContourFrame;
 use isoforge_io::write::ply::PlyStream;
 use isoforge_io::{Limits, MeshFormat, VolumeReader};
 use serde_json::json;
 
 use crate::config::{
-    AttributeSource, CheckConfig, ContourConfig, DemoConfig, ExtractConfig, InputConfig, Region, RenderConfig, Roi,
-    Source,
+    AttributeSource, CheckConfig, ContourConfig, DemoConfig, ExtractConfig, InputConfig, Placement, Region,
+    RenderConfig, Roi, Source,
 };
-use crate::progress::Bar;
+use crate::progress::{spin, Task};
 use crate::report;
 
 /// What the process exits with when the command itself succeeded.
@@ -41,35 +43,105 @@ pub fn load(input: &InputConfig) -> Result<Loaded> {
     open_input(input, None)
 }
 
-/// Opens the input; with a memory budget, a volume whose in-memory extraction would exceed it
+/// `--max-memory` and what decides whether an extraction fits it in memory.
+struct Budget {
+    bytes: u64,
+    method: Method,
+    normals: bool,
+    /// `--require`: the in-memory check must fit too.
+    check: bool,
+}
+
+/// Opens the input; with a memory budget, a volume whose in-memory extraction could exceed it
 /// stays a stream.
-fn open_input(input: &InputConfig, max_memory: Option<u64>) -> Result<Loaded> {
+fn open_input(input: &InputConfig, budget: Option<&Budget>) -> Result<Loaded> {
     let (path, raw) = match &input.source {
         Source::Field(b) => return Ok(Loaded::Field(b.clone())),
         Source::File { path, raw } => (path, raw),
     };
-    let open_limits = if max_memory.is_some() { Limits::new(u64::MAX) } else { input.limits };
-    let reader = match raw {
-        Some(spec) => isoforge_io::read::raw::open_raw(path, spec, &open_limits)?,
-        None => isoforge_io::open_volume(path, &open_limits)?,
-    };
-    if let Some(budget) = max_memory {
-        if in_memory_estimate(&reader) > budget {
+    let name = path.display();
+    let open_limits = if budget.is_some() { Limits::new(u64::MAX) } else { input.limits };
+    // Opening decodes images, DICOM series and VTI files whole; other readers parse a header.
+    let reader = spin(format!("opening {name}"), || match raw {
+        Some(spec) => isoforge_io::read::raw::open_raw(path, spec, &open_limits),
+        None => isoforge_io::open_volume(path, &open_limits),
+    })?;
+    if let Some(b) = budget {
+        let need = in_memory_estimate(&reader, b);
+        if need > b.bytes {
+            if !streams(path) {
+                bail!(
+                    "{name}: images, DICOM series and VTI files are read whole; with the largest mesh \
+                     --method {} could make they need {} MiB, more than --max-memory {} MiB",
+                    b.method.name(),
+                    need >> 20,
+                    b.bytes >> 20
+                );
+            }
             return Ok(Loaded::Stream(reader));
         }
     }
-    let bar = Bar::new("reading");
-    let grid = reader.read_grid_with_progress(&input.limits, Some(&bar))?;
-    bar.finish();
-    Ok(Loaded::Grid(grid))
+    let task = Task::start(format!("reading {name}"));
+    let grid = reader.read_grid_with_progress(&input.limits, Some(&task))?;
+    task.finish();
+    Ok(Loaded::Grid(place(grid, &input.placement)?))
 }
 
-/// Peak memory of an in-memory extraction, before the mesh: the samples, one bit per point, and
-/// slack for row tables and buffers. The mesh is not known in advance; it usually is a fraction
-/// of the volume.
-fn in_memory_estimate(reader: &VolumeReader) -> u64 {
-    let points = reader.lattice().num_points();
-    reader.volume_bytes().saturating_add(points / 8).saturating_add(64 << 20)
+/// Whether the reader of `path` can deliver slabs one by one (see ARCHITECTURE.md, Readers):
+/// not folders (DICOM, slices), PNG, TIFF or VTI, which are decoded whole.
+fn streams(path: &Path) -> bool {
+    use isoforge_io::VolumeFormat as F;
+    !path.is_dir() && !matches!(F::from_path(path), Some(F::Png | F::Tiff | F::Vti))
+}
+
+/// `--spacing` / `--origin` for images: the same samples on a placed lattice.
+fn place(grid: AnyGrid, p: &Placement) -> Result<AnyGrid> {
+    if !p.is_set() {
+        return Ok(grid);
+    }
+    let l = grid.lattice();
+    let lattice = isoforge::grid::Lattice::with_geometry(
+        l.dims(),
+        p.spacing.unwrap_or(l.spacing()),
+        p.origin.unwrap_or(l.origin()),
+    )?;
+    Ok(grid.with_lattice(lattice)?)
+}
+
+/// Most vertices per lattice point and triangles per cell of any method: body-centred
+/// tetrahedra make one vertex per segment (3 axis edges per point, 8 centre–corner and 3
+/// centre–centre segments per cell) and have 12 tetrahedra per cell with up to 2 triangles each.
+const ANY_METHOD_MESH: (u64, u64) = (14, 24);
+/// Marching cubes: one vertex per crossed axis edge (3 per point), and at most 5 triangles per
+/// cell (the classic table's largest cases).
+const MC_MESH: (u64, u64) = (3, 5);
+/// Bytes `topo::check` holds per triangle (its edge, fan and triple lists and per-triangle ids)
+/// and per vertex (union-find, flags), rounded up.
+const CHECK_BYTES: (u64, u64) = (112, 12);
+/// Flying Edges' row tables, buffers and the allocator's slack.
+const SLACK: u64 = 64 << 20;
+
+/// Peak memory an in-memory extraction of `reader` could need: the samples, one bit per point,
+/// slack, and the largest mesh the method can make (twice that for the methods that grow their
+/// mesh as they go), plus `topo::check` of it with `--require`. The real mesh is usually far
+/// smaller, but it is not known before the walk; with the worst case counted, the budget holds
+/// whatever the data.
+fn in_memory_estimate(reader: &VolumeReader, b: &Budget) -> u64 {
+    let l = reader.lattice();
+    let points = l.num_points();
+    let cells = l.dims().iter().map(|&d| u64::from(d.saturating_sub(1))).product::<u64>();
+    let ((per_point, per_cell), growth) =
+        if b.method == Method::MarchingCubes { (MC_MESH, 1) } else { (ANY_METHOD_MESH, 2) };
+    let (vertices, triangles) = (per_point.saturating_mul(points), per_cell.saturating_mul(cells));
+    let vertex_bytes = if b.normals { 24 } else { 12 };
+    let mesh =
+        vertices.saturating_mul(vertex_bytes).saturating_add(triangles.saturating_mul(12)).saturating_mul(growth);
+    let check = if b.check {
+        triangles.saturating_mul(CHECK_BYTES.0).saturating_add(vertices.saturating_mul(CHECK_BYTES.1))
+    } else {
+        0
+    };
+    reader.volume_bytes().saturating_add(points / 8).saturating_add(SLACK).saturating_add(mesh).saturating_add(check)
 }
 
 fn input_name(input: &InputConfig) -> String {
@@ -83,24 +155,59 @@ fn failed(report: &MeshReport, require: &[Guarantee]) -> Vec<&'static str> {
     require.iter().filter(|g| !report.holds(**g)).map(|g| g.name()).collect()
 }
 
-/// Out-of-core extraction: slab by slab from the file straight into a binary PLY.
-fn extract_streaming(c: &ExtractConfig, mut reader: VolumeReader, iso: Iso, name: &str, bar: &Bar) -> Result<Outcome> {
+/// The streamed mesh goes to the PLY writer and, with `--require`, to the streaming checker,
+/// whose memory (4 bytes per vertex and a window) must stay within `--max-memory`.
+struct Tee<'a> {
+    ply: &'a mut PlyStream,
+    check: Option<&'a mut StreamCheck>,
+    budget: u64,
+}
+
+impl MeshSink for Tee<'_> {
+    fn push(&mut self, batch: MeshBatch<'_>) -> Result<(), ExternalError> {
+        MeshSink::push(self.ply, batch)?;
+        if let Some(c) = self.check.as_deref_mut() {
+            // Quads are checked as two triangles each: the same edges on the surface, the same
+            // components, Euler characteristic and genus.
+            let mut triangles = batch.triangles.to_vec();
+            triangles.extend(batch.quads.iter().flat_map(|&[a, b, c, d]| [[a, b, c], [a, c, d]]));
+            c.push(batch.positions, &triangles)?;
+            if c.held_bytes() > self.budget {
+                return Err(format!(
+                    "--require: checking the mesh needs more than --max-memory {} bytes (4 per vertex); \
+                     drop --require and run `isoforge check` on the file",
+                    self.budget
+                )
+                .into());
+            }
+        }
+        Ok(())
+    }
+}
+
+/// Out-of-core extraction: slab by slab from the file straight into a binary PLY, checked in the
+/// same pass when `--require` asks.
+fn extract_streaming(c: &ExtractConfig, mut reader: VolumeReader, iso: Iso, name: &str) -> Result<Outcome> {
     if c.format != MeshFormat::Ply {
         bail!("{}: out-of-core extraction (--max-memory) writes binary PLY only", c.output.display());
     }
-    let normals = c.options.normals == isoforge::mesh::Normals::Gradient;
-    let mut sink =
+    let normals = c.options.normals == Normals::Gradient;
+    let mut ply =
         PlyStream::create(&c.output, normals).with_context(|| format!("{}: cannot create", c.output.display()))?;
+    let mut check = (!c.require.is_empty())
+        .then(|| StreamCheck::new(&CheckOptions { max_examples: CheckOptions::default().max_examples, lattice: None }));
+    let mut sink = Tee { ply: &mut ply, check: check.as_mut(), budget: c.max_memory.unwrap_or(u64::MAX) };
+    let task = Task::start(format!("meshing {name} slab by slab"));
     let start = Instant::now();
-    let stats = pipeline::extract_streamed(&mut reader, iso, &c.options, &mut sink, Some(bar))?;
+    let stats = pipeline::extract_streamed(&mut reader, iso, &c.options, &mut sink, Some(&task))?;
     let seconds = start.elapsed().as_secs_f64();
-    bar.finish();
+    task.finish();
     let w = stats.walk;
     if w.cells > 0 && (w.cells_outside == w.cells || w.cells_inside == w.cells) {
         let side = if w.cells_outside == w.cells { "outside" } else { "inside" };
         bail!("{name}: iso {} gives no surface: every lattice point is {side}", iso.value);
     }
-    sink.finish().with_context(|| format!("{}: cannot finish writing", c.output.display()))?;
+    ply.finish().with_context(|| format!("{}: cannot finish writing", c.output.display()))?;
     if let Some(t) = &c.time_json {
         let body =
             json!({ "seconds": seconds, "vertices": stats.vertices, "triangles": stats.triangles, "streamed": true });
@@ -115,13 +222,18 @@ fn extract_streaming(c: &ExtractConfig, mut reader: VolumeReader, iso: Iso, name
         iso.value,
         seconds
     );
-    if c.require.is_empty() {
-        return Ok(Outcome::Success);
-    }
-    let mesh = isoforge_io::read_mesh(&c.output, &isoforge_io::Limits::default())?;
-    let rep = topo::check(&mesh);
+    let Some(check) = check else { return Ok(Outcome::Success) };
+    let rep = check.finish()?;
     print!("{}", report::mesh_text(&rep));
     Ok(verdict(&c.output, &rep, &c.require))
+}
+
+/// `topo::check` with a progress bar.
+fn check_mesh(mesh: &isoforge::mesh::Mesh, opts: &CheckOptions) -> MeshReport {
+    let task = Task::start("checking the mesh");
+    let rep = topo::check_with_progress(mesh, opts, Some(&task));
+    task.finish();
+    rep
 }
 
 /// Success when every required guarantee holds; otherwise names the failures on stderr.
@@ -135,7 +247,13 @@ fn verdict(mesh: &Path, report: &MeshReport, require: &[Guarantee]) -> Outcome {
 }
 
 pub fn extract(c: &ExtractConfig) -> Result<Outcome> {
-    let loaded = open_input(&c.input, c.max_memory)?;
+    let budget = c.max_memory.map(|bytes| Budget {
+        bytes,
+        method: c.options.method,
+        normals: c.options.normals == Normals::Gradient,
+        check: !c.require.is_empty(),
+    });
+    let loaded = open_input(&c.input, budget.as_ref())?;
     let name = input_name(&c.input);
     let default_iso = match &loaded {
         Loaded::Field(b) => b.iso,
@@ -147,7 +265,6 @@ pub fn extract(c: &ExtractConfig) -> Result<Outcome> {
     } else {
         c.isos.iter().map(|&value| Iso { value, inside }).collect()
     };
-    let bar = Bar::new("extracting");
     let mut mask = None;
     let mut input_lattice = None;
     if let Some(labels) = &c.labels {
@@ -159,7 +276,7 @@ pub fn extract(c: &ExtractConfig) -> Result<Outcome> {
         Loaded::Stream(_) if !c.region.is_identity() => {
             bail!("--roi, --close and --space index need the volume in memory (drop --max-memory)")
         }
-        Loaded::Stream(reader) => return extract_streaming(c, reader, isos[0], &name, &bar),
+        Loaded::Stream(reader) => return extract_streaming(c, reader, isos[0], &name),
         Loaded::Field(_) if !c.region.is_identity() => {
             bail!("--roi, --close and --space index apply to volume files (a field has its own lattice)")
         }
@@ -197,7 +314,7 @@ pub fn extract(c: &ExtractConfig) -> Result<Outcome> {
         (None, _) => None,
         (Some(_), None) => bail!("--color-volume colours meshes of volume files"),
         (Some(path), Some(l)) => {
-            let v = isoforge_io::read_tiff_rgb(path, &c.input.limits)?;
+            let v = spin(format!("reading {}", path.display()), || isoforge_io::read_tiff_rgb(path, &c.input.limits))?;
             if v.dims != l.dims() {
                 bail!("--color-volume {}: dims {:?} differ from the input's {:?}", path.display(), v.dims, l.dims());
             }
@@ -221,7 +338,7 @@ pub fn extract(c: &ExtractConfig) -> Result<Outcome> {
             (with_suffix(&c.output, iso.value), c.time_json.as_ref().map(|t| with_suffix(t, iso.value)))
         };
         let target = if one_gltf { None } else { Some(output.as_path()) };
-        let job = Job { c, loaded: &loaded, name: &name, bar: &bar, attributes: &attribute_grids, rgb: rgb.as_ref() };
+        let job = Job { c, loaded: &loaded, name: &name, attributes: &attribute_grids, rgb: rgb.as_ref() };
         let (o, mesh, data) = extract_one(&job, iso, target, time_json.as_deref())?;
         if o != Outcome::Success {
             outcome = o;
@@ -233,14 +350,15 @@ pub fn extract(c: &ExtractConfig) -> Result<Outcome> {
     if one_gltf {
         let named: Vec<isoforge_io::NamedMesh> =
             meshes.iter().map(|(n, m, d)| isoforge_io::NamedMesh { name: n, mesh: m, data: d }).collect();
-        if c.format == MeshFormat::Obj {
-            isoforge_io::write_obj_objects(&c.output, &named)?;
-        } else {
-            isoforge_io::write_gltf(&c.output, &named, c.format == MeshFormat::Glb)?;
-        }
+        spin(format!("writing {}", c.output.display()), || {
+            if c.format == MeshFormat::Obj {
+                isoforge_io::write_obj_objects(&c.output, &named)
+            } else {
+                isoforge_io::write_gltf(&c.output, &named, c.format == MeshFormat::Glb)
+            }
+        })?;
         eprintln!("{}: {} meshes (one object per iso value)", c.output.display(), named.len());
     }
-    bar.finish();
     Ok(outcome)
 }
 
@@ -262,8 +380,12 @@ fn extract_labels(c: &ExtractConfig, loaded: Loaded, labels: &pipeline::Labels, 
     let Loaded::Grid(g) = loaded else { bail!("{name}: --labels needs a label volume file in memory") };
     let g = apply_region(g, &Region { close: false, ..c.region.clone() }, 0.0, name)?;
     let start = Instant::now();
-    let surfaces = pipeline::extract_labels(&g, labels, &c.options).with_context(|| format!("{name}: --labels"))?;
+    let task = Task::counting("meshing label");
+    let surfaces = pipeline::extract_labels_with_progress(&g, labels, &c.options, Some(&task))
+        .with_context(|| format!("{name}: --labels"))?;
+    task.finish();
     let seconds = start.elapsed().as_secs_f64();
+    let writing = Task::start(format!("writing {}", c.output.display()));
     let mut report_rows = Vec::new();
     if matches!(c.format, MeshFormat::Glb | MeshFormat::Gltf) {
         let data = isoforge_io::MeshData::default();
@@ -288,8 +410,12 @@ fn extract_labels(c: &ExtractConfig, loaded: Loaded, labels: &pipeline::Labels, 
         let data = isoforge_io::MeshData { triangle_labels: Some(tags), ..Default::default() };
         isoforge_io::write_mesh_with(&c.output, &mesh, &data, c.format)?;
     }
+    writing.finish();
     let mut outcome = Outcome::Success;
-    for (label, e) in &surfaces {
+    let checking = Task::counting("checking label");
+    let mut failures = Vec::new();
+    for (i, (label, e)) in surfaces.iter().enumerate() {
+        isoforge::walk::Progress::advance(&checking, i as u64, surfaces.len() as u64);
         let rep = topo::check(&e.mesh);
         report_rows.push(format!(
             "label {label}: {} vertices, {} triangles, closed {}, manifold {}, components {}",
@@ -299,9 +425,15 @@ fn extract_labels(c: &ExtractConfig, loaded: Loaded, labels: &pipeline::Labels, 
             rep.is_manifold(),
             rep.components.len()
         ));
-        if verdict(&c.output, &rep, &c.require) != Outcome::Success {
+        let bad = failed(&rep, &c.require);
+        if !bad.is_empty() {
             outcome = Outcome::CheckFailed;
+            failures.push(format!("{}: label {label}: required but failed: {}", c.output.display(), bad.join(", ")));
         }
+    }
+    checking.finish();
+    for f in failures {
+        eprintln!("{f}");
     }
     eprintln!(
         "{}: {} label surfaces ({:.3} s)\n  {}",
@@ -459,7 +591,6 @@ struct Job<'a> {
     c: &'a ExtractConfig,
     loaded: &'a Loaded,
     name: &'a str,
-    bar: &'a Bar,
     attributes: &'a [(String, Attribute)],
     /// `--color-volume`: the colours, the input lattice in the output frame, and whether the
     /// vertices are already voxel indices.
@@ -474,18 +605,20 @@ fn extract_one(
     output: Option<&Path>,
     time_json: Option<&Path>,
 ) -> Result<(Outcome, isoforge::mesh::Mesh, isoforge_io::MeshData)> {
-    let Job { c, loaded, name, bar, attributes, rgb } = *job;
+    let Job { c, loaded, name, attributes, rgb } = *job;
     let mut runs = Vec::with_capacity(c.repeat as usize);
     let mut last: Option<Extraction> = None;
     for _ in 0..c.repeat {
         drop(last.take()); // as a warm loop elsewhere: the previous mesh is freed before the next run
+        let task = Task::start(format!("extracting iso {} ({})", iso.value, c.options.method.name()));
         let start = Instant::now();
         last = Some(match loaded {
-            Loaded::Grid(g) => pipeline::extract_grid(g, iso, &c.options, Some(bar))?,
-            Loaded::Field(b) => pipeline::extract_builtin(b, iso, &c.options, Some(bar))?,
+            Loaded::Grid(g) => pipeline::extract_grid(g, iso, &c.options, Some(&task))?,
+            Loaded::Field(b) => pipeline::extract_builtin(b, iso, &c.options, Some(&task))?,
             Loaded::Stream(_) => bail!("internal: streamed input reached the in-memory path"),
         });
         runs.push(start.elapsed().as_secs_f64());
+        task.finish();
     }
     let mut out = last.ok_or_else(|| anyhow!("internal: --repeat ran no extraction"))?;
     // Quads (dual methods) are written as triangles until every writer takes polygons.
@@ -513,7 +646,9 @@ fn extract_one(
         data.colors = Some(out.mesh.positions.iter().map(|&p| v.sample(at(p))).collect());
     }
     if let Some(output) = output {
-        isoforge_io::write_mesh_with(output, &out.mesh, &data, c.format)?;
+        spin(format!("writing {}", output.display()), || {
+            isoforge_io::write_mesh_with(output, &out.mesh, &data, c.format)
+        })?;
     }
     if let Some(t) = time_json {
         let body = json!({
@@ -537,7 +672,7 @@ fn extract_one(
     if c.require.is_empty() {
         return Ok((Outcome::Success, out.mesh, data));
     }
-    let rep = topo::check(&out.mesh);
+    let rep = check_mesh(&out.mesh, &CheckOptions::default());
     print!("{}", report::mesh_text(&rep));
     Ok((verdict(shown, &rep, &c.require), out.mesh, data))
 }
@@ -563,7 +698,7 @@ pub fn info(input: &InputConfig, json_out: bool) -> Result<Outcome> {
         "points": lattice.num_points(),
     });
     let hist = match &loaded {
-        Loaded::Grid(g) => Histogram::of(g, 256),
+        Loaded::Grid(g) => spin("histogram", || Histogram::of(g, 256)),
         Loaded::Stream(_) => None,
         Loaded::Field(b) => {
             v["default_iso"] = json!(b.iso.value);
@@ -575,7 +710,8 @@ pub fn info(input: &InputConfig, json_out: bool) -> Result<Outcome> {
         v["value_range"] = json!([h.min, h.max]);
         v["mean"] = json!(h.mean);
         v["percentiles"] = json!({ "p1": h.quantile(0.01), "p50": h.quantile(0.5), "p99": h.quantile(0.99) });
-        v["suggested_iso_otsu"] = json!(h.otsu());
+        v["suggested_iso"] = json!(h.surface_iso());
+        v["otsu"] = json!(h.otsu());
     }
     if json_out {
         println!("{}", serde_json::to_string_pretty(&v)?);
@@ -612,7 +748,14 @@ pub fn info(input: &InputConfig, json_out: bool) -> Result<Outcome> {
     if let Some(h) = &hist {
         println!("values:      {} to {}, mean {:.4}", h.min, h.max, h.mean);
         println!("percentiles: 1% {:.4}   50% {:.4}   99% {:.4}", h.quantile(0.01), h.quantile(0.5), h.quantile(0.99));
-        println!("suggested iso (Otsu): {:.4}", h.otsu());
+        let (iso, otsu) = (h.surface_iso(), h.otsu());
+        if iso == otsu {
+            println!("suggested iso: {iso:.4} (Otsu)");
+        } else {
+            println!(
+                "suggested iso: {iso:.4} (Otsu without the padding at the range's end; over all values: {otsu:.4})"
+            );
+        }
         println!("histogram (16 bins, log scale):");
         let coarse: Vec<u64> = h.counts.chunks(16).map(|c| c.iter().sum()).collect();
         let max = coarse.iter().copied().max().unwrap_or(1).max(1) as f64;
@@ -626,8 +769,8 @@ pub fn info(input: &InputConfig, json_out: bool) -> Result<Outcome> {
 }
 
 pub fn check(c: &CheckConfig) -> Result<Outcome> {
-    let mesh = isoforge_io::read_mesh(&c.mesh, &c.limits)?;
-    let rep = topo::check_with(&mesh, &CheckOptions { max_examples: c.examples, lattice: None });
+    let mesh = spin(format!("reading {}", c.mesh.display()), || isoforge_io::read_mesh(&c.mesh, &c.limits))?;
+    let rep = check_mesh(&mesh, &CheckOptions { max_examples: c.examples, lattice: None });
     if c.json {
         let mut v = report::mesh_json(&rep);
         v["file"] = json!(c.mesh.display().to_string());
@@ -643,11 +786,14 @@ pub fn check(c: &CheckConfig) -> Result<Outcome> {
 pub fn demo(c: &DemoConfig) -> Result<Outcome> {
     let b = catalog::parse(&format!("metaballs?n={}", c.n))?;
     let start = Instant::now();
-    let out = pipeline::extract_builtin(&b, b.iso, &Default::default(), None)?;
+    let task = Task::start("extracting the demo field");
+    let out = pipeline::extract_builtin(&b, b.iso, &c.options, Some(&task))?;
+    task.finish();
     let seconds = start.elapsed().as_secs_f64();
     let format = crate::config::output_format(&c.output, false)?;
-    isoforge_io::write_mesh(&c.output, &out.mesh, format).with_context(|| "writing the demo mesh")?;
-    let rep = topo::check(&out.mesh);
+    spin("writing the demo mesh", || isoforge_io::write_mesh(&c.output, &out.mesh, format))
+        .with_context(|| "writing the demo mesh")?;
+    let rep = check_mesh(&out.mesh, &CheckOptions::default());
     if c.json {
         let mut v = report::mesh_json(&rep);
         v["output"] = json!(c.output.display().to_string());
@@ -666,13 +812,18 @@ pub fn demo(c: &DemoConfig) -> Result<Outcome> {
 }
 
 /// The image of slice `k` along `axis` of `grid` (the axes that remain, in order, x fastest).
-fn slice_of(grid: &AnyGrid, axis: usize, k: u32) -> ([u32; 2], Vec<f64>) {
-    let d = grid.lattice().dims();
-    let (u, v) = match axis {
+/// The axes that remain in a slice normal to `axis`, in order.
+fn in_plane(axis: usize) -> (usize, usize) {
+    match axis {
         0 => (1, 2),
         1 => (0, 2),
         _ => (0, 1),
-    };
+    }
+}
+
+fn slice_of(grid: &AnyGrid, axis: usize, k: u32) -> ([u32; 2], Vec<f64>) {
+    let d = grid.lattice().dims();
+    let (u, v) = in_plane(axis);
     let mut values = Vec::with_capacity(d[u] as usize * d[v] as usize);
     for b in 0..d[v] {
         for a in 0..d[u] {
@@ -706,24 +857,35 @@ pub fn contour(c: &ContourConfig) -> Result<Outcome> {
     let start = Instant::now();
     let lines = isoforge::extract::marching_squares(size, &values, c.iso, c.saddle);
     let seconds = start.elapsed().as_secs_f64();
-    isoforge_io::write::contour::write_contour_file(&c.output, &lines, c.format, size, c.iso.value)?;
+    // Pixel indices, or the units --spacing/--origin give the two in-plane axes.
+    let frame = if c.input.placed() {
+        let (u, v) = in_plane(c.axis);
+        let l = grid.lattice();
+        ContourFrame { dims: size, origin: [l.origin()[u], l.origin()[v]], spacing: [l.spacing()[u], l.spacing()[v]] }
+    } else {
+        ContourFrame::pixels(size)
+    };
+    let lines: Vec<_> = lines.iter().map(|l| frame.place(l)).collect();
+    isoforge_io::write::contour::write_contour_file(&c.output, &lines, c.format, &frame, c.iso.value)?;
     let closed = lines.iter().filter(|l| l.closed).count();
     let length: f64 = lines.iter().map(|l| l.length()).sum::<f64>() + 0.0; // no "-0" for no contour
     let points: usize = lines.iter().map(|l| l.points.len()).sum();
     if c.json {
         let v = json!({
             "input": name, "axis": axis_name, "slice": k, "size": size, "iso": c.iso.value,
+            "origin": frame.origin, "spacing": frame.spacing,
             "contours": lines.len(), "closed": closed, "open": lines.len() - closed,
             "points": points, "length": length, "seconds": seconds,
         });
         println!("{v}");
     } else {
         println!(
-            "{}: {} contours ({closed} closed, {} open), {points} points, total length {length:.3} px \
+            "{}: {} contours ({closed} closed, {} open), {points} points, total length {length:.3} {} \
              (slice {axis_name} = {k} of {name}, {} x {}, iso {})",
             c.output.display(),
             lines.len(),
             lines.len() - closed,
+            if c.input.placed() { "units" } else { "px" },
             size[0],
             size[1],
             c.iso.value
@@ -735,7 +897,7 @@ pub fn contour(c: &ContourConfig) -> Result<Outcome> {
 pub fn convert(input: &InputConfig, output: &Path) -> Result<Outcome> {
     let name = input_name(input);
     let Loaded::Grid(grid) = load(input)? else { bail!("{name}: convert reads volume and image files, not fields") };
-    isoforge_io::write_volume(output, &grid)?;
+    spin(format!("writing {}", output.display()), || isoforge_io::write_volume(output, &grid))?;
     let d = grid.lattice().dims();
     eprintln!("{}: {} x {} x {} {} samples from {name}", output.display(), d[0], d[1], d[2], grid.dtype());
     Ok(Outcome::Success)
@@ -743,7 +905,9 @@ pub fn convert(input: &InputConfig, output: &Path) -> Result<Outcome> {
 
 pub fn render(c: &RenderConfig) -> Result<Outcome> {
     let mesh = match (&c.mesh, &c.input) {
-        (Some(path), _) => isoforge_io::read_mesh(path, &Limits::default())?,
+        (Some(path), _) => {
+            spin(format!("reading {}", path.display()), || isoforge_io::read_mesh(path, &Limits::default()))?
+        }
         (None, Some(input)) => {
             let name = input_name(input);
             let loaded = load(input)?;
@@ -752,22 +916,32 @@ pub fn render(c: &RenderConfig) -> Result<Outcome> {
                 _ => Iso::below(0.0),
             };
             let iso = Iso { value: c.iso.unwrap_or(default_iso.value), inside: c.inside.unwrap_or(default_iso.inside) };
-            match &loaded {
-                Loaded::Grid(g) => pipeline::extract_grid(g, iso, &c.options, None)?.mesh,
-                Loaded::Field(b) => pipeline::extract_builtin(b, iso, &c.options, None)?.mesh,
+            let task = Task::start(format!("extracting iso {} ({})", iso.value, c.options.method.name()));
+            let mesh = match &loaded {
+                Loaded::Grid(g) => pipeline::extract_grid(g, iso, &c.options, Some(&task))?.mesh,
+                Loaded::Field(b) => pipeline::extract_builtin(b, iso, &c.options, Some(&task))?.mesh,
                 Loaded::Stream(_) => bail!("{name}: too large to render in memory"),
-            }
+            };
+            task.finish();
+            mesh
         }
         (None, None) => bail!("internal: render has no input"),
     };
-    isoforge_io::write_render(&c.output, &mesh, None, &c.render)?;
+    spin(format!("rendering {}", c.output.display()), || isoforge_io::write_render(&c.output, &mesh, None, &c.render))?;
     let [w, h] = c.render.size;
     eprintln!("{}: {w} x {h} picture of {} triangles", c.output.display(), mesh.num_triangles());
     Ok(Outcome::Success)
 }
 
-pub fn view(a: &crate::args::ViewArgs) -> Result<Outcome> {
+pub fn view(a: &crate::args::ViewArgs, threads: Option<usize>) -> Result<Outcome> {
     use crate::view::Shown;
+    // The server's extractions share one pool: rayon's global pool, sized by --threads.
+    if let Some(n) = threads {
+        rayon::ThreadPoolBuilder::new()
+            .num_threads(n)
+            .build_global()
+            .map_err(|e| anyhow!("--threads {n}: cannot start the worker threads: {e}"))?;
+    }
     let inside = match a.inside.as_str() {
         "below" => Inside::Below,
         "above" => Inside::Above,
@@ -779,7 +953,8 @@ pub fn view(a: &crate::args::ViewArgs) -> Result<Outcome> {
             let path = Path::new(input);
             let is_mesh = MeshFormat::from_path(path).is_some() && isoforge_io::VolumeFormat::from_path(path).is_none();
             if is_mesh {
-                Shown::Mesh { name: input.clone(), mesh: isoforge_io::read_mesh(path, &Limits::default())? }
+                let mesh = spin(format!("reading {input}"), || isoforge_io::read_mesh(path, &Limits::default()))?;
+                Shown::Mesh { name: input.clone(), mesh }
             } else {
                 let cfg =
                     InputConfig::from_args(&crate::args::InputArgs { input: input.clone(), layout: a.layout.clone() })?;
@@ -792,4 +967,62 @@ pub fn view(a: &crate::args::ViewArgs) -> Result<Outcome> {
     };
     crate::view::serve(a.port, shown)?;
     Ok(Outcome::Success)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use isoforge::grid::{DenseGrid, Lattice};
+
+    /// The per-point and per-cell maxima `--max-memory` budgets with hold for every method on
+    /// random lattices with ties (seeded), with and without an outside border.
+    #[test]
+    fn issue_10_mesh_bounds_hold_for_every_method() {
+        let mut seed = 0x2545_f491_4f6c_dd1du64;
+        let mut next = move || {
+            seed ^= seed << 13;
+            seed ^= seed >> 7;
+            seed ^= seed << 17;
+            seed
+        };
+        let levels = [-2.0f32, -1.0, -0.5, 0.0, 0.25, 1.0, 3.0];
+        for case in 0..300 {
+            let dims = [2 + next() % 5, 2 + next() % 5, 2 + next() % 5].map(|d| d as u32);
+            let border = case % 2 == 0;
+            let values: Vec<f32> = (0..dims.iter().product::<u32>()).map(|_| levels[(next() % 7) as usize]).collect();
+            let inner = Lattice::new(dims).unwrap();
+            let outer = if border { dims.map(|d| d + 2) } else { dims };
+            let g = DenseGrid::from_fn(Lattice::new(outer).unwrap(), |p| {
+                if !border {
+                    values[inner.linear(p)]
+                } else if p.iter().zip(dims).all(|(&x, d)| x >= 1 && x <= d) {
+                    values[inner.linear([p[0] - 1, p[1] - 1, p[2] - 1])]
+                } else {
+                    5.0
+                }
+            });
+            let points = g.lattice().num_points();
+            let cells: u64 = outer.iter().map(|&d| u64::from(d - 1)).product();
+            for method in Method::ALL {
+                let opts = pipeline::Options { method, ..Default::default() };
+                let m = pipeline::extract_grid(&g.clone().into(), Iso::below(0.1), &opts, None).unwrap().mesh;
+                let (per_point, per_cell) = if method == Method::MarchingCubes { MC_MESH } else { ANY_METHOD_MESH };
+                assert!(
+                    m.num_vertices() as u64 <= per_point * points,
+                    "{}: {} vertices",
+                    method.name(),
+                    m.num_vertices()
+                );
+                assert!(
+                    m.num_triangles() as u64 <= per_cell * cells,
+                    "{}: {} triangles",
+                    method.name(),
+                    m.num_triangles()
+                );
+            }
+        }
+        // Marching cubes' largest case.
+        let most = (0..256).map(|c| isoforge::extract::marching_cubes::TRI_TABLE[c].triangles().len()).max();
+        assert_eq!(most, Some(MC_MESH.1 as usize));
+    }
 }

@@ -190,8 +190,8 @@ fn info_reports_geometry_and_a_suggested_iso() {
     let v: serde_json::Value = serde_json::from_slice(&o.stdout).unwrap();
     assert_eq!(v["dims"], serde_json::json!([6, 5, 7]));
     assert_eq!(v["value_range"], serde_json::json!([-100.0, -56.0]));
-    let otsu = v["suggested_iso_otsu"].as_f64().unwrap();
-    assert!(otsu > -100.0 && otsu < -56.0);
+    let iso = v["suggested_iso"].as_f64().unwrap();
+    assert!(iso > -100.0 && iso < -56.0);
     let t = isoforge(&["info", "field:gyroid?n=16"]);
     assert!(String::from_utf8_lossy(&t.stdout).contains("16 x 16 x 16"));
 }
@@ -1043,4 +1043,473 @@ fn render_writes_pictures_of_meshes_volumes_and_fields() {
     fails(&["render", p(&vol), "-o", p(&bad)], "--iso is required", &bad);
     let jpg = dir.path().join("x.jpg");
     fails(&["render", p(&mesh), "-o", p(&jpg)], "render writes .png", &jpg);
+}
+
+/// A u8 gyroid-like volume of `n³` points (period ~31 points), x fastest, as a raw file.
+fn gyroid_raw(dir: &Path, n: u32) -> PathBuf {
+    let mut bytes = Vec::with_capacity((n * n * n) as usize);
+    for k in 0..n {
+        for j in 0..n {
+            for i in 0..n {
+                let [x, y, z] = [i, j, k].map(|a| a as f32 * 0.2);
+                let v = x.sin() * y.cos() + y.sin() * z.cos() + z.sin() * x.cos();
+                bytes.push((128.0 + 80.0 * v).clamp(0.0, 255.0) as u8);
+            }
+        }
+    }
+    let path = dir.join(format!("gyroid{n}.raw"));
+    std::fs::write(&path, bytes).unwrap();
+    path
+}
+
+/// Text a progress bar or spinner leaves on stderr.
+fn has_progress_text(err: &str) -> bool {
+    err.contains('\r') || err.contains('\u{1b}') || err.contains("%") || err.contains("] ")
+}
+
+/// Issue 10: `mt*` on grids and `check` ran silently for seconds; now a live bar shows on a
+/// terminal (a pseudo-terminal from `script`), and nothing at all when stderr is a pipe.
+#[test]
+fn issue_10_progress_shows_on_a_terminal_only() {
+    let dir = tempfile::tempdir().unwrap();
+    let raw = gyroid_raw(dir.path(), 160);
+    let out = dir.path().join("g.ply");
+    let bin = env!("CARGO_BIN_EXE_isoforge");
+    let extract = [
+        "extract",
+        "-i",
+        p(&raw),
+        "--dims",
+        "160,160,160",
+        "--dtype",
+        "u8",
+        "--iso",
+        "128.5",
+        "--method",
+        "mt5",
+        "-o",
+        p(&out),
+    ];
+    // No terminal: only the summary line.
+    let o = Command::new(bin).args(extract).env_remove("ISOFORGE_PROGRESS").output().unwrap();
+    assert_eq!(o.status.code(), Some(0), "{}", stderr(&o));
+    assert!(!has_progress_text(&stderr(&o)), "progress text without a terminal: {:?}", stderr(&o));
+    assert_eq!(stderr(&o).lines().count(), 1, "{}", stderr(&o));
+    let c = Command::new(bin).args(["check", p(&out)]).env_remove("ISOFORGE_PROGRESS").output().unwrap();
+    assert!(c.stderr.is_empty(), "{}", stderr(&c));
+
+    if Command::new("script").arg("--version").output().is_err() {
+        eprintln!("skipping the terminal half: `script` (util-linux) is not installed");
+        return;
+    }
+    // On a terminal: both commands take over a second here and show their progress.
+    let on_tty = |args: &[&str]| -> String {
+        let line = std::iter::once(bin).chain(args.iter().copied()).map(|a| format!("'{a}'")).collect::<Vec<_>>();
+        let o = Command::new("script")
+            .args(["-qec", &line.join(" "), "/dev/null"])
+            .env("TERM", "xterm")
+            .env_remove("ISOFORGE_PROGRESS")
+            .output()
+            .unwrap();
+        assert_eq!(o.status.code(), Some(0), "{}", String::from_utf8_lossy(&o.stdout));
+        String::from_utf8_lossy(&o.stdout).into_owned()
+    };
+    let tty = on_tty(&extract);
+    assert!(tty.contains("extracting iso 128.5 (mt5) [") && tty.contains('%'), "no bar on a terminal: {tty:?}");
+    let tty = on_tty(&["check", p(&out)]);
+    assert!(
+        tty.contains(&format!("reading {}", p(&out))) || tty.contains("checking the mesh ["),
+        "no progress on a terminal: {tty:?}"
+    );
+}
+
+/// Issue 10: every step that can take long reports progress (forced on with
+/// `ISOFORGE_PROGRESS=always`, which writes plain lines when stderr is not a terminal), and
+/// `ISOFORGE_PROGRESS=never` silences it.
+#[test]
+fn issue_10_every_long_step_reports_progress() {
+    let dir = tempfile::tempdir().unwrap();
+    let raw = gyroid_raw(dir.path(), 24);
+    let run = |mode: &str, args: &[&str]| -> String {
+        let o =
+            Command::new(env!("CARGO_BIN_EXE_isoforge")).args(args).env("ISOFORGE_PROGRESS", mode).output().unwrap();
+        assert!(o.status.code().is_some_and(|c| c <= 1), "{args:?}: {}", stderr(&o));
+        stderr(&o)
+    };
+    let layout = ["--dims", "24,24,24", "--dtype", "u8"];
+    let mesh = dir.path().join("m.ply");
+    let extract: Vec<&str> =
+        [&["extract", "-i", p(&raw)][..], &layout, &["--iso", "128.5", "--method", "mt5", "-o", p(&mesh)]].concat();
+    let e = run("always", &extract);
+    for step in ["opening", "reading", "extracting iso 128.5 (mt5)", "writing"] {
+        assert!(e.contains(step), "extract: no {step:?} in {e}");
+    }
+    assert!(run("always", &["check", p(&mesh)]).contains("checking the mesh ["));
+    let labels = dir.path().join("labels.nrrd");
+    let o = isoforge(&[&["convert", p(&raw)][..], &[p(&labels)], &layout].concat());
+    assert_eq!(o.status.code(), Some(0), "{}", stderr(&o));
+    let l =
+        run("always", &["extract", "-i", p(&labels), "--labels", "100,128,200", "-o", p(&dir.path().join("l.ply"))]);
+    assert!(l.contains("meshing label 3 of 3") && l.contains("checking label"), "{l}");
+    let r = run("always", &["render", p(&mesh), "-o", p(&dir.path().join("m.png")), "--size", "64x48"]);
+    assert!(r.contains("rendering"), "{r}");
+    let s = run(
+        "always",
+        &[&["extract", "-i", p(&raw)][..], &layout, &["--iso", "128.5", "--max-memory", "1M", "-o", p(&mesh)]].concat(),
+    );
+    assert!(s.contains("slab by slab ["), "{s}");
+    assert!(run("always", &[&["info", p(&raw)][..], &layout].concat()).contains("histogram"));
+    let quiet = run("never", &extract);
+    assert!(!has_progress_text(&quiet) && quiet.lines().count() == 1, "{quiet}");
+}
+
+/// Issue 10: `--help` listed 4 of the 12 inputs and no glTF output; the lists now come from the
+/// io crate's format enums.
+#[test]
+fn issue_10_help_lists_every_format() {
+    let help = |args: &[&str]| String::from_utf8_lossy(&isoforge(args).stdout).into_owned();
+    let extract = help(&["extract", "--help"]);
+    for f in isoforge_io::VolumeFormat::ALL {
+        for e in f.extensions() {
+            assert!(extract.contains(e), "extract --help lacks {e}");
+        }
+        assert!(extract.contains(f.name()), "extract --help lacks {}", f.name());
+    }
+    for e in isoforge_io::MeshFormat::ALL.iter().filter_map(|f| f.extension()) {
+        assert!(extract.contains(&format!(".{e}")), "extract --help lacks .{e}");
+    }
+    for words in ["DICOM", "numbered PNG or TIFF slices", "field:", "gyroid", "metaballs"] {
+        assert!(extract.contains(words), "extract --help lacks {words:?}");
+    }
+    let check = help(&["check", "--help"]);
+    for f in isoforge_io::MeshFormat::ALL {
+        let e = format!(".{}", f.extension().unwrap());
+        assert_eq!(check.contains(&e), f.is_readable(), "check --help and {e}");
+    }
+    assert!(help(&["render", "--help"]).contains(".off"));
+}
+
+/// Issue 10: `info` suggested −1976 on the bunny CT (Otsu split off its −2000 padding); the
+/// suggestion now lands near the iso each sidecar gives (its Otsu threshold, computed without
+/// padding) on every volume in shared/data.
+#[test]
+fn issue_10_info_suggests_a_surface_iso_on_real_volumes() {
+    let data = PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("../../../shared/data/volumes");
+    if !data.exists() {
+        eprintln!("skipping: {} is absent", data.display());
+        return;
+    }
+    let mut seen = 0;
+    for entry in std::fs::read_dir(&data).unwrap() {
+        let path = entry.unwrap().path();
+        if path.extension().and_then(|e| e.to_str()) != Some("nrrd") {
+            continue;
+        }
+        let side: serde_json::Value =
+            serde_json::from_str(&std::fs::read_to_string(path.with_extension("json")).unwrap()).unwrap();
+        let want = side["otsu_threshold"].as_f64().unwrap();
+        let o = isoforge(&["info", p(&path), "--json"]);
+        assert_eq!(o.status.code(), Some(0), "{}", stderr(&o));
+        let v: serde_json::Value = serde_json::from_slice(&o.stdout).unwrap();
+        let (lo, hi) = (v["value_range"][0].as_f64().unwrap(), v["value_range"][1].as_f64().unwrap());
+        let got = v["suggested_iso"].as_f64().unwrap();
+        assert!((got - want).abs() <= 0.01 * (hi - lo), "{}: suggested {got}, sidecar {want}", path.display());
+        if path.to_string_lossy().contains("bunny") {
+            assert!(v["otsu"].as_f64().unwrap() < -1900.0, "Otsu over all values splits off the padding");
+        }
+        seen += 1;
+    }
+    assert_eq!(seen, 7, "volumes in {}", data.display());
+}
+
+/// Writes `slices` 4×3 PNG slices numbered 0.. into `dir`, values `base + 10·slice + i`.
+fn png_slices(dir: &Path, slices: u8) {
+    std::fs::create_dir_all(dir).unwrap();
+    for k in 0..slices {
+        let f = std::fs::File::create(dir.join(format!("slice_{k:03}.png"))).unwrap();
+        let mut e = png::Encoder::new(std::io::BufWriter::new(f), 4, 3);
+        e.set_color(png::ColorType::Grayscale);
+        e.set_depth(png::BitDepth::Eight);
+        let data: Vec<u8> = (0..12u8).map(|i| if k == 1 && (i == 5 || i == 6) { 200 } else { 10 }).collect();
+        e.write_header().unwrap().write_image_data(&data).unwrap();
+    }
+}
+
+/// Issue 10: images took no `--spacing`/`--origin` (raw files only); TIFF stacks, PNGs, folders of
+/// slices and `contour` now do, and files with their own geometry refuse them.
+#[test]
+fn issue_10_images_take_spacing_and_origin() {
+    let dir = tempfile::tempdir().unwrap();
+    let bounds = |mesh: &Path| -> Vec<f64> {
+        let r: serde_json::Value = serde_json::from_slice(&isoforge(&["check", p(mesh), "--json"]).stdout).unwrap();
+        ["min", "max"]
+            .iter()
+            .flat_map(|m| (0..3).map(move |a| (*m, a)))
+            .map(|(m, a)| r["bounds"][m][a].as_f64().unwrap())
+            .collect()
+    };
+    let (sp, or) = ([0.5, 0.25, 2.0], [-10.0, 3.0, 100.0]);
+    let placed_flags = ["--spacing", "0.5,0.25,2", "--origin", "-10,3,100"];
+    let slices = dir.path().join("slices");
+    png_slices(&slices, 3);
+    for (input, iso) in [(testdata().join("images/stack3.tif"), "150.5"), (slices.clone(), "100")] {
+        let (plain, placed) = (dir.path().join("plain.ply"), dir.path().join("placed.ply"));
+        let o = isoforge(&["extract", "-i", p(&input), "--iso", iso, "-o", p(&plain)]);
+        assert_eq!(o.status.code(), Some(0), "{}", stderr(&o));
+        let o = isoforge(&[&["extract", "-i", p(&input), "--iso", iso, "-o", p(&placed)][..], &placed_flags].concat());
+        assert_eq!(o.status.code(), Some(0), "{}", stderr(&o));
+        let (a, b) = (bounds(&plain), bounds(&placed));
+        for k in 0..6 {
+            let want = or[k % 3] + sp[k % 3] * a[k];
+            assert!((b[k] - want).abs() < 1e-4, "{}: bound {k}: {} vs {want}", input.display(), b[k]);
+        }
+    }
+    // contour: GeoJSON coordinates = origin + spacing · pixel coordinates of the in-plane axes.
+    let png = testdata().join("images/engine_z64.png");
+    let coords = |extra: &[&str]| -> Vec<f64> {
+        let out = dir.path().join("c.geojson");
+        let o = isoforge(&[&["contour", p(&png), "--iso", "150.5", "-o", p(&out)][..], extra].concat());
+        assert_eq!(o.status.code(), Some(0), "{}", stderr(&o));
+        let g: serde_json::Value = serde_json::from_str(&std::fs::read_to_string(&out).unwrap()).unwrap();
+        g["features"][0]["geometry"]["coordinates"]
+            .as_array()
+            .unwrap()
+            .iter()
+            .flat_map(|q| [q[0].as_f64().unwrap(), q[1].as_f64().unwrap()])
+            .collect()
+    };
+    let (a, b) = (coords(&[]), coords(&placed_flags));
+    assert!(!a.is_empty() && a.len() == b.len());
+    for (k, (x, y)) in a.iter().zip(&b).enumerate() {
+        assert!((y - (or[k % 2] + sp[k % 2] * x)).abs() < 1e-9, "point {k}: {y} from {x}");
+    }
+    // Geometry the file states is not overridden; bad spacings are refused.
+    let out = dir.path().join("x.ply");
+    let nrrd = testdata().join("volumes/i16_gzip.nrrd");
+    fails(
+        &["extract", "-i", p(&nrrd), "--iso", "1", "--spacing", "1,1,1", "-o", p(&out)],
+        "carries its own geometry",
+        &out,
+    );
+    let tif = testdata().join("images/stack3.tif");
+    fails(
+        &["extract", "-i", p(&tif), "--iso", "150.5", "--spacing", "1,0,1", "-o", p(&out)],
+        "--spacing \"1,0,1\"",
+        &out,
+    );
+    fails(&["extract", "-i", p(&tif), "--iso", "150.5", "--spacing", "1,-1,1", "-o", p(&out)], "not a positive", &out);
+}
+
+/// Issue 10: `--origin -10,0,0` was taken for an unknown option; negative values now reach the
+/// validation in every numeric flag.
+#[test]
+fn issue_10_negative_numbers_in_numeric_flags() {
+    let dir = tempfile::tempdir().unwrap();
+    let raw = dir.path().join("v.raw");
+    // A sphere of radius 4 around (−6, 0, 0) in a 12³ lattice placed from −12: values −4..
+    let mut bytes = Vec::new();
+    for k in 0..12 {
+        for j in 0..12 {
+            for i in 0..12 {
+                let d = [(i as f32 - 6.0), (j as f32 - 6.0), (k as f32 - 6.0)];
+                bytes.extend_from_slice(&((d[0] * d[0] + d[1] * d[1] + d[2] * d[2]).sqrt() - 4.0).to_le_bytes());
+            }
+        }
+    }
+    std::fs::write(&raw, bytes).unwrap();
+    let out = dir.path().join("o.ply");
+    let layout = ["--dims", "12,12,12", "--dtype", "f32", "--origin", "-12,-6,-6"];
+    let ok = |args: &[&str]| {
+        let o = isoforge(args);
+        assert_eq!(o.status.code(), Some(0), "{args:?}: {}", stderr(&o));
+    };
+    ok(&[&["extract", "-i", p(&raw)][..], &layout, &["--iso", "-1.5", "-o", p(&out)]].concat());
+    let r: serde_json::Value = serde_json::from_slice(&isoforge(&["check", p(&out), "--json"]).stdout).unwrap();
+    assert!(r["bounds"]["min"][0].as_f64().unwrap() < -6.0, "{}", r["bounds"]);
+    ok(&[
+        &["extract", "-i", p(&raw)][..],
+        &layout,
+        &["--iso", "-1.5", "--roi-world", "-10:-2,-6:6,-6:6", "-o", p(&out)],
+    ]
+    .concat());
+    ok(&[&["contour", p(&raw)][..], &layout, &["--iso", "-2", "-o", p(&dir.path().join("c.svg"))]].concat());
+    ok(&["extract", "-i", "field:sphere", "--iso", "-0.25", "-o", p(&out)]);
+    // Negative values where they make no sense: the value's own error, naming the flag.
+    let bad = |args: &[&str], needle: &str| {
+        let o = isoforge(args);
+        let err = stderr(&o);
+        assert_eq!(o.status.code(), Some(2), "{args:?}: {err}");
+        assert!(err.contains(needle) && !err.contains("unexpected argument"), "{args:?}: {err}");
+    };
+    bad(&[&["contour", p(&raw)][..], &layout, &["--iso", "-2", "--slice", "-1", "-o", p(&out)]].concat(), "--slice");
+    bad(&["extract", "-i", p(&raw), "--dims", "12,-12,12", "--dtype", "f32", "--iso", "0", "-o", p(&out)], "--dims");
+    bad(&["--threads", "-2", "demo"], "--threads");
+    bad(&["demo", "--n", "-5"], "--n");
+}
+
+/// Issue 10: `--threads` was passed to rayon's global pool unchecked; it is capped at 4 × the
+/// cores (one-line error), 0 is refused, and the output does not depend on it.
+#[test]
+fn issue_10_threads_are_capped() {
+    let dir = tempfile::tempdir().unwrap();
+    let out = dir.path().join("o.ply");
+    let cores = std::thread::available_parallelism().unwrap().get();
+    let too_many = (4 * cores + 1).to_string();
+    fails(
+        &["--threads", &too_many, "extract", "-i", "field:torus", "-o", p(&out)],
+        &format!("at most {}", 4 * cores),
+        &out,
+    );
+    fails(&["--threads", "0", "extract", "-i", "field:torus", "-o", p(&out)], "--threads 0: must be at least 1", &out);
+    let most = (4 * cores).to_string();
+    let mut meshes = Vec::new();
+    for t in ["1", most.as_str()] {
+        let o = dir.path().join(format!("t{t}.ply"));
+        let r = isoforge(&["--threads", t, "extract", "-i", "field:gyroid?n=40", "-o", p(&o)]);
+        assert_eq!(r.status.code(), Some(0), "{}", stderr(&r));
+        meshes.push(std::fs::read(&o).unwrap());
+    }
+    assert_eq!(meshes[0], meshes[1]);
+}
+
+/// Runs isoforge under GNU time and returns (exit code, stdout, stderr, peak resident memory in
+/// KiB); `None` when /usr/bin/time is absent. (The child's own `wait4` figures would count this
+/// test process too: Linux records the memory of the process image `exec` replaces.)
+fn run_measured(args: &[&str], dir: &Path) -> Option<(Option<i32>, String, String, u64)> {
+    let time = Path::new("/usr/bin/time");
+    if !time.exists() {
+        return None;
+    }
+    let report = dir.join("time.txt");
+    let o = Command::new(time)
+        .args(["-f", "%M", "-o", p(&report), env!("CARGO_BIN_EXE_isoforge")])
+        .args(args)
+        .output()
+        .unwrap();
+    let text = std::fs::read_to_string(&report).unwrap();
+    let kib = text.lines().last().unwrap().trim().parse().unwrap();
+    Some((o.status.code(), String::from_utf8_lossy(&o.stdout).into_owned(), stderr(&o), kib))
+}
+
+/// Issue 10 (hardening 8): `--max-memory` counted the volume only, so a CT that fit ran in memory
+/// with a mesh and a check of many times the budget; and `--require` after an out-of-core run read
+/// the whole mesh back. Now the worst-case mesh decides, the streamed mesh is checked as it is
+/// written, and the process stays within the budget — with the report `check` gives for the file.
+#[test]
+fn issue_10_max_memory_is_a_real_cap_with_require() {
+    let dir = tempfile::tempdir().unwrap();
+    let raw = gyroid_raw(dir.path(), 200);
+    let out = dir.path().join("g.ply");
+    let base = ["extract", "-i", p(&raw), "--dims", "200,200,200", "--dtype", "u8", "--iso", "128.5"];
+    let args = [&base[..], &["--max-memory", "64M", "--require", "watertight", "-o", p(&out)]].concat();
+    let Some((code, report, err, peak_kib)) = run_measured(&args, dir.path()) else {
+        eprintln!("skipping: /usr/bin/time (GNU time) is not installed");
+        return;
+    };
+    // The gyroid reaches the lattice's faces: not closed, exit 1, and the file is written.
+    assert_eq!(code, Some(1), "{err}");
+    assert!(err.contains("streamed slab by slab") && err.contains("required but failed: watertight"), "{err}");
+    let c = isoforge(&["check", p(&out)]);
+    let whole = String::from_utf8_lossy(&c.stdout).into_owned();
+    let triangles: u64 = whole.split_whitespace().skip_while(|w| *w != "vertices,").nth(1).unwrap().parse().unwrap();
+    assert!(triangles > 1_000_000, "{whole}");
+    // Every line but the file name and the volume's last digits is the same.
+    let strip = |s: &str| -> Vec<String> {
+        s.lines()
+            .filter(|l| !l.starts_with("file:"))
+            .map(|l| l.split("enclosed volume").next().unwrap().to_string())
+            .collect()
+    };
+    assert_eq!(strip(&report), strip(&whole));
+    // Reading the mesh back and checking it needs > 150 MB (about 130 bytes per triangle).
+    assert!(peak_kib < 64 * 1024, "peak {} MiB on a 64 MiB budget", peak_kib / 1024);
+
+    // Every method streams (issue 11): mt5 stayed at 481 MB on a 256 MB budget before.
+    let args =
+        [&base[..], &["--max-memory", "64M", "--method", "mt5", "--require", "manifold", "-o", p(&out)]].concat();
+    let (code, _, err, peak_kib) = run_measured(&args, dir.path()).expect("GNU time was found above");
+    assert_eq!(code, Some(0), "{err}");
+    assert!(err.contains("(mt5, streamed slab by slab"), "{err}");
+    assert!(peak_kib < 64 * 1024, "mt5: peak {} MiB on a 64 MiB budget", peak_kib / 1024);
+    // Readers that decode whole files cannot stream: refused with the reason.
+    let o = isoforge(&[
+        "extract",
+        "-i",
+        p(&testdata().join("images/stack3.tif")),
+        "--iso",
+        "150.5",
+        "--max-memory",
+        "1M",
+        "-o",
+        p(&out),
+    ]);
+    assert_eq!(o.status.code(), Some(2), "{}", stderr(&o));
+    assert!(stderr(&o).contains("are read whole") && stderr(&o).contains("--max-memory 1 MiB"), "{}", stderr(&o));
+    // A budget that holds the worst case keeps the in-memory path.
+    let small = gyroid_raw(dir.path(), 20);
+    let o = isoforge(&[
+        "extract",
+        "-i",
+        p(&small),
+        "--dims",
+        "20,20,20",
+        "--dtype",
+        "u8",
+        "--iso",
+        "128.5",
+        "--max-memory",
+        "1G",
+        "-o",
+        p(&out),
+    ]);
+    assert_eq!(o.status.code(), Some(0), "{}", stderr(&o));
+    assert!(stderr(&o).contains("(mc method"), "{}", stderr(&o));
+}
+
+/// Collects a streamed mesh and checks it as it streams.
+struct CheckedCopy {
+    mesh: isoforge::mesh::Mesh,
+    check: isoforge::topo::StreamCheck,
+}
+
+impl isoforge::mesh::MeshSink for CheckedCopy {
+    fn push(&mut self, b: isoforge::mesh::MeshBatch<'_>) -> Result<(), isoforge::mesh::ExternalError> {
+        self.mesh.positions.extend_from_slice(b.positions);
+        self.mesh.triangles.extend_from_slice(b.triangles);
+        isoforge::mesh::MeshSink::push(&mut self.check, b)
+    }
+}
+
+/// Issue 10 (hardening 8): on real CTs streamed slab by slab, the streaming checker's report is
+/// `topo::check`'s for the whole mesh: every count and example, components in order, cells named
+/// (the area and volume sums to rounding).
+#[test]
+fn issue_10_stream_check_equals_check_on_real_cts() {
+    use isoforge::topo::{self, CheckOptions};
+    let data = PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("../../../shared/data/volumes");
+    if !data.exists() {
+        eprintln!("skipping: {} is absent", data.display());
+        return;
+    }
+    for (name, iso) in [("cthead_8bit_256x256x99.nrrd", 52.29), ("lidc2_chest_ct_u8.nrrd", 59.27)] {
+        let mut reader = isoforge_io::open_volume(&data.join(name), &isoforge_io::Limits::new(u64::MAX)).unwrap();
+        assert_eq!(reader.dtype(), isoforge::grid::DType::U8);
+        let opts = CheckOptions { max_examples: 25, lattice: Some(reader.lattice().clone()) };
+        let mut sink = CheckedCopy { mesh: Default::default(), check: isoforge::topo::StreamCheck::new(&opts) };
+        let iso = isoforge::volume::Iso::below(iso);
+        isoforge::pipeline::extract_streamed(&mut reader, iso, &Default::default(), &mut sink, None).unwrap();
+        let whole = topo::check_with(&sink.mesh, &opts);
+        let mut streamed = sink.check.finish().unwrap();
+        assert!(whole.triangles > 400_000 && whole.boundary_edges.count > 0 && whole.components.len() > 10, "{name}");
+        let close = |a: f64, b: f64| (a - b).abs() <= 1e-9 * a.abs().max(b.abs());
+        assert!(close(streamed.area, whole.area) && close(streamed.volume, whole.volume), "{name}");
+        assert!(close(streamed.min_angle_mean_deg, whole.min_angle_mean_deg), "{name}");
+        for (s, w) in streamed.components.iter_mut().zip(&whole.components) {
+            assert!(close(s.area, w.area) && close(s.volume, w.volume), "{name}");
+            (s.area, s.volume) = (w.area, w.volume);
+        }
+        (streamed.area, streamed.volume, streamed.min_angle_mean_deg) =
+            (whole.area, whole.volume, whole.min_angle_mean_deg);
+        assert_eq!(streamed, whole, "{name}");
+    }
 }

@@ -53,30 +53,38 @@ fn lower_name(path: &Path) -> String {
 }
 
 impl VolumeFormat {
+    /// Every volume format, in the order help texts list them.
+    pub const ALL: [VolumeFormat; 9] = [
+        VolumeFormat::Nrrd,
+        VolumeFormat::Nifti,
+        VolumeFormat::MetaImage,
+        VolumeFormat::Mrc,
+        VolumeFormat::VtkLegacy,
+        VolumeFormat::Vti,
+        VolumeFormat::Png,
+        VolumeFormat::Tiff,
+        VolumeFormat::Raw,
+    ];
+
+    /// The file-name endings that select the format (lower case, with the dot).
+    pub fn extensions(self) -> &'static [&'static str] {
+        match self {
+            VolumeFormat::Raw => &[".raw"],
+            VolumeFormat::Nrrd => &[".nrrd", ".nhdr"],
+            VolumeFormat::Nifti => &[".nii", ".nii.gz", ".hdr"],
+            VolumeFormat::MetaImage => &[".mha", ".mhd"],
+            VolumeFormat::Mrc => &[".mrc", ".map", ".ccp4", ".mrcs"],
+            VolumeFormat::VtkLegacy => &[".vtk"],
+            VolumeFormat::Vti => &[".vti"],
+            VolumeFormat::Png => &[".png"],
+            VolumeFormat::Tiff => &[".tif", ".tiff"],
+        }
+    }
+
     /// The format a path's extension names, if any.
     pub fn from_path(path: &Path) -> Option<Self> {
         let n = lower_name(path);
-        Some(if n.ends_with(".nrrd") || n.ends_with(".nhdr") {
-            VolumeFormat::Nrrd
-        } else if n.ends_with(".nii") || n.ends_with(".nii.gz") || n.ends_with(".hdr") {
-            VolumeFormat::Nifti
-        } else if n.ends_with(".mha") || n.ends_with(".mhd") {
-            VolumeFormat::MetaImage
-        } else if n.ends_with(".mrc") || n.ends_with(".map") || n.ends_with(".ccp4") || n.ends_with(".mrcs") {
-            VolumeFormat::Mrc
-        } else if n.ends_with(".vtk") {
-            VolumeFormat::VtkLegacy
-        } else if n.ends_with(".vti") {
-            VolumeFormat::Vti
-        } else if n.ends_with(".png") {
-            VolumeFormat::Png
-        } else if n.ends_with(".tif") || n.ends_with(".tiff") {
-            VolumeFormat::Tiff
-        } else if n.ends_with(".raw") {
-            VolumeFormat::Raw
-        } else {
-            return None;
-        })
+        Self::ALL.into_iter().find(|f| f.extensions().iter().any(|e| n.ends_with(e)))
     }
 
     /// Display name.
@@ -96,19 +104,35 @@ impl VolumeFormat {
 }
 
 impl MeshFormat {
+    /// The formats an extension selects (the ASCII variants are chosen by option), in the order
+    /// help texts list them.
+    pub const ALL: [MeshFormat; 6] =
+        [MeshFormat::Ply, MeshFormat::Obj, MeshFormat::Stl, MeshFormat::Off, MeshFormat::Glb, MeshFormat::Gltf];
+
+    /// The file extension that selects the format (lower case, without the dot); `None` for the
+    /// ASCII variants.
+    pub fn extension(self) -> Option<&'static str> {
+        match self {
+            MeshFormat::Ply => Some("ply"),
+            MeshFormat::Obj => Some("obj"),
+            MeshFormat::Stl => Some("stl"),
+            MeshFormat::Off => Some("off"),
+            MeshFormat::Glb => Some("glb"),
+            MeshFormat::Gltf => Some("gltf"),
+            MeshFormat::PlyAscii | MeshFormat::StlAscii => None,
+        }
+    }
+
+    /// Whether [`read_mesh`](crate::read_mesh) reads the format (glTF is written only).
+    pub fn is_readable(self) -> bool {
+        !matches!(self, MeshFormat::Glb | MeshFormat::Gltf)
+    }
+
     /// The format a path's extension names, if any.
     pub fn from_path(path: &Path) -> Option<Self> {
         let n = lower_name(path);
         let ext = n.rsplit_once('.').map(|(_, e)| e)?;
-        Some(match ext {
-            "ply" => MeshFormat::Ply,
-            "obj" => MeshFormat::Obj,
-            "glb" => MeshFormat::Glb,
-            "gltf" => MeshFormat::Gltf,
-            "stl" => MeshFormat::Stl,
-            "off" => MeshFormat::Off,
-            _ => return None,
-        })
+        Self::ALL.into_iter().find(|f| f.extension() == Some(ext))
     }
 
     /// Display name.
@@ -123,5 +147,25 @@ impl MeshFormat {
             MeshFormat::Glb => "glTF (binary)",
             MeshFormat::Gltf => "glTF",
         }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn every_extension_names_its_format() {
+        for f in VolumeFormat::ALL {
+            for e in f.extensions() {
+                assert_eq!(VolumeFormat::from_path(Path::new(&format!("a/B{}", e.to_uppercase()))), Some(f), "{e}");
+            }
+        }
+        for f in MeshFormat::ALL {
+            let e = f.extension().unwrap();
+            assert_eq!(MeshFormat::from_path(Path::new(&format!("m.{e}"))), Some(f));
+        }
+        assert_eq!(VolumeFormat::from_path(Path::new("x.gz")), None);
+        assert_eq!(MeshFormat::from_path(Path::new("x.nrrd")), None);
     }
 }

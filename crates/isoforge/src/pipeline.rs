@@ -330,6 +330,20 @@ pub fn labels_present(grid: &AnyGrid) -> Vec<f64> {
 /// [`Error::InvalidInput`] when a label does not occur or more than 4096 labels are asked for; as
 /// [`extract_grid`] otherwise.
 pub fn extract_labels(grid: &AnyGrid, labels: &Labels, opts: &Options) -> Result<Vec<(f64, Extraction)>> {
+    extract_labels_with_progress(grid, labels, opts, None)
+}
+
+/// [`extract_labels`], reporting `advance(i, n)` before label `i` of `n` and `advance(n, n)` at
+/// the end.
+///
+/// # Errors
+/// As [`extract_labels`].
+pub fn extract_labels_with_progress(
+    grid: &AnyGrid,
+    labels: &Labels,
+    opts: &Options,
+    progress: Option<&dyn Progress>,
+) -> Result<Vec<(f64, Extraction)>> {
     const MAX_LABELS: usize = 4096;
     let present = labels_present(grid);
     let wanted = match labels {
@@ -343,11 +357,18 @@ pub fn extract_labels(grid: &AnyGrid, labels: &Labels, opts: &Options) -> Result
         return Err(Error::InvalidInput(format!("label {l} does not occur in the volume")));
     }
     let mut out = Vec::with_capacity(wanted.len());
-    for &label in &wanted {
+    let total = wanted.len() as u64;
+    for (i, &label) in wanted.iter().enumerate() {
+        if let Some(p) = progress {
+            p.advance(i as u64, total);
+        }
         let lattice = grid.lattice().clone();
         let data: Vec<u8> = grid.values_f64().map(|v| u8::from(v == label)).collect();
         let indicator = DenseGrid::new(lattice, data)?.pad(1, 0)?;
         out.push((label, extract_grid(&AnyGrid::U8(indicator), Iso::above(0.5), opts, None)?));
+    }
+    if let Some(p) = progress {
+        p.advance(total, total);
     }
     Ok(out)
 }

@@ -7,7 +7,7 @@ mod common;
 
 use common::*;
 use isoforge::cube::{CellRange, CubeEdge, EdgeKey, VertexKey, CASE_EDGES};
-use isoforge::extract::{Extractor, SurfaceNets};
+use isoforge::extract::Extractor;
 use isoforge::grid::{AnyGrid, BlockBounds, DenseGrid, Lattice};
 use isoforge::mesh::{KeyRecord, Mesh, MeshBatch, MeshBuilder, MeshSink, Normals};
 use isoforge::pipeline::{self, run, Method, Options};

@@ -262,7 +262,7 @@ impl Viewer {
                     "kind": "volume", "name": name, "parameters": parameters, "methods": methods,
                     "dims": grid.lattice().dims(), "inside": if *inside == Inside::Above { "above" } else { "below" },
                     "range": h.map(|h| [h.min, h.max]), "histogram": h.map(|h| h.counts.clone()),
-                    "iso": h.map(|h| h.otsu()), "preview_step": preview_step(grid.lattice().num_points()),
+                    "iso": h.map(|h| h.surface_iso()), "preview_step": preview_step(grid.lattice().num_points()),
                 })
             }
             Shown::Mesh { name, mesh } => json!({

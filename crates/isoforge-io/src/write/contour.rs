@@ -1,5 +1,6 @@
-//! Isolines (marching squares) as SVG, GeoJSON or CSV, in pixel-index coordinates (x = column,
-//! y = row, as in the image: SVG's y axis points down like the rows).
+//! Isolines (marching squares) as SVG, GeoJSON or CSV, in the coordinates of a [`ContourFrame`]:
+//! pixel indices by default (x = column, y = row, as in the image: SVG's y axis points down like
+//! the rows), or placed by an origin and a spacing.
 
 use std::io::{self, Write};
 use std::path::Path;
@@ -32,25 +33,57 @@ impl ContourFormat {
     }
 }
 
-/// Writes `lines` of an image of `dims` pixels at `level`.
+/// Where an image's pixels lie in the written coordinates: pixel `(i, j)` at
+/// `origin + (i, j) · spacing`.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct ContourFrame {
+    /// Pixels per axis.
+    pub dims: [u32; 2],
+    /// Position of pixel (0, 0).
+    pub origin: [f64; 2],
+    /// Distance between pixel centres along x and y (positive).
+    pub spacing: [f64; 2],
+}
+
+impl ContourFrame {
+    /// Pixel-index coordinates (origin 0, spacing 1).
+    pub fn pixels(dims: [u32; 2]) -> Self {
+        ContourFrame { dims, origin: [0.0; 2], spacing: [1.0; 2] }
+    }
+
+    /// A contour in pixel coordinates (as marching squares gives it), placed in this frame.
+    pub fn place(&self, line: &Polyline) -> Polyline {
+        let points = line.points.iter().map(|p| [0, 1].map(|a| self.origin[a] + p[a] * self.spacing[a])).collect();
+        Polyline { points, closed: line.closed }
+    }
+}
+
+/// Writes `lines` (in `frame`'s coordinates) of an image at `level`.
 pub fn write_contours(
     w: &mut dyn Write,
     lines: &[Polyline],
     format: ContourFormat,
-    dims: [u32; 2],
+    frame: &ContourFrame,
     level: f64,
 ) -> io::Result<()> {
     match format {
         ContourFormat::Svg => {
-            let [nx, ny] = dims.map(|d| d.saturating_sub(1).max(1));
+            let [nx, ny] = frame.dims.map(|d| d.saturating_sub(1).max(1));
+            let [sx, sy] = frame.spacing;
+            let [ox, oy] = frame.origin;
+            let (bw, bh) = (nx as f64 * sx, ny as f64 * sy);
+            let width = nx.max(256);
             writeln!(w, r#"<?xml version="1.0" encoding="UTF-8"?>"#)?;
             writeln!(
                 w,
-                r#"<svg xmlns="http://www.w3.org/2000/svg" viewBox="0 0 {nx} {ny}" width="{}" height="{}">"#,
-                nx.max(256),
-                (ny as u64 * nx.max(256) as u64 / nx as u64)
+                r#"<svg xmlns="http://www.w3.org/2000/svg" viewBox="{ox} {oy} {bw} {bh}" width="{width}" height="{}">"#,
+                (bh * width as f64 / bw) as u64
             )?;
-            writeln!(w, r#"<g fill="none" stroke="black" stroke-width="{}">"#, (nx.max(ny) as f64 / 400.0).max(0.05))?;
+            writeln!(
+                w,
+                r#"<g fill="none" stroke="black" stroke-width="{}">"#,
+                (bw.max(bh) / 400.0).max(0.05 * sx.min(sy))
+            )?;
             for l in lines {
                 write!(w, r#"<path d=""#)?;
                 for (k, p) in l.points.iter().enumerate() {
@@ -95,8 +128,8 @@ pub fn write_contour_file(
     path: &Path,
     lines: &[Polyline],
     format: ContourFormat,
-    dims: [u32; 2],
+    frame: &ContourFrame,
     level: f64,
 ) -> crate::Result<()> {
-    crate::write_atomic(path, |w| write_contours(w, lines, format, dims, level))
+    crate::write_atomic(path, |w| write_contours(w, lines, format, frame, level))
 }

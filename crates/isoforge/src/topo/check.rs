@@ -3,6 +3,7 @@ use std::fmt;
 use crate::grid::Lattice;
 use crate::math::Aabb;
 use crate::mesh::Mesh;
+use crate::walk::Progress;
 
 /// How to check.
 #[derive(Debug, Clone)]
@@ -35,7 +36,7 @@ impl<T> Default for Findings<T> {
 }
 
 impl<T> Findings<T> {
-    fn push(&mut self, t: T, max: usize) {
+    pub(super) fn push(&mut self, t: T, max: usize) {
         self.count += 1;
         if self.examples.len() < max {
             self.examples.push(t);
@@ -54,6 +55,18 @@ pub struct EdgeFinding {
     pub midpoint: [f32; 3],
     /// The lattice cell containing the midpoint, when a lattice was given.
     pub cell: Option<[i64; 3]>,
+}
+
+impl EdgeFinding {
+    /// The finding for edge `a`–`b` (a < b) at positions `pa`, `pb`.
+    pub(super) fn new(a: u32, b: u32, faces: usize, pa: [f32; 3], pb: [f32; 3], lattice: Option<&Lattice>) -> Self {
+        let midpoint = [0, 1, 2].map(|i| 0.5 * (pa[i] + pb[i]));
+        let cell = lattice.map(|l| {
+            let p = l.to_index(midpoint.map(|x| x as f64));
+            p.map(|x| x.floor() as i64)
+        });
+        EdgeFinding { edge: [a, b], faces, midpoint, cell }
+    }
 }
 
 impl fmt::Display for EdgeFinding {
@@ -221,6 +234,23 @@ pub fn check(mesh: &Mesh) -> MeshReport {
 /// Checks `mesh`: O(T log T) time for T triangles; triangles with out-of-range indices are
 /// counted as collapsed and otherwise ignored.
 pub fn check_with(mesh: &Mesh, opts: &CheckOptions) -> MeshReport {
+    check_with_progress(mesh, opts, None)
+}
+
+/// Stages of [`check_with_progress`]; progress is reported in units of `T` per stage.
+const STAGES: u64 = 5;
+
+/// [`check_with`], reporting progress after each of its five stages (triangles, components, edges,
+/// vertex fans, duplicates) in units of the triangle count: a live bar for meshes of millions of
+/// triangles, which take seconds (sorting the edges dominates).
+pub fn check_with_progress(mesh: &Mesh, opts: &CheckOptions, progress: Option<&dyn Progress>) -> MeshReport {
+    let units = (mesh.triangles.len() as u64).max(1);
+    let stage = |k: u64| {
+        if let Some(p) = progress {
+            p.advance(k * units, STAGES * units);
+        }
+    };
+    stage(0);
     let nv = mesh.positions.len();
     let max = opts.max_examples;
     let pos = |v: u32| mesh.positions[v as usize];
@@ -261,6 +291,8 @@ pub fn check_with(mesh: &Mesh, opts: &CheckOptions) -> MeshReport {
         [p[0] as f64 - c[0], p[1] as f64 - c[1], p[2] as f64 - c[2]]
     };
 
+    stage(1);
+
     // Component ids: dense numbering of union-find roots.
     let mut comp_of_root = vec![u32::MAX; nv];
     let mut ncomp = 0usize;
@@ -291,14 +323,11 @@ pub fn check_with(mesh: &Mesh, opts: &CheckOptions) -> MeshReport {
             comps.push(blank.clone());
         }
         tri_comp[ti as usize] = ci as u32;
-        let (a, b, d) = (p64(t[0]), p64(t[1]), p64(t[2]));
-        let u = [b[0] - a[0], b[1] - a[1], b[2] - a[2]];
-        let w = [d[0] - a[0], d[1] - a[1], d[2] - a[2]];
-        let n = [u[1] * w[2] - u[2] * w[1], u[2] * w[0] - u[0] * w[2], u[0] * w[1] - u[1] * w[0]];
-        let area2 = (n[0] * n[0] + n[1] * n[1] + n[2] * n[2]).sqrt();
+        let (n, area2) = doubled_area(t.map(pos));
         if area2 == 0.0 {
             zero_area.push(ti, max);
         }
+        let a = p64(t[0]);
         let k = &mut comps[ci];
         k.triangles += 1;
         k.area += 0.5 * area2;
@@ -310,6 +339,8 @@ pub fn check_with(mesh: &Mesh, opts: &CheckOptions) -> MeshReport {
             comps[ci].vertices += 1;
         }
     }
+
+    stage(2);
 
     // PASS 2: edges, sorted by key; a group of equal keys is one undirected edge.
     let mut edges: Vec<(u64, u32)> = Vec::with_capacity(valid.len() * 3);
@@ -325,13 +356,7 @@ pub fn check_with(mesh: &Mesh, opts: &CheckOptions) -> MeshReport {
     edges.sort_unstable();
     let finding = |key: u64, faces: usize| {
         let (a, b) = ((key >> 32) as u32, key as u32);
-        let (pa, pb) = (pos(a), pos(b));
-        let midpoint = [0, 1, 2].map(|i| 0.5 * (pa[i] + pb[i]));
-        let cell = opts.lattice.as_ref().map(|l| {
-            let p = l.to_index(midpoint.map(|x| x as f64));
-            p.map(|x| x.floor() as i64)
-        });
-        EdgeFinding { edge: [a, b], faces, midpoint, cell }
+        EdgeFinding::new(a, b, faces, pos(a), pos(b), opts.lattice.as_ref())
     };
     let (mut boundary, mut non_manifold, mut inconsistent) =
         (Findings::default(), Findings::default(), Findings::default());
@@ -361,6 +386,8 @@ pub fn check_with(mesh: &Mesh, opts: &CheckOptions) -> MeshReport {
         i = j;
     }
 
+    stage(3);
+
     // PASS 3: vertex fans. Each triangle adds the opposite edge to each corner's link; a manifold
     // vertex's link is one path or one cycle, i.e. connected.
     let mut links: Vec<(u32, u32, u32)> = Vec::with_capacity(valid.len() * 3);
@@ -381,36 +408,13 @@ pub fn check_with(mesh: &Mesh, opts: &CheckOptions) -> MeshReport {
         while j < links.len() && links[j].0 == v {
             j += 1;
         }
-        local.clear();
-        for &(_, a, b) in &links[i..j] {
-            local.push(a);
-            local.push(b);
-        }
-        local.sort_unstable();
-        local.dedup();
-        parent.clear();
-        parent.extend(0..local.len());
-        let idx = |x: u32| local.binary_search(&x).unwrap_or(0);
-        fn root(p: &mut [usize], mut x: usize) -> usize {
-            while p[x] != x {
-                p[x] = p[p[x]];
-                x = p[x];
-            }
-            x
-        }
-        let mut groups = local.len();
-        for &(_, a, b) in &links[i..j] {
-            let (ra, rb) = (root(&mut parent, idx(a)), root(&mut parent, idx(b)));
-            if ra != rb {
-                parent[ra] = rb;
-                groups -= 1;
-            }
-        }
-        if groups > 1 {
+        if fans(&links[i..j], &mut local, &mut parent) > 1 {
             non_manifold_vertices.push(v, max);
         }
         i = j;
     }
+
+    stage(4);
 
     // Duplicate triangles: same sorted vertex triple.
     let mut sorted: Vec<([u32; 3], u32)> = valid
@@ -439,6 +443,7 @@ pub fn check_with(mesh: &Mesh, opts: &CheckOptions) -> MeshReport {
     comps.sort_by_key(|c| std::cmp::Reverse(c.triangles));
     let used_count = used.iter().filter(|&&u| u).count();
     let angles = min_angles(mesh, &valid);
+    stage(STAGES);
     MeshReport {
         vertices: nv,
         triangles: mesh.triangles.len(),
@@ -466,23 +471,7 @@ pub fn check_with(mesh: &Mesh, opts: &CheckOptions) -> MeshReport {
 fn min_angles(mesh: &Mesh, triangles: &[u32]) -> (f64, f64) {
     let (mut sum, mut min, mut n) = (0.0, f64::INFINITY, 0usize);
     for &ti in triangles {
-        let p = mesh.triangles[ti as usize].map(|v| mesh.positions[v as usize].map(|x| x as f64));
-        let len2 = |a: usize, b: usize| (0..3).map(|k| (p[a][k] - p[b][k]).powi(2)).sum::<f64>();
-        let (a2, b2, c2) = (len2(1, 2), len2(0, 2), len2(0, 1));
-        if a2 == 0.0 || b2 == 0.0 || c2 == 0.0 {
-            continue;
-        }
-        // The smallest angle faces the shortest side (law of cosines).
-        let (s2, o1, o2) = if a2 <= b2 && a2 <= c2 {
-            (a2, b2, c2)
-        } else if b2 <= c2 {
-            (b2, a2, c2)
-        } else {
-            (c2, a2, b2)
-        };
-        let cos = ((o1 + o2 - s2) / (2.0 * (o1 * o2).sqrt())).clamp(-1.0, 1.0);
-        let angle = cos.acos().to_degrees();
-        if angle.is_finite() && angle > 0.0 {
+        if let Some(angle) = smallest_angle(mesh.triangles[ti as usize].map(|v| mesh.positions[v as usize])) {
             sum += angle;
             min = min.min(angle);
             n += 1;
@@ -495,15 +484,90 @@ fn min_angles(mesh: &Mesh, triangles: &[u32]) -> (f64, f64) {
     }
 }
 
-struct UnionFind {
+/// The smallest interior angle of a triangle in degrees; `None` when it has a zero-length side
+/// or no positive angle.
+pub(super) fn smallest_angle(p: [[f32; 3]; 3]) -> Option<f64> {
+    let p = p.map(|q| q.map(f64::from));
+    let len2 = |a: usize, b: usize| (0..3).map(|k| (p[a][k] - p[b][k]).powi(2)).sum::<f64>();
+    let (a2, b2, c2) = (len2(1, 2), len2(0, 2), len2(0, 1));
+    if a2 == 0.0 || b2 == 0.0 || c2 == 0.0 {
+        return None;
+    }
+    // The smallest angle faces the shortest side (law of cosines).
+    let (s2, o1, o2) = if a2 <= b2 && a2 <= c2 {
+        (a2, b2, c2)
+    } else if b2 <= c2 {
+        (b2, a2, c2)
+    } else {
+        (c2, a2, b2)
+    };
+    let cos = ((o1 + o2 - s2) / (2.0 * (o1 * o2).sqrt())).clamp(-1.0, 1.0);
+    let angle = cos.acos().to_degrees();
+    (angle.is_finite() && angle > 0.0).then_some(angle)
+}
+
+/// The normal `(b − a) × (c − a)` of a triangle (twice its area as length) and that length. The
+/// differences of `f32` positions are exact in `f64`, so the result does not depend on where the
+/// mesh lies.
+pub(super) fn doubled_area(p: [[f32; 3]; 3]) -> ([f64; 3], f64) {
+    let [a, b, d] = p.map(|q| q.map(f64::from));
+    let u = [b[0] - a[0], b[1] - a[1], b[2] - a[2]];
+    let w = [d[0] - a[0], d[1] - a[1], d[2] - a[2]];
+    let n = [u[1] * w[2] - u[2] * w[1], u[2] * w[0] - u[0] * w[2], u[0] * w[1] - u[1] * w[0]];
+    (n, (n[0] * n[0] + n[1] * n[1] + n[2] * n[2]).sqrt())
+}
+
+/// How many fans the triangles around one vertex form, from their link edges `(v, a, b)` (the
+/// side opposite `v` of each triangle): 1 for a manifold vertex, whose link is one path or one
+/// cycle. `local` and `parent` are scratch space.
+pub(super) fn fans(links: &[(u32, u32, u32)], local: &mut Vec<u32>, parent: &mut Vec<usize>) -> usize {
+    local.clear();
+    for &(_, a, b) in links {
+        local.push(a);
+        local.push(b);
+    }
+    local.sort_unstable();
+    local.dedup();
+    parent.clear();
+    parent.extend(0..local.len());
+    let idx = |x: u32| local.binary_search(&x).unwrap_or(0);
+    fn root(p: &mut [usize], mut x: usize) -> usize {
+        while p[x] != x {
+            p[x] = p[p[x]];
+            x = p[x];
+        }
+        x
+    }
+    let mut groups = local.len();
+    for &(_, a, b) in links {
+        let (ra, rb) = (root(parent, idx(a)), root(parent, idx(b)));
+        if ra != rb {
+            parent[ra] = rb;
+            groups -= 1;
+        }
+    }
+    groups
+}
+
+/// Disjoint sets of vertices, 4 bytes per vertex; the smallest vertex id is a set's root.
+pub(super) struct UnionFind {
     parent: Vec<u32>,
 }
 
 impl UnionFind {
-    fn new(n: usize) -> Self {
+    pub(super) fn new(n: usize) -> Self {
         UnionFind { parent: (0..n as u32).collect() }
     }
-    fn find(&mut self, mut x: u32) -> u32 {
+    /// Vertices held.
+    pub(super) fn len(&self) -> usize {
+        self.parent.len()
+    }
+    /// Adds vertices up to `n` (exclusive), each in a set of its own.
+    pub(super) fn grow(&mut self, n: usize) {
+        let from = self.parent.len() as u32;
+        self.parent.extend(from..n as u32);
+    }
+    pub(super) fn find(&mut self, mut x: u32) -> u32 {
         while self.parent[x as usize] != x {
             let p = self.parent[self.parent[x as usize] as usize];
             self.parent[x as usize] = p;
@@ -511,13 +575,16 @@ impl UnionFind {
         }
         x
     }
-    fn union(&mut self, a: u32, b: u32) {
+    /// Joins the sets of `a` and `b`; returns `(kept root, absorbed root)` when they differed.
+    pub(super) fn union(&mut self, a: u32, b: u32) -> Option<(u32, u32)> {
         let (ra, rb) = (self.find(a), self.find(b));
-        if ra != rb {
-            // Smaller root index wins: deterministic component numbering.
-            let (lo, hi) = if ra < rb { (ra, rb) } else { (rb, ra) };
-            self.parent[hi as usize] = lo;
+        if ra == rb {
+            return None;
         }
+        // Smaller root index wins: deterministic component numbering.
+        let (lo, hi) = if ra < rb { (ra, rb) } else { (rb, ra) };
+        self.parent[hi as usize] = lo;
+        Some((lo, hi))
     }
 }
 

@@ -1,7 +1,12 @@
 //! Mesh checks: watertightness, manifoldness, orientation, Euler characteristic and genus.
 //!
-//! In: a [`Mesh`](crate::mesh::Mesh). Out: a [`MeshReport`] whose findings name the elements.
+//! In: a [`Mesh`](crate::mesh::Mesh), or its batches as out-of-core extraction streams them
+//! ([`StreamCheck`]). Out: a [`MeshReport`] whose findings name the elements.
 
 mod check;
+mod stream;
 
-pub use check::{check, check_with, CheckOptions, ComponentReport, EdgeFinding, Findings, Guarantee, MeshReport};
+pub use check::{
+    check, check_with, check_with_progress, CheckOptions, ComponentReport, EdgeFinding, Findings, Guarantee, MeshReport,
+};
+pub use stream::StreamCheck;
