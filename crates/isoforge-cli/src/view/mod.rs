@@ -583,6 +583,12 @@ fn parse_roi(roi: &str, dims: [u32; 3]) -> Result<Roi> {
     Ok((lo, hi))
 }
 
+/// The mesh as the page draws it: triangles only (quads of dual methods split).
+fn drawable(mut mesh: isoforge::mesh::Mesh) -> isoforge::mesh::Mesh {
+    mesh.triangulate();
+    mesh
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -612,10 +618,4 @@ mod tests {
         assert!(parse_query("iso=%zz").is_err());
         assert!(parse_query(&format!("iso={}", "1".repeat(65))).is_err());
     }
-}
-
-/// The mesh as the page draws it: triangles only (quads of dual methods split).
-fn drawable(mut mesh: isoforge::mesh::Mesh) -> isoforge::mesh::Mesh {
-    mesh.triangulate();
-    mesh
 }
