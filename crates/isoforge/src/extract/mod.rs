@@ -14,8 +14,9 @@
 //! How walkers run extractors: [`place`](Extractor::place) (dual methods' own vertices) for every
 //! cell that needs it, then [`process`](Extractor::process) for every cell with a crossing. A
 //! walker that allocates before it fills (count → prefix sums → fill, the Flying Edges walker's
-//! fast path) asks [`counts`](Extractor::counts) first; extractors that cannot tell their output
-//! before making it run on per-slab meshes stitched by vertex key instead.
+//! fast path) asks [`case_triangles`](Extractor::case_triangles) (a table it applies itself) or
+//! [`counts`](Extractor::counts) first; extractors that cannot tell their output before making
+//! it run on per-slab meshes stitched by vertex key instead.
 
 pub mod marching_cubes;
 pub mod masked;
@@ -75,19 +76,23 @@ pub trait Extractor {
     /// Emits the cell's polygons through `cell`.
     fn process<C: Cell>(&self, cell: &mut C);
 
-    /// What [`process`](Extractor::process) will emit for a cell of `case`, for extractors with
-    /// [`Counting::Known`]; `values` gives the cell's offset values and `ijk` its position when
-    /// the case alone does not decide. The default says nothing is known (never called then).
+    /// The triangles `process` emits for every cell of `case`, as cube-edge triples wound
+    /// outward, when the case alone decides them and the cell places no vertex: a table walkers
+    /// may apply themselves (the Flying Edges walker's bit-row fast path). `None`: the cell goes
+    /// through [`process`](Extractor::process).
+    #[inline]
+    fn case_triangles(&self, case: u8) -> Option<&[[u8; 3]]> {
+        let _ = case;
+        None
+    }
+
+    /// What [`process`](Extractor::process) will emit for a cell of `case` without a
+    /// [`case_triangles`](Extractor::case_triangles) entry, for extractors with
+    /// [`Counting::Known`]; `values` gives the cell's offset values and `ijk` its position. The
+    /// default says nothing (never called for [`Counting::Unknown`]).
     fn counts(&self, case: u8, ijk: [u32; 3], values: impl FnOnce() -> [f32; 8]) -> CellCounts {
         let _ = (case, ijk, values);
         CellCounts::default()
-    }
-
-    /// The counts of `case` when the case alone decides them (`None`: ask [`counts`](Extractor::counts)
-    /// with the values). Walkers tabulate this once per walk.
-    fn case_counts(&self, case: u8) -> Option<CellCounts> {
-        let _ = case;
-        None
     }
 
     /// Whether walkers must also call [`process`](Extractor::process) for cells whose eight

@@ -4,7 +4,7 @@ mod table;
 
 pub use table::{CaseTriangles, TRI_TABLE};
 
-use crate::extract::{CellCounts, Counting, Extractor};
+use crate::extract::{Counting, Extractor};
 use crate::walk::Cell;
 
 /// Marching cubes: each active cell emits the triangles its case lists in [`TRI_TABLE`], on
@@ -37,13 +37,9 @@ impl Extractor for MarchingCubes {
         }
     }
 
-    #[inline]
-    fn counts(&self, case: u8, _ijk: [u32; 3], _values: impl FnOnce() -> [f32; 8]) -> CellCounts {
-        CellCounts { triangles: TRI_TABLE[case as usize].triangles().len() as u16, ..Default::default() }
-    }
-
-    fn case_counts(&self, case: u8) -> Option<CellCounts> {
-        Some(self.counts(case, [0; 3], || [0.0; 8]))
+    #[inline(always)]
+    fn case_triangles(&self, case: u8) -> Option<&[[u8; 3]]> {
+        Some(TRI_TABLE[case as usize].triangles())
     }
 }
 

@@ -32,8 +32,11 @@ impl RowCount {
 pub(super) struct CaseCounts([Option<CellCounts>; 256]);
 
 impl CaseCounts {
+    /// The counts of the cases the extractor tabulates.
     pub(super) fn of<X: Extractor>(x: &X) -> Self {
-        CaseCounts(std::array::from_fn(|c| x.case_counts(c as u8)))
+        CaseCounts(std::array::from_fn(|c| {
+            x.case_triangles(c as u8).map(|t| CellCounts { triangles: t.len() as u16, ..Default::default() })
+        }))
     }
 }
 

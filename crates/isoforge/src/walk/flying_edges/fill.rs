@@ -6,7 +6,7 @@ use std::cell::OnceCell;
 use super::bits::{case_at, cell_rows, for_each_bit, mark_active, x_crossings, xor_into, Bits, RankedMask, RowMasks};
 use super::count::RowCount;
 use super::{cell_values, Passes};
-use crate::cube::{Axis, CellPoint, CubeEdge, EdgeKey, VertexKey};
+use crate::cube::{Axis, CellPoint, CubeEdge, EdgeKey, VertexKey, CASE_EDGES};
 use crate::error::{Error, Result};
 use crate::extract::Extractor;
 use crate::grid::Sample;
@@ -123,6 +123,7 @@ impl<V: SampleSlabs, X: Extractor> Passes<'_, V, X> {
         let mut out_v = 0usize;
         let mut mask = RankedMask::new(words);
         let mut ymask = vec![0u64; words];
+        let recording = self.record != crate::mesh::KeyRecord::None;
         let mut emit = |key: EdgeKey, a: V::Sample, b: V::Sample, out_v: &mut usize| {
             let (d0, d1) = (self.iso.offset(a.to_f64()), self.iso.offset(b.to_f64()));
             let (p, t) = edge_crossing(self.vol, key, d0, d1, self.iso);
@@ -130,9 +131,8 @@ impl<V: SampleSlabs, X: Extractor> Passes<'_, V, X> {
             if self.normals {
                 out.normals[*out_v] = edge_normal(self.vol, key, t, d0, self.iso);
             }
-            let key = VertexKey::Edge(key);
-            if self.records(&key) {
-                out.keys.push(((plane[0] + *out_v as u64) as u32, key));
+            if recording && self.records(&VertexKey::Edge(key)) {
+                out.keys.push(((plane[0] + *out_v as u64) as u32, VertexKey::Edge(key)));
             }
             *out_v += 1;
         };
@@ -192,16 +192,31 @@ impl<V: SampleSlabs, X: Extractor> Passes<'_, V, X> {
             state.next_placed = table.base(r)[0] + (c.x + c.y + c.z) as u64;
             for_each_bit(&active, |i| {
                 let l = [i, j, k];
+                let case = case_at(&rows, i);
+                // Each crossed edge's id once per cell; triangles then only look them up.
+                let mut ids = [0u32; 12];
+                let mut crossed = CASE_EDGES[case as usize];
+                while crossed != 0 {
+                    let e = crossed.trailing_zeros() as u8;
+                    ids[e as usize] = ranked.id(e, i);
+                    crossed &= crossed - 1;
+                }
+                if let Some(table) = self.x.case_triangles(case) {
+                    // The extractor's table: the cell's triangles without a `Cell`.
+                    for t in table {
+                        let (a, b, c) = (ids[t[0] as usize], ids[t[1] as usize], ids[t[2] as usize]);
+                        out.triangles[state.t] = if self.reverse { [a, c, b] } else { [a, b, c] };
+                        state.t += 1;
+                    }
+                    return;
+                }
                 let mut cell = FillCell {
                     p: self,
                     l,
                     ijk: bx.global(l),
-                    case: case_at(&rows, i),
+                    case,
                     values: OnceCell::new(),
-                    ranked: &ranked,
-                    ids: [0; 12],
-                    known: 0,
-                    memo: [f32::NAN; 7],
+                    ids,
                     placed: 0,
                     out,
                     state: &mut state,
@@ -282,10 +297,8 @@ struct FillCell<'a, 'o, V, X> {
     ijk: [u32; 3],
     case: u8,
     values: OnceCell<[f32; 8]>,
-    ranked: &'a RowMasks,
+    /// Vertex ids of the crossed edges.
     ids: [u32; 12],
-    known: u16,
-    memo: [f32; 7],
     placed: u8,
     out: &'a mut SlabOut<'o>,
     state: &'a mut FillState,
@@ -313,10 +326,7 @@ impl<V: SampleSlabs, X: Extractor> Cell for FillCell<'_, '_, V, X> {
 
     #[inline(always)]
     fn edge_vertex(&mut self, e: CubeEdge) -> VertexId {
-        if self.known & (1 << e.0) == 0 {
-            self.ids[e.0 as usize] = self.ranked.id(e.0, self.l[0]);
-            self.known |= 1 << e.0;
-        }
+        debug_assert!(CASE_EDGES[self.case as usize] & (1 << e.0) != 0, "edge {} does not cross", e.0);
         VertexId(self.ids[e.0 as usize])
     }
 
@@ -327,7 +337,7 @@ impl<V: SampleSlabs, X: Extractor> Cell for FillCell<'_, '_, V, X> {
 
     fn point_value(&mut self, p: CellPoint) -> f32 {
         let d = *self.values();
-        segment::point_value(self.p.vol, self.p.iso, self.ijk, &d, &mut self.memo, p)
+        segment::point_value(self.p.vol, self.p.iso, self.ijk, &d, &mut [f32::NAN; 7], p)
     }
 
     fn segment_vertex(&mut self, a: CellPoint, b: CellPoint) -> VertexId {
