@@ -231,7 +231,6 @@ impl CellTopology {
         };
         let mut tubes = [(0usize, 0usize); 2];
         let mut n_tubes = 0;
-        let mut in_tube = [false; MAX_LOOPS];
         for class_inside in [true, false] {
             let mut roots = [0usize; 8];
             let mut nr = 0;
@@ -255,16 +254,10 @@ impl CellTopology {
                     }
                     // The loops bounding p and q; prefer two that also bound one patch of the
                     // other class (the tube runs through it).
-                    // A loop already in a tube is not offered again: its band is made, and a
-                    // second one would give its edges four triangles. (Three patches of one class
-                    // joined inside the cell need a pair of pants, not two tubes; the trilinear
-                    // interpolant never does this, ties exactly at iso might.)
                     let mut best: Option<(usize, usize, bool)> = None;
                     for l0 in 0..t.n_loops {
                         for l1 in 0..t.n_loops {
-                            if in_tube[l0]
-                                || in_tube[l1]
-                                || patches.find(side_corner(l0, class_inside)) != p
+                            if patches.find(side_corner(l0, class_inside)) != p
                                 || patches.find(side_corner(l1, class_inside)) != q
                             {
                                 continue;
@@ -280,8 +273,6 @@ impl CellTopology {
                         if n_tubes < tubes.len() {
                             tubes[n_tubes] = (l0, l1);
                             n_tubes += 1;
-                            in_tube[l0] = true;
-                            in_tube[l1] = true;
                         }
                         joined.union(p, q);
                     }
@@ -700,6 +691,26 @@ mod tests {
             }
         }
         assert_eq!(on_faces, 8, "two faces, 2 × 2 chords each");
+    }
+
+    #[test]
+    fn issue_10_small_integer_cells_have_at_most_one_tube() {
+        // https://isoforge/issues/10 — every cell with values in −3..=3 (ties at iso included)
+        // and in the tie set of `tests/topology.rs`: a loop in two tubes would get two bands
+        // (four triangles on its edges). Three patches of one class joined through the interior
+        // would need that; the interpolant never does it, and the tie rules must not either.
+        for vals in [[-3.0f32, -2.0, -1.0, 0.0, 1.0, 2.0, 3.0], [-2.0, -1.0, -0.5, 0.0, 0.25, 1.0, 2.0]] {
+            for code in 0..7usize.pow(8) {
+                let mut c = code;
+                let d: [f32; 8] = std::array::from_fn(|_| {
+                    let v = vals[c % 7];
+                    c /= 7;
+                    v
+                });
+                let t = CellTopology::of(&d);
+                assert!(t.n_tubes <= 1, "{d:?}: {} tubes", t.n_tubes);
+            }
+        }
     }
 
     #[test]
