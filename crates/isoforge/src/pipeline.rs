@@ -67,6 +67,13 @@ impl Method {
         }
     }
 
+    /// Whether the mesh is guaranteed edge- and vertex-manifold and consistently oriented (closed
+    /// when the surface stays inside the lattice). Every method but surface nets, whose cells
+    /// holding two sheets give them one shared vertex.
+    pub fn is_manifold(self) -> bool {
+        !matches!(self, Method::SurfaceNets)
+    }
+
     /// Parses a short CLI name.
     pub fn parse(s: &str) -> Option<Method> {
         Method::ALL.into_iter().find(|m| m.name() == s)

@@ -6,31 +6,14 @@
 
 mod common;
 
+use common::{integer_lattice, Rng};
+
 use isoforge::extract::{Decomposition, Extractor, MarchingCubes, MarchingCubes33, MarchingTetrahedra};
 use isoforge::grid::{upsample_trilinear, DenseGrid, Lattice};
 use isoforge::mesh::{Mesh, MeshBuilder, Normals};
 use isoforge::topo::{self, MeshReport};
 use isoforge::volume::{GridVolume, Iso};
 use isoforge::walk::{FlyingEdgesWalker, ReferenceWalker, SlabWalker, Walker};
-
-/// splitmix64: a seeded stream for reproducible lattices.
-struct Rng(u64);
-
-impl Rng {
-    fn next(&mut self) -> u64 {
-        self.0 = self.0.wrapping_add(0x9e37_79b9_7f4a_7c15);
-        let mut z = self.0;
-        z = (z ^ (z >> 30)).wrapping_mul(0xbf58_476d_1ce4_e5b9);
-        z = (z ^ (z >> 27)).wrapping_mul(0x94d0_49bb_1331_11eb);
-        z ^ (z >> 31)
-    }
-    fn uniform(&mut self) -> f32 {
-        (self.next() >> 40) as f32 / (1u64 << 24) as f32 * 2.0 - 1.0
-    }
-    fn below(&mut self, n: u64) -> u64 {
-        self.next() % n
-    }
-}
 
 /// Random values in [−1, 1) on 2–3 points per axis, surrounded by a border of outside points.
 fn random_lattice(rng: &mut Rng) -> DenseGrid<f32> {
@@ -145,6 +128,152 @@ fn mc33_has_the_topology_of_the_trilinear_interpolant() {
 }
 
 #[test]
+fn issue_10_mc33_on_integer_lattices_has_the_topology_of_the_trilinear_interpolant() {
+    // https://isoforge/issues/10 — integer values: ties at iso, equal corners, plateaus, mirrored
+    // faces. Compared where the oracle is decisive (16× agrees, or 48× and 96× agree); an iso
+    // equal to lattice values puts the interpolant's critical points exactly at iso, where a
+    // refined MC cannot settle touching sheets, so those lattices may stay unresolved.
+    let n = cases();
+    let (mut compared, mut unresolved, mut refined) = (0, 0, 0);
+    let mut mismatches = Vec::new();
+    for seed in 0..n as u64 {
+        let l = integer_lattice(0x3_0000 + seed, 4);
+        let g = l.offset();
+        let r33 = topo::check(&extract(&g, &MarchingCubes33));
+        assert_watertight(&r33, "mc33", &g);
+        let got = genera(&r33);
+        let mut want = oracle(&g, 16);
+        if got != want {
+            let (fine, finer) = (oracle(&g, 48), oracle(&g, 96));
+            if fine != finer {
+                unresolved += 1;
+                continue;
+            }
+            refined += 1;
+            want = fine;
+        }
+        compared += 1;
+        if got != want {
+            mismatches.push(format!("mc33 {got:?}, oracle {want:?} on {l}"));
+        }
+    }
+    eprintln!(
+        "mc33 on integer lattices: {compared} compared ({refined} needed the 48×/96× oracle), {} mismatches, \
+         {unresolved} left out (oracle unsettled at 96×)",
+        mismatches.len()
+    );
+    assert!(mismatches.is_empty(), "mc33 genera differ from the trilinear interpolant's:\n{}", mismatches.join("\n"));
+    assert!(compared * 10 >= n * 8, "too many unresolved lattices: {unresolved} of {n}");
+}
+
+/// Issue 10: where MC33 was non-manifold on the real scans, cut out of them: two cells sharing a
+/// face, both with a tunnel through it (the face's saddle separates, so both loops of each tube
+/// cross it), so both bands picked the same chord on the shared face. (Scan, iso, the lower
+/// cell, points per axis, the values x fastest; `isoforge check` named the places.)
+#[allow(clippy::type_complexity)]
+const ISSUE_10_PAIRS: &[(&str, f64, [u32; 3], [u32; 3], [f32; 12])] = &[
+    ("cthead", 52.2949, [108, 233, 21], [3, 2, 2], [56., 55., 53., 43., 48., 52., 52., 49., 45., 54., 58., 60.]),
+    ("cthead", 52.2949, [104, 74, 46], [2, 3, 2], [56., 48., 48., 56., 48., 70., 73., 48., 60., 45., 52., 48.]),
+    ("lidc2", 59.2676, [185, 147, 25], [3, 2, 2], [78., 74., 36., 76., 51., 74., 0., 37., 62., 35., 72., 45.]),
+    ("lidc2", 59.2676, [196, 136, 31], [2, 3, 2], [33., 61., 26., 103., 50., 147., 94., 56., 78., 34., 44., 52.]),
+    ("lidc2", 59.2676, [201, 92, 36], [2, 2, 3], [43., 133., 38., 62., 19., 78., 77., 51., 45., 47., 170., 58.]),
+    ("lidc2", 59.2676, [189, 164, 42], [2, 2, 3], [45., 65., 66., 87., 77., 40., 42., 76., 75., 65., 62., 47.]),
+    ("lidc2", 59.2676, [43, 146, 52], [3, 2, 2], [50., 84., 99., 34., 40., 113., 71., 34., 0., 79., 79., 13.]),
+    (
+        "bunny",
+        988.37,
+        [158, 392, 167],
+        [2, 2, 3],
+        [1026., 1085., 957., 803., 978., 1091., 998., 895., 830., 997., 1051., 1014.],
+    ),
+    (
+        "bunny",
+        988.37,
+        [384, 384, 357],
+        [3, 2, 2],
+        [810., 974., 1045., 1018., 1036., 887., 985., 1022., 888., 1036., 878., 611.],
+    ),
+    (
+        "bunny",
+        1024.0,
+        [350, 407, 222],
+        [2, 2, 3],
+        [1075., 1159., 998., 826., 923., 1076., 1103., 987., 704., 895., 1173., 1120.],
+    ),
+    (
+        "bunny",
+        1024.0,
+        [195, 409, 222],
+        [2, 2, 3],
+        [1092., 1051., 885., 1071., 1076., 921., 1005., 1066., 794., 662., 1124., 990.],
+    ),
+    ("shoulder", 46.3184, [431, 406, 257], [2, 2, 3], [50., 46., 42., 48., 48., 43., 45., 49., 43., 40., 49., 48.]),
+    ("shoulder", 46.3184, [196, 315, 288], [3, 2, 2], [46., 37., 36., 51., 53., 42., 55., 51., 44., 30., 44., 48.]),
+];
+
+#[test]
+fn issue_10_tunnel_cells_sharing_a_face_stay_manifold() {
+    // https://isoforge/issues/10 — 4 faces on 2–14 edges per scan, plus duplicate triangles.
+    // Both cells keep their tunnel (a handle of the interpolant's surface).
+    let mut failed = Vec::new();
+    for (scan, iso, cell, dims, values) in ISSUE_10_PAIRS {
+        let inner = Lattice::new(*dims).unwrap();
+        // The values offset by iso exactly as `GridVolume` does (f64, then f32), in an outside border.
+        let g = DenseGrid::from_fn(Lattice::new(dims.map(|d| d + 2)).unwrap(), |p| {
+            if p.iter().zip(dims).all(|(&x, &d)| x >= 1 && x <= d) {
+                (values[inner.linear([p[0] - 1, p[1] - 1, p[2] - 1])] as f64 - iso) as f32
+            } else {
+                1.0
+            }
+        });
+        let r = topo::check(&extract(&g, &MarchingCubes33));
+        let (got, want) = (genera(&r), oracle(&g, 48));
+        if !r.is_watertight() || r.duplicate_triangles.count > 0 || got != want || !got.iter().any(|&g| g > 0) {
+            failed.push(format!(
+                "{scan} at {iso}, cells from {cell:?}: {} non-manifold edges {:?}, {} duplicate triangles, \
+                 genera {got:?} (the interpolant's: {want:?})",
+                r.non_manifold_edges.count,
+                r.non_manifold_edges.examples.first(),
+                r.duplicate_triangles.count,
+            ));
+        }
+    }
+    assert!(failed.is_empty(), "{} of {} pairs fail:\n{}", failed.len(), ISSUE_10_PAIRS.len(), failed.join("\n"));
+}
+
+/// Issue 10: single cells of integer lattices where a slice saddle *touches* iso inside the cell
+/// (a double root of the slice saddle: the two outside regions meet at one point), and one where
+/// a corner sits exactly at iso at the bottom of a vertical edge. Ties are outside, so the
+/// outside regions are joined there, as on a face whose saddle is exactly at iso. (Values
+/// already offset by iso; the components and Euler characteristic of the closed surface.)
+const ISSUE_10_TOUCHING: &[(&str, [f32; 8], usize, i64)] = &[
+    ("slice saddle touches iso at t = 2/3 (6.1.2 with a corner at iso)", [-1., -1., -1., 3., 2., -1., -1., 0.], 1, 0),
+    (
+        "slice saddle touches iso at t = 1/2 (7.4.2 with three corners at iso)",
+        [-1., 2., 0., -1., 0., -1., 1., 0.],
+        1,
+        0,
+    ),
+    ("a corner at iso where a vertical edge starts", [0., -1., -0.5, -2., -1., 0.25, 1., -2.], 1, 2),
+];
+
+#[test]
+fn issue_10_a_slice_saddle_touching_iso_joins_the_outside() {
+    // https://isoforge/issues/10 — the slice sweep sampled only between events and missed them.
+    let rots = rotations();
+    for (name, v, comps, chi) in ISSUE_10_TOUCHING {
+        let o = topo::check(&oracle_mesh(&single_cell(v), 48));
+        assert_eq!((o.components.len(), o.euler), (*comps, *chi), "{name}: the oracle disagrees with the table");
+        for r in &rots {
+            let g = single_cell(&rotate(v, r));
+            let m = topo::check(&extract(&g, &MarchingCubes33));
+            assert_watertight(&m, name, &g);
+            assert_eq!((m.components.len(), m.euler), (*comps, *chi), "{name} rotated by {r:?}");
+        }
+    }
+}
+
+#[test]
 fn tetrahedra_give_watertight_meshes_on_random_lattices() {
     let mut rng = Rng(0x7e7a);
     for _ in 0..cases() {
@@ -223,8 +352,15 @@ fn mc33_and_tetrahedra_agree_between_walkers() {
 #[test]
 #[ignore]
 fn debug_case() {
-    // ISOFORGE_CASE="3 2 3 v0 v1 …" (dims then values, as `describe` prints them).
-    let spec = std::env::var("ISOFORGE_CASE").expect("set ISOFORGE_CASE");
+    // ISOFORGE_CASE="3 2 3 v0 v1 …" (dims then values, as `describe` prints them), or
+    // ISOFORGE_INT_CASE="SEED INNER" (an integer lattice, as `integer_lattice` makes it).
+    if let Ok(spec) = std::env::var("ISOFORGE_INT_CASE") {
+        let n: Vec<u64> = spec.split_whitespace().map(parse_seed).collect();
+        let l = integer_lattice(n[0], n[1] as u32);
+        eprintln!("{l}");
+        return debug_grid(&l.offset());
+    }
+    let spec = std::env::var("ISOFORGE_CASE").expect("set ISOFORGE_CASE or ISOFORGE_INT_CASE");
     let nums: Vec<f32> = spec
         .split(|c: char| c == ',' || c.is_whitespace() || c == '[' || c == ']')
         .filter(|s| !s.is_empty())
@@ -241,10 +377,19 @@ fn debug_case() {
             1.0
         }
     });
+    debug_grid(&g);
+}
+
+fn parse_seed(s: &str) -> u64 {
+    s.strip_prefix("0x").map_or_else(|| s.parse().unwrap(), |h| u64::from_str_radix(h, 16).unwrap())
+}
+
+/// Prints the oracle at several refinements and every cell where MC33 and the oracle differ.
+fn debug_grid(g: &DenseGrid<f32>) {
     for f in [16, 24, 48, 96] {
-        eprintln!("oracle {f}: {:?}", oracle(&g, f));
+        eprintln!("oracle {f}: {:?}", oracle(g, f));
     }
-    let r = topo::check(&extract(&g, &MarchingCubes33));
+    let r = topo::check(&extract(g, &MarchingCubes33));
     eprintln!("mc33 {:?} non-manifold edges {:?}", genera(&r), r.non_manifold_edges.examples);
     let od = g.lattice().dims();
     for k in 0..od[2] - 1 {
@@ -275,7 +420,7 @@ fn debug_case() {
             }
         }
     }
-    eprintln!("mc {:?}", genera(&topo::check(&extract(&g, &MarchingCubes))));
+    eprintln!("mc {:?}", genera(&topo::check(&extract(g, &MarchingCubes))));
 }
 
 /// The MC33 catalogue: one cell per configuration and subcase (Chernyaev's numbering; inside

@@ -12,15 +12,22 @@
 //!    (inside or outside) that are joined through the cell's interior form a tunnel. Connectivity
 //!    through the interior is decided exactly by sweeping horizontal slices: the slice at height t
 //!    is bilinear, its topology changes only where a vertical edge crosses or where its saddle
-//!    crosses iso (roots of a quadratic), and slice components are followed from one interval to
-//!    the next through the vertical edges. This covers Chernyaev's interior test for cases 4, 6,
-//!    7, 10, 12 and 13 including the configurations that Custodio et al. found mis-tabulated.
+//!    crosses iso (roots of a quadratic), and slice components are followed from one sample to
+//!    the next through the vertical edges; the samples are the events themselves and the middle
+//!    of every interval between them. This covers Chernyaev's interior test for cases 4, 6, 7,
+//!    10, 12 and 13 including the configurations that Custodio et al. found mis-tabulated.
 //! 4. **Triangles.** Each loop not in a tunnel spans a disk: a fan from its first vertex, or from
 //!    a cell-private centroid vertex when the loop crosses one face twice (a fan there could
-//!    create a chord also used by the neighbour). A tunnel's two loops are joined by a band.
+//!    create a chord also used by the neighbour). A tunnel's two loops are joined by a band; a
+//!    band chord whose ends lie on one face (both loops cross a face whose saddle separates them)
+//!    is split at a cell-private vertex, because the neighbour's tunnel through that face could
+//!    pick the same chord.
 //!
 //! Ties follow the project rule (a value equal to iso is outside; a saddle exactly at iso is
 //! outside), identically in both cells of a face, so no crack or non-manifold edge can appear.
+//! Inside the cell the same rule makes the outside closed: where a slice saddle only touches iso
+//! (a double root) or two vertical edges reach iso at one height, the outside regions meeting
+//! there are joined. Integer scans produce all of these (issue 10; `tests/real_data.rs`).
 
 use super::Extractor;
 use crate::cube::{CubeEdge, CORNER_OFFSETS, EDGE_CORNERS, EDGE_FACES, FACE_CORNERS, FACE_EDGES};
@@ -31,8 +38,9 @@ use crate::walk::Cell;
 ///
 /// **Guarantees**: for a surface that stays inside the lattice, the mesh is closed, edge- and
 /// vertex-manifold, consistently oriented (normals from inside to outside), and has the
-/// components and genus of the trilinear interpolant's isosurface. Vertices lie on lattice edges
-/// (shared) plus one private centroid vertex for loops that cross a face twice.
+/// components and genus of the trilinear interpolant's isosurface (ties at iso counted outside).
+/// Vertices lie on lattice edges (shared), plus private ones inside the cell: a centroid for each
+/// loop that crosses a face twice, and one on the interpolant for each tunnel chord on a face.
 ///
 /// **Limits**: geometry inside a cell is a fan or a band, not the interpolant's exact shape.
 #[derive(Debug, Clone, Copy, Default)]
@@ -287,74 +295,142 @@ fn common_face(a: u8, b: u8) -> u8 {
     }
 }
 
+/// A height where a horizontal slice's topology can change: vertical edges crossing iso (`zero`:
+/// the slice corners exactly at iso there) or the slice's saddle passing through iso.
+#[derive(Debug, Clone, Copy)]
+struct Event {
+    t: f64,
+    zero: u8,
+    saddle_at_iso: bool,
+}
+
+/// A computed root of the slice saddle this close to a vertical crossing where the saddle is
+/// exactly at iso is that crossing (the crossing is exact, the root rounded).
+const ROOT_MERGE: f64 = 1e-9;
+
 /// Which corners of one class are connected inside the closed cell (through faces or interior),
 /// by a sweep over horizontal slices (see the module documentation).
+///
+/// The sweep samples the middle of every interval between events *and the events themselves*:
+/// with ties outside, the outside class is closed, and two outside regions touching at one point
+/// (a slice saddle reaching iso without crossing it, a double root) are joined there only, as a
+/// face saddle exactly at iso joins the outside corners. Integer data makes these ties (issue 10).
 fn interior_components(d: &[f32; 8], class_inside: bool) -> UnionFind<8> {
     let member = |v: f64| (v < 0.0) == class_inside;
     let b: [f64; 4] = [0, 1, 2, 3].map(|c| d[c] as f64);
     let top: [f64; 4] = [4, 5, 6, 7].map(|c| d[c] as f64);
     let delta: [f64; 4] = [0, 1, 2, 3].map(|c| top[c] - b[c]);
-    // Events in (0, 1): vertical edges crossing, and the slice saddle numerator
-    // g(t) = e0·e3 − e1·e2 changing sign.
-    let mut events = [0.0f64; 6];
+    let mut crossing: [Option<f64>; 4] = [0, 1, 2, 3].map(|c| {
+        let t = b[c] / (b[c] - top[c]);
+        ((b[c] < 0.0) != (top[c] < 0.0) && t > 0.0 && t < 1.0).then_some(t)
+    });
+    let always_zero = (0..4).filter(|&c| b[c] == 0.0 && top[c] == 0.0).fold(0u8, |m, c| m | 1 << c);
+    // PASS 1: vertical crossings, grouped when simultaneous. Equal heights are found exactly:
+    // b_a / (b_a − top_a) = b_c / (b_c − top_c) ⇔ b_a·top_c = b_c·top_a, products of f32 exact in f64.
+    let mut events = [Event { t: 0.0, zero: 0, saddle_at_iso: false }; 6];
     let mut ne = 0;
-    let push = |t: f64, events: &mut [f64; 6], ne: &mut usize| {
-        if t > 0.0 && t < 1.0 && t.is_finite() {
-            events[*ne] = t;
-            *ne += 1;
-        }
-    };
     for c in 0..4 {
-        if member(b[c]) != member(top[c]) {
-            push(b[c] / (b[c] - top[c]), &mut events, &mut ne);
-        }
-    }
-    let qa = delta[0] * delta[3] - delta[1] * delta[2];
-    let qb = b[0] * delta[3] + delta[0] * b[3] - b[1] * delta[2] - delta[1] * b[2];
-    let qc = b[0] * b[3] - b[1] * b[2];
-    if qa == 0.0 {
-        if qb != 0.0 {
-            push(-qc / qb, &mut events, &mut ne);
-        }
-    } else {
-        let disc = qb * qb - 4.0 * qa * qc;
-        if disc >= 0.0 {
-            let sq = disc.sqrt();
-            // Stable roots: q = −(b + sign(b)·√disc)/2, roots q/a and c/q.
-            let q = -0.5 * (qb + if qb >= 0.0 { sq } else { -sq });
-            push(q / qa, &mut events, &mut ne);
-            if q != 0.0 {
-                push(qc / q, &mut events, &mut ne);
+        let Some(t) = crossing[c] else { continue };
+        let same = events[..ne].iter().position(|e| {
+            let a = e.zero.trailing_zeros() as usize;
+            b[a] * top[c] == b[c] * top[a]
+        });
+        match same {
+            Some(i) => {
+                events[i].zero |= 1 << c;
+                crossing[c] = Some(events[i].t); // one height for the group, whatever rounding
+            }
+            None => {
+                events[ne] = Event { t, zero: 1 << c, saddle_at_iso: false };
+                ne += 1;
             }
         }
     }
-    let ev = &mut events[..ne];
-    ev.sort_by(f64::total_cmp);
-    // Samples: t = 0, the middle of every interval between events, t = 1.
-    let mut samples = [0.0f64; 9];
-    let mut ns = 0;
-    samples[ns] = 0.0;
-    ns += 1;
-    let mut prev = 0.0;
-    for &t in ev.iter().chain(std::iter::once(&1.0)) {
-        if t > prev {
-            samples[ns] = 0.5 * (prev + t);
-            ns += 1;
-            prev = t;
+    // The slice saddle numerator g(t) = e0·e3 − e1·e2 is exactly 0 at a crossing where both
+    // diagonals have a corner at iso.
+    for e in &mut events[..ne] {
+        let z = e.zero | always_zero;
+        e.saddle_at_iso = z & 0b1001 != 0 && z & 0b0110 != 0;
+    }
+    // PASS 2: the roots of g in (0, 1), unless they are such a crossing.
+    let qa = delta[0] * delta[3] - delta[1] * delta[2];
+    let qb = b[0] * delta[3] + delta[0] * b[3] - b[1] * delta[2] - delta[1] * b[2];
+    let qc = b[0] * b[3] - b[1] * b[2];
+    let g_vanishes = qa == 0.0 && qb == 0.0 && qc == 0.0;
+    let mut roots = [f64::NAN; 2];
+    if qa == 0.0 {
+        if qb != 0.0 {
+            roots[0] = -qc / qb;
+        }
+    } else {
+        let disc = qb * qb - 4.0 * qa * qc;
+        if disc == 0.0 {
+            roots[0] = -qb / (2.0 * qa);
+        } else if disc > 0.0 {
+            // Stable roots: q = −(b + sign(b)·√disc)/2, roots q/a and c/q.
+            let sq = disc.sqrt();
+            let q = -0.5 * (qb + if qb >= 0.0 { sq } else { -sq });
+            roots[0] = q / qa;
+            if q != 0.0 {
+                roots[1] = qc / q;
+            }
         }
     }
-    samples[ns] = 1.0;
-    ns += 1;
-    let mut uf = UnionFind::<36>::new();
+    for r in roots {
+        let at_crossing = events[..ne].iter().any(|e| e.saddle_at_iso && (e.t - r).abs() <= ROOT_MERGE);
+        if r > 0.0 && r < 1.0 && !at_crossing {
+            events[ne] = Event { t: r, zero: 0, saddle_at_iso: true };
+            ne += 1;
+        }
+    }
+    let ev = &mut events[..ne];
+    ev.sort_by(|x, y| x.t.total_cmp(&y.t));
+    // PASS 3: samples t = 0, the middle of every interval, every event, t = 1.
+    let mut samples = [(0.0f64, 0u8, false); 2 * 6 + 3];
+    let mut ns = 1;
+    let mut prev = 0.0;
+    for e in ev.iter() {
+        if e.t > prev {
+            samples[ns] = (0.5 * (prev + e.t), 0, g_vanishes);
+            ns += 1;
+            prev = e.t;
+        }
+        samples[ns] = (e.t, e.zero, e.saddle_at_iso || g_vanishes);
+        ns += 1;
+    }
+    samples[ns] = (0.5 * (prev + 1.0), 0, g_vanishes);
+    samples[ns + 1] = (1.0, 0, false);
+    ns += 2;
+    // The slice corner values at height t: a corner at iso exactly at its own crossing, else on
+    // the side of iso its crossing (or its edge, when it does not cross) says, whatever rounding.
+    let slice = |t: f64, zero: u8| -> [f64; 4] {
+        std::array::from_fn(|c| {
+            if t == 0.0 {
+                return b[c];
+            }
+            if t == 1.0 {
+                return top[c];
+            }
+            let v = b[c] + t * delta[c];
+            let below = match crossing[c] {
+                _ if zero >> c & 1 == 1 => return 0.0,
+                Some(tc) if t == tc => return 0.0,
+                Some(tc) => (if t < tc { b[c] } else { top[c] }) < 0.0,
+                // No crossing inside (0, 1): one class throughout, the one at both ends, or
+                // the non-zero end's when the other end is exactly at iso.
+                None => (if b[c] == 0.0 { top[c] } else { b[c] }) < 0.0,
+            };
+            if below {
+                v.min(-f64::MIN_POSITIVE)
+            } else {
+                v.max(0.0)
+            }
+        })
+    };
+    let mut uf = UnionFind::<{ 4 * (2 * 6 + 3) }>::new();
     let mut last = [0.0f64; 4];
-    for (s, &t) in samples[..ns].iter().enumerate() {
-        let e: [f64; 4] = if t == 0.0 {
-            b
-        } else if t == 1.0 {
-            top
-        } else {
-            [0, 1, 2, 3].map(|c| b[c] + t * delta[c])
-        };
+    for (s, &(t, zero, saddle_at_iso)) in samples[..ns].iter().enumerate() {
+        let e = slice(t, zero);
         let node = |c: usize| 4 * s + c;
         for (p, q) in [(0, 1), (0, 2), (1, 3), (2, 3)] {
             if member(e[p]) && member(e[q]) {
@@ -365,7 +441,7 @@ fn interior_components(d: &[f32; 8], class_inside: bool) -> UnionFind<8> {
         let diag_a = member(e[0]) && member(e[3]) && !member(e[1]) && !member(e[2]);
         let diag_b = member(e[1]) && member(e[2]) && !member(e[0]) && !member(e[3]);
         if diag_a || diag_b {
-            let centre_in = saddle_inside(e[0], e[1], e[3], e[2]);
+            let centre_in = !saddle_at_iso && saddle_inside(e[0], e[1], e[3], e[2]);
             if centre_in == class_inside {
                 if diag_a {
                     uf.union(node(0), node(3));
@@ -423,6 +499,11 @@ fn dist2(p: [f32; 3], q: [f32; 3]) -> f32 {
 
 /// Joins loops `la` and `lb` (each oriented with the inside on the right, seen from outside the
 /// cell) by a band of triangles: an annulus whose boundary is the two loops.
+///
+/// A chord of the band whose two ends lie on one face of the cell (both loops cross an ambiguous
+/// face the saddle separates) is split at a private vertex inside the cell: the neighbour across
+/// that face may hold a tunnel through the same face and pick the same chord, and a chord on a
+/// face would then carry four triangles (issue 10, seen on CT scans where such cells pair up).
 fn band<C: Cell>(cell: &mut C, d: &[f32; 8], la: &[u8], lb: &[u8], id: &mut impl FnMut(&mut C, u8) -> VertexId) {
     // Walk A = reverse(la) forward and B = reverse(lb) backward (see the module docs for the
     // orientation argument): triangles (a_i, a_i+1, b_j) and (b_j−1, b_j, a_i).
@@ -437,6 +518,16 @@ fn band<C: Cell>(cell: &mut C, d: &[f32; 8], la: &[u8], lb: &[u8], id: &mut impl
     // Steps taken around the current b (by A) and around the current a (by B): a full turn of
     // one loop around a single vertex of the other would repeat a chord (a non-manifold edge).
     let (mut run_a, mut run_b) = (0, 0);
+    // The private vertex splitting each face chord, made on first use (indexed by cube edges).
+    let mut split = [[VertexId::NONE; 12]; 12];
+    let mut chord = |cell: &mut C, x: u8, y: u8| -> Option<VertexId> {
+        let f = common_face_of(x, y)?;
+        let (lo, hi) = (x.min(y) as usize, x.max(y) as usize);
+        if split[lo][hi] == VertexId::NONE {
+            split[lo][hi] = cell.place_vertex(off_face_point(d, x, y, f), 0);
+        }
+        Some(split[lo][hi])
+    };
     while da < m || db < n {
         let (ai, ai1) = (i % m, (i + 1) % m);
         let (bj, bj1) = (j % n, (j + n - 1) % n);
@@ -446,22 +537,94 @@ fn band<C: Cell>(cell: &mut C, d: &[f32; 8], la: &[u8], lb: &[u8], id: &mut impl
             (true, true) => dist2(pa[ai1], pb[bj]) <= dist2(pa[ai], pb[bj1]),
             (a, _) => a,
         };
+        // The triangle (loop edge p → q, apex r): its chords are q → r and r → p.
+        let (p, q, r) = if advance_a { (a[ai], a[ai1], b[bj]) } else { (b[bj1], b[bj], a[ai]) };
+        let (mqr, mrp) = (chord(cell, q, r), chord(cell, r, p));
+        let (vp, vq, vr) = (id(cell, p), id(cell, q), id(cell, r));
+        match (mqr, mrp) {
+            (None, None) => cell.push_triangle([vp, vq, vr]),
+            (Some(m1), None) => {
+                cell.push_triangle([vp, vq, m1]);
+                cell.push_triangle([vp, m1, vr]);
+            }
+            (None, Some(m2)) => {
+                cell.push_triangle([vp, vq, m2]);
+                cell.push_triangle([vq, vr, m2]);
+            }
+            (Some(m1), Some(m2)) => {
+                cell.push_triangle([m1, vr, m2]);
+                cell.push_triangle([vp, vq, m1]);
+                cell.push_triangle([vp, m1, m2]);
+            }
+        }
         if advance_a {
-            let t = [id(cell, a[ai]), id(cell, a[ai1]), id(cell, b[bj])];
-            cell.push_triangle(t);
             i += 1;
             da += 1;
             run_a += 1;
             run_b = 0;
         } else {
-            let t = [id(cell, b[bj1]), id(cell, b[bj]), id(cell, a[ai])];
-            cell.push_triangle(t);
             j -= 1;
             db += 1;
             run_b += 1;
             run_a = 0;
         }
     }
+}
+
+/// The face holding both crossed edges `x` and `y`, if any.
+#[inline]
+fn common_face_of(x: u8, y: u8) -> Option<u8> {
+    let [f0, f1] = EDGE_FACES[x as usize];
+    let other = EDGE_FACES[y as usize];
+    [f0, f1].into_iter().find(|f| other.contains(f))
+}
+
+/// How close to the face its chord lies on a private band vertex may come, as a fraction of the
+/// cell: strictly inside, so it never meets the neighbour's vertex or lies in the shared face.
+const OFF_FACE_MIN_DEPTH: f32 = 1.0 / 16.0;
+
+/// Steps and bisections locating a private band vertex on the interpolant.
+const OFF_FACE_STEPS: usize = 8;
+const OFF_FACE_BISECTIONS: usize = 24;
+
+/// The private vertex for the chord `x`–`y` on face `f`: on the way from the chord's midpoint to
+/// the cell's centre, where the trilinear interpolant first changes class (the tube's wall behind
+/// the chord), or half way when it does not; never closer to the face than `OFF_FACE_MIN_DEPTH`.
+fn off_face_point(d: &[f32; 8], x: u8, y: u8, f: u8) -> [f32; 3] {
+    let (px, py) = (edge_point(d, x), edge_point(d, y));
+    let mid: [f32; 3] = std::array::from_fn(|a| 0.5 * (px[a] + py[a]));
+    let at = |s: f32| -> [f32; 3] { std::array::from_fn(|a| mid[a] + s * (0.5 - mid[a])) };
+    let class = |s: f32| trilinear(d, at(s)) < 0.0;
+    let start = class(0.0);
+    let mut s = 0.5;
+    if let Some(k) = (1..=OFF_FACE_STEPS).find(|&k| class(k as f32 / OFF_FACE_STEPS as f32) != start) {
+        let (mut lo, mut hi) = ((k - 1) as f32 / OFF_FACE_STEPS as f32, k as f32 / OFF_FACE_STEPS as f32);
+        for _ in 0..OFF_FACE_BISECTIONS {
+            let m = 0.5 * (lo + hi);
+            if class(m) == start {
+                lo = m;
+            } else {
+                hi = m;
+            }
+        }
+        s = 0.5 * (lo + hi);
+    }
+    let mut p = at(s);
+    let (axis, side) = ((f / 2) as usize, (f % 2) as f32);
+    if (p[axis] - side).abs() < OFF_FACE_MIN_DEPTH {
+        p[axis] = (side - OFF_FACE_MIN_DEPTH).abs();
+    }
+    p
+}
+
+/// The trilinear interpolant of the corner values at cell coordinates `p` ∈ [0, 1]³.
+fn trilinear(d: &[f32; 8], p: [f32; 3]) -> f32 {
+    (0..8)
+        .map(|c| {
+            let w: f32 = (0..3).map(|a| if (c >> a) & 1 == 1 { p[a] } else { 1.0 - p[a] }).product();
+            w * d[c]
+        })
+        .sum()
 }
 
 /// A tiny union-find over N elements.
@@ -505,6 +668,48 @@ mod tests {
         // A saddle exactly at iso is outside (ties outside).
         assert!(!saddle_inside(-1.0, 1.0, -1.0, 1.0));
         assert!(saddle_inside(-2.0, 1.0, -1.0, 1.0));
+    }
+
+    #[test]
+    fn issue_10_face_chords_of_a_tunnel_get_a_private_vertex_on_the_interpolant() {
+        // https://isoforge/issues/10 — a 10.1.2 cell of the CT head (iso 52.2949): both loops of
+        // the tube cross the faces x = 0 and x = 1, whose saddles separate them.
+        let d = [56.0f32, 55.0, 43.0, 48.0, 52.0, 49.0, 54.0, 58.0].map(|v| (v as f64 - 52.2949) as f32);
+        let t = CellTopology::of(&d);
+        assert_eq!((t.n_loops, t.n_tubes), (2, 1));
+        let (a, b) = (t.loop_edges(t.tubes[0].0), t.loop_edges(t.tubes[0].1));
+        let mut on_faces = 0;
+        for &x in a {
+            for &y in b {
+                let Some(f) = common_face_of(x, y) else { continue };
+                on_faces += 1;
+                let p = off_face_point(&d, x, y, f);
+                let depth = (p[(f / 2) as usize] - (f % 2) as f32).abs();
+                assert!((OFF_FACE_MIN_DEPTH..=0.5).contains(&depth), "chord {x}–{y}: {p:?} on face {f}");
+                assert!(trilinear(&d, p).abs() < 1e-4, "chord {x}–{y}: {p:?} is off the interpolant");
+            }
+        }
+        assert_eq!(on_faces, 8, "two faces, 2 × 2 chords each");
+    }
+
+    #[test]
+    fn issue_10_small_integer_cells_have_at_most_one_tube() {
+        // https://isoforge/issues/10 — every cell with values in −3..=3 (ties at iso included)
+        // and in the tie set of `tests/topology.rs`: a loop in two tubes would get two bands
+        // (four triangles on its edges). Three patches of one class joined through the interior
+        // would need that; the interpolant never does it, and the tie rules must not either.
+        for vals in [[-3.0f32, -2.0, -1.0, 0.0, 1.0, 2.0, 3.0], [-2.0, -1.0, -0.5, 0.0, 0.25, 1.0, 2.0]] {
+            for code in 0..7usize.pow(8) {
+                let mut c = code;
+                let d: [f32; 8] = std::array::from_fn(|_| {
+                    let v = vals[c % 7];
+                    c /= 7;
+                    v
+                });
+                let t = CellTopology::of(&d);
+                assert!(t.n_tubes <= 1, "{d:?}: {} tubes", t.n_tubes);
+            }
+        }
     }
 
     #[test]

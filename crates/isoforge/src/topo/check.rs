@@ -110,8 +110,10 @@ pub struct ComponentReport {
 pub struct MeshReport {
     /// Vertices in the mesh.
     pub vertices: usize,
-    /// Triangles in the mesh.
+    /// Triangles in the mesh (quads counted as two, see [`check_with`]).
     pub triangles: usize,
+    /// Quads in the mesh (checked as two triangles each).
+    pub quads: usize,
     /// Distinct undirected edges.
     pub edges: usize,
     /// Vertices no triangle uses.
@@ -232,7 +234,10 @@ pub fn check(mesh: &Mesh) -> MeshReport {
 }
 
 /// Checks `mesh`: O(T log T) time for T triangles; triangles with out-of-range indices are
-/// counted as collapsed and otherwise ignored.
+/// counted as collapsed and otherwise ignored. Quads are checked as two triangles each, split
+/// along the diagonal from their first vertex (the split keeps closedness, manifoldness,
+/// orientation, components and the Euler characteristic; [`MeshReport::quads`] says how many
+/// there were, and the counts of edges and triangles include the splits).
 pub fn check_with(mesh: &Mesh, opts: &CheckOptions) -> MeshReport {
     check_with_progress(mesh, opts, None)
 }
@@ -244,6 +249,14 @@ const STAGES: u64 = 5;
 /// vertex fans, duplicates) in units of the triangle count: a live bar for meshes of millions of
 /// triangles, which take seconds (sorting the edges dominates).
 pub fn check_with_progress(mesh: &Mesh, opts: &CheckOptions, progress: Option<&dyn Progress>) -> MeshReport {
+    if !mesh.quads.is_empty() {
+        let mut split =
+            Mesh { positions: mesh.positions.clone(), triangles: mesh.triangles.clone(), ..Mesh::default() };
+        split.triangles.extend(mesh.quads.iter().flat_map(|&[a, b, c, d]| [[a, b, c], [a, c, d]]));
+        let mut r = check_with_progress(&split, opts, progress);
+        r.quads = mesh.quads.len();
+        return r;
+    }
     let units = (mesh.triangles.len() as u64).max(1);
     let stage = |k: u64| {
         if let Some(p) = progress {
@@ -447,6 +460,7 @@ pub fn check_with_progress(mesh: &Mesh, opts: &CheckOptions, progress: Option<&d
     MeshReport {
         vertices: nv,
         triangles: mesh.triangles.len(),
+        quads: 0,
         edges: nedges,
         isolated_vertices: isolated,
         boundary_edges: boundary,

@@ -235,6 +235,7 @@ impl StreamCheck {
         Ok(MeshReport {
             vertices: self.received as usize,
             triangles: self.triangles as usize,
+            quads: 0,
             edges: self.edge_count as usize,
             isolated_vertices: self.isolated,
             boundary_edges: self.boundary,
