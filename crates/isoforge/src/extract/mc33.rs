@@ -29,7 +29,7 @@
 //! (a double root) or two vertical edges reach iso at one height, the outside regions meeting
 //! there are joined. Integer scans produce all of these (issue 10; `tests/real_data.rs`).
 
-use super::Extractor;
+use super::{CellCounts, Counting, Extractor, ProbeCell};
 use crate::cube::{CubeEdge, CORNER_OFFSETS, EDGE_CORNERS, EDGE_FACES, FACE_CORNERS, FACE_EDGES};
 use crate::mesh::VertexId;
 use crate::walk::Cell;
@@ -47,7 +47,40 @@ use crate::walk::Cell;
 pub struct MarchingCubes33;
 
 impl Extractor for MarchingCubes33 {
+    const COUNTING: Counting = Counting::Known;
+
+    #[inline]
+    fn case_triangles(&self, case: u8) -> Option<&[[u8; 3]]> {
+        easy_cases()[case as usize].as_deref()
+    }
+
+    fn counts(&self, case: u8, ijk: [u32; 3], values: impl FnOnce() -> [f32; 8]) -> CellCounts {
+        if let Some(t) = self.case_triangles(case) {
+            return CellCounts { triangles: t.len() as u16, ..Default::default() };
+        }
+        // The values decide: run the cell once to count what it makes.
+        let mut probe = ProbeCell::new(ijk, values());
+        self.process(&mut probe);
+        probe.counts
+    }
+
     fn process<C: Cell>(&self, cell: &mut C) {
+        match self.case_triangles(cell.case()) {
+            Some(t) => {
+                for &[a, b, c] in t {
+                    let v = [a, b, c].map(|e| cell.edge_vertex(CubeEdge(e)));
+                    cell.push_triangle(v);
+                }
+            }
+            None => self.general(cell),
+        }
+    }
+}
+
+impl MarchingCubes33 {
+    /// Decides and triangulates a cell from its values (every case; `process` uses the table
+    /// where the case decides).
+    fn general<C: Cell>(&self, cell: &mut C) {
         let d = *cell.values();
         let topo = CellTopology::of(&d);
         let mut ids = [VertexId::NONE; 12];
@@ -84,6 +117,41 @@ impl Extractor for MarchingCubes33 {
             }
         }
     }
+}
+
+/// The cases whose triangles the case alone decides: no ambiguous face (no face with its two
+/// inside corners on a diagonal) and one connected patch of each class on the cell's surface, so
+/// one loop and no possible tunnel. Their triangles (the loop's fan, exactly what the general
+/// path makes) are tabulated once; the other cases are decided from the values.
+fn easy_cases() -> &'static [Option<Vec<[u8; 3]>>; 256] {
+    static TABLE: std::sync::OnceLock<[Option<Vec<[u8; 3]>>; 256]> = std::sync::OnceLock::new();
+    TABLE.get_or_init(|| {
+        std::array::from_fn(|case| {
+            let d: [f32; 8] = std::array::from_fn(|c| if case >> c & 1 == 1 { -1.0 } else { 1.0 });
+            let ambiguous = FACE_CORNERS.iter().any(|f| {
+                let [p, q, r, s] = f.map(|c| inside(d[c as usize]));
+                p == r && q == s && p != q
+            });
+            let mut patches = UnionFind::<8>::new();
+            for [a, b] in EDGE_CORNERS {
+                if inside(d[a as usize]) == inside(d[b as usize]) {
+                    patches.union(a as usize, b as usize);
+                }
+            }
+            let roots = |class: bool| {
+                let mut r: Vec<usize> = (0..8).filter(|&c| inside(d[c]) == class).map(|c| patches.find(c)).collect();
+                r.sort();
+                r.dedup();
+                r.len()
+            };
+            if case == 0 || case == 255 || ambiguous || roots(true) > 1 || roots(false) > 1 {
+                return None;
+            }
+            let mut probe = ProbeCell::new([0; 3], d);
+            MarchingCubes33.general(&mut probe);
+            (!probe.other_vertices && probe.counts.placed == 0).then_some(probe.triangles)
+        })
+    })
 }
 
 /// At most 4 loops: 12 edges, at least 3 per loop.
@@ -653,6 +721,47 @@ impl<const N: usize> UnionFind<N> {
 
 #[cfg(test)]
 mod tests {
+    use crate::extract::ProbeCell;
+
+    /// Issue 11: the table the walker applies for the easy cases is exactly what the values would
+    /// give, and `counts` is exactly what `process` makes, on random values of every case.
+    #[test]
+    fn issue_11_the_case_table_and_the_counts_agree_with_processing() {
+        let mut seed = 0x33_c0de_u64;
+        let mut next = move || {
+            seed ^= seed << 13;
+            seed ^= seed >> 7;
+            seed ^= seed << 17;
+            seed
+        };
+        let mut easy = 0;
+        for case in 0..=255u8 {
+            for _ in 0..200 {
+                let d: [f32; 8] = std::array::from_fn(|c| {
+                    let m = 0.01 + (next() % 1000) as f32 / 100.0;
+                    if case >> c & 1 == 1 {
+                        -m
+                    } else {
+                        m
+                    }
+                });
+                let mut general = ProbeCell::new([3, 4, 5], d);
+                MarchingCubes33.general(&mut general);
+                let mut processed = ProbeCell::new([3, 4, 5], d);
+                MarchingCubes33.process(&mut processed);
+                assert_eq!(processed.counts, general.counts, "case {case} {d:?}");
+                assert_eq!(MarchingCubes33.counts(case, [3, 4, 5], || d), general.counts, "case {case}");
+                if let Some(t) = MarchingCubes33.case_triangles(case) {
+                    assert_eq!(t, &general.triangles[..], "case {case} {d:?}");
+                    assert_eq!(general.counts.placed, 0);
+                }
+            }
+            easy += usize::from(MarchingCubes33.case_triangles(case).is_some());
+        }
+        // 0 and 255 have nothing to tabulate; the ambiguous and two-patch cases go by values.
+        assert_eq!(easy, 126, "easy cases");
+    }
+
     use super::*;
 
     #[test]

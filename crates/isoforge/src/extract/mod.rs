@@ -32,7 +32,9 @@ pub use squares::{marching_squares, Polyline, Saddle};
 pub use surface_nets::SurfaceNets;
 pub use tetrahedra::{Decomposition, MarchingTetrahedra};
 
-use crate::walk::Cell;
+use crate::cube::{CellPoint, CubeEdge};
+use crate::mesh::VertexId;
+use crate::walk::{Cell, Hermite};
 
 /// What `process` will emit for one cell, known before the cell is processed.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
@@ -91,8 +93,9 @@ pub trait Extractor {
     /// [`Counting::Known`]; `values` gives the cell's offset values and `ijk` its position. The
     /// default says nothing (never called for [`Counting::Unknown`]).
     fn counts(&self, case: u8, ijk: [u32; 3], values: impl FnOnce() -> [f32; 8]) -> CellCounts {
-        let _ = (case, ijk, values);
-        CellCounts::default()
+        let _ = (ijk, values);
+        let triangles = self.case_triangles(case).map_or(0, |t| t.len() as u16);
+        CellCounts { triangles, ..Default::default() }
     }
 
     /// Whether walkers must also call [`process`](Extractor::process) for cells whose eight
@@ -100,5 +103,86 @@ pub trait Extractor {
     /// of a field, can find a surface there).
     fn visits_uniform_cells(&self) -> bool {
         false
+    }
+}
+
+/// A cell that only records what an extractor does with it: triangles as cube-edge triples (its
+/// edge vertices are numbered by their cube edge), and counts of quads and placed vertices. Lets
+/// an extractor tabulate its cases, or count a cell's output by running `process` itself.
+pub(crate) struct ProbeCell {
+    ijk: [u32; 3],
+    values: [f32; 8],
+    case: u8,
+    /// Triangles on edge vertices, as cube-edge triples.
+    pub(crate) triangles: Vec<[u8; 3]>,
+    /// Whether a triangle used a vertex other than an edge vertex.
+    pub(crate) other_vertices: bool,
+    pub(crate) counts: CellCounts,
+}
+
+/// Ids of placed vertices in a [`ProbeCell`] (above any cube edge).
+const PROBE_PLACED: u32 = 1 << 16;
+
+impl ProbeCell {
+    /// A cell at `ijk` with `values` (offset by iso).
+    pub(crate) fn new(ijk: [u32; 3], values: [f32; 8]) -> Self {
+        ProbeCell {
+            ijk,
+            values,
+            case: crate::cube::case_of(&values),
+            triangles: Vec::new(),
+            other_vertices: false,
+            counts: CellCounts::default(),
+        }
+    }
+}
+
+impl Cell for ProbeCell {
+    fn ijk(&self) -> [u32; 3] {
+        self.ijk
+    }
+    fn values(&self) -> &[f32; 8] {
+        &self.values
+    }
+    fn case(&self) -> u8 {
+        self.case
+    }
+    fn hermite(&mut self, _e: CubeEdge) -> Hermite {
+        Hermite { point: [0.0; 3], normal: [0.0; 3] }
+    }
+    fn edge_vertex(&mut self, e: CubeEdge) -> VertexId {
+        VertexId(e.0 as u32)
+    }
+    fn has_neighbour(&self, _face: u8) -> bool {
+        false
+    }
+    fn point_value(&mut self, p: CellPoint) -> f32 {
+        match p {
+            CellPoint::Corner(c) => self.values[c as usize],
+            _ => f32::NAN,
+        }
+    }
+    fn segment_vertex(&mut self, _a: CellPoint, _b: CellPoint) -> VertexId {
+        self.other_vertices = true;
+        VertexId(PROBE_PLACED - 1)
+    }
+    fn place_vertex(&mut self, _local: [f32; 3], _edges: u16) -> VertexId {
+        self.counts.placed += 1;
+        VertexId(PROBE_PLACED + self.counts.placed as u32)
+    }
+    fn placed_vertex(&mut self, _offset: [i8; 3], _e: CubeEdge) -> Option<VertexId> {
+        self.other_vertices = true;
+        None
+    }
+    fn push_triangle(&mut self, t: [VertexId; 3]) {
+        self.counts.triangles += 1;
+        if t.iter().all(|v| v.0 < 12) {
+            self.triangles.push(t.map(|v| v.0 as u8));
+        } else {
+            self.other_vertices = true;
+        }
+    }
+    fn push_quad(&mut self, _q: [VertexId; 4]) {
+        self.counts.quads += 1;
     }
 }
