@@ -141,6 +141,37 @@ proptest! {
         }
     }
 
+    /// A mask wraps every method on every walker alike (the counted walk asks the masked
+    /// extractor's counts cell by cell).
+    #[test]
+    fn masks_wrap_every_method_on_every_walker((g, iso) in lattices(), seed in any::<u64>()) {
+        let dims = g.lattice().dims();
+        let mut s = seed | 1;
+        let flags: Vec<bool> = (0..g.lattice().num_points())
+            .map(|_| {
+                s ^= s << 13;
+                s ^= s >> 7;
+                s ^= s << 17;
+                s % 5 != 0
+            })
+            .collect();
+        let mask = std::sync::Arc::new(isoforge::extract::PointMask::new(dims, flags).unwrap());
+        let vol = GridVolume::new(&g);
+        for method in Method::ALL {
+            let opts = Options { method, mask: Some(mask.clone()), ..Default::default() };
+            let go = |w: &mut dyn FnMut(&mut MeshBuilder) -> isoforge::Result<walk::WalkStats>| {
+                let mut out = MeshBuilder::new(Normals::None);
+                w(&mut out).unwrap();
+                out.finish().unwrap()
+            };
+            let a = go(&mut |o| run(&mut FlyingEdgesWalker::new(), &vol, iso, &opts, o));
+            let b = go(&mut |o| run(&mut SlabWalker::new(), &vol, iso, &opts, o));
+            let c = go(&mut |o| run(&mut ReferenceWalker, &vol, iso, &opts, o));
+            prop_assert_eq!(canonical(&a), canonical(&b), "{} masked, flying edges vs slab", method.name());
+            prop_assert_eq!(canonical(&b), canonical(&c), "{} masked, slab vs reference", method.name());
+        }
+    }
+
     /// Block bounds skip what cannot hold a crossing and change nothing else.
     #[test]
     fn block_bounds_change_nothing_but_the_work((g, iso) in lattices()) {

@@ -1,6 +1,6 @@
 //! A mask on any extractor: cells are processed iff all eight corners are in the mask.
 
-use super::{CellCounts, Counting, Extractor};
+use super::{Counting, Extractor};
 use crate::walk::Cell;
 
 /// Which lattice points are in the mask: one flag per point, x fastest.
@@ -58,7 +58,9 @@ impl<X> Masked<'_, X> {
 }
 
 impl<X: Extractor> Extractor for Masked<'_, X> {
-    const COUNTING: Counting = X::COUNTING;
+    // Not counted: a counted walk makes every crossed edge's vertex up front, and masked-out
+    // cells would leave theirs unused (walkers that create vertices on request make none).
+    const COUNTING: Counting = Counting::Unknown;
     const PLACES_VERTICES: bool = X::PLACES_VERTICES;
 
     #[inline]
@@ -72,15 +74,6 @@ impl<X: Extractor> Extractor for Masked<'_, X> {
     fn process<C: Cell>(&self, cell: &mut C) {
         if self.keeps(cell.ijk()) {
             self.inner.process(cell);
-        }
-    }
-
-    #[inline]
-    fn counts(&self, case: u8, ijk: [u32; 3], values: impl FnOnce() -> [f32; 8]) -> CellCounts {
-        if self.keeps(ijk) {
-            self.inner.counts(case, ijk, values)
-        } else {
-            CellCounts::default()
         }
     }
 

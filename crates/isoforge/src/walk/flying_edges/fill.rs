@@ -226,6 +226,8 @@ impl<V: SampleSlabs, X: Extractor> Passes<'_, V, X> {
         }
         debug_assert_eq!(state.t, out.triangles.len());
         debug_assert_eq!(state.q, out.quads.len());
+        // Placed vertices sit between their rows' edge vertices but were keyed after them.
+        out.keys.sort_unstable_by_key(|&(id, _)| id);
     }
 
     /// Prefetches the samples that row (j, k)'s crossings will read: rows (j, k), (j + 1, k) and
