@@ -1,6 +1,6 @@
 //! File formats, recognised by extension.
 
-use std::path::Path;
+use std::path::{Path, PathBuf};
 
 /// A volume file format.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
@@ -109,6 +109,20 @@ impl MeshFormat {
             "off" => MeshFormat::Off,
             _ => return None,
         })
+    }
+
+    /// The files a write of this format to `path` produces: `path`, and for `.gltf` the buffer
+    /// [`MeshFormat::gltf_buffer`] beside it.
+    pub fn files(self, path: &Path) -> Vec<PathBuf> {
+        match self {
+            MeshFormat::Gltf => vec![path.to_path_buf(), Self::gltf_buffer(path)],
+            _ => vec![path.to_path_buf()],
+        }
+    }
+
+    /// The binary buffer written beside a `.gltf` file: the same stem with `.bin`.
+    pub fn gltf_buffer(path: &Path) -> PathBuf {
+        path.with_extension("bin")
     }
 
     /// Display name.
