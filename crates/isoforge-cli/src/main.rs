@@ -8,6 +8,7 @@ mod assets {
     include!(concat!(env!("OUT_DIR"), "/assets.rs"));
 }
 mod config;
+mod outputs;
 mod progress;
 mod report;
 mod run;
@@ -29,6 +30,7 @@ fn main() -> ExitCode {
     unsafe {
         libc::signal(libc::SIGPIPE, libc::SIG_DFL);
     }
+    isoforge_io::install_signal_cleanup();
     let args = match Args::try_parse() {
         Ok(a) => a,
         Err(e) => {

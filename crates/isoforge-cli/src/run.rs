@@ -86,7 +86,14 @@ fn failed(report: &MeshReport, require: &[Guarantee]) -> Vec<&'static str> {
 }
 
 /// Out-of-core extraction: slab by slab from the file straight into a binary PLY.
-fn extract_streaming(c: &ExtractConfig, mut reader: VolumeReader, iso: Iso, name: &str, bar: &Bar) -> Result<Outcome> {
+fn extract_streaming(
+    c: &ExtractConfig,
+    mut reader: VolumeReader,
+    iso: Iso,
+    name: &str,
+    bar: &Bar,
+    batch: isoforge_io::Batch,
+) -> Result<Outcome> {
     if c.format != MeshFormat::Ply {
         bail!("{}: out-of-core extraction (--max-memory) writes binary PLY only", c.output.display());
     }
@@ -94,14 +101,13 @@ fn extract_streaming(c: &ExtractConfig, mut reader: VolumeReader, iso: Iso, name
         bail!("--max-memory: out-of-core extraction supports --method mc only");
     }
     let normals = c.options.normals == Normals::Gradient;
-    let mut sink =
-        PlyStream::create(&c.output, normals).with_context(|| format!("{}: cannot create", c.output.display()))?;
+    let mut sink = PlyStream::create_in(&batch, &c.output, normals)?;
     let start = Instant::now();
     fn go<S: Sample>(
         r: &mut VolumeReader,
         iso: Iso,
         n: bool,
-        sink: &mut PlyStream,
+        sink: &mut PlyStream<'_>,
         bar: &Bar,
     ) -> isoforge::Result<StreamStats> {
         flying_edges_streaming::<S, _>(r, iso, &MarchingCubes, n, sink, Some(bar))
@@ -114,12 +120,13 @@ fn extract_streaming(c: &ExtractConfig, mut reader: VolumeReader, iso: Iso, name
         let side = if w.cells_outside == w.cells { "outside" } else { "inside" };
         bail!("{name}: iso {} gives no surface: every lattice point is {side}", iso.value);
     }
-    sink.finish().with_context(|| format!("{}: cannot finish writing", c.output.display()))?;
+    sink.finish()?;
     if let Some(t) = &c.time_json {
         let body =
             json!({ "seconds": seconds, "vertices": stats.vertices, "triangles": stats.triangles, "streamed": true });
-        isoforge_io::write_atomic(t, |w| w.write_all(body.to_string().as_bytes()))?;
+        batch.write(t, |w| w.write_all(body.to_string().as_bytes()))?;
     }
+    batch.commit()?;
     eprintln!(
         "{}: {} vertices, {} triangles (mc, streamed slab by slab, iso {}, reading + extraction + writing {:.3} s)",
         c.output.display(),
@@ -148,6 +155,7 @@ fn verdict(mesh: &Path, report: &MeshReport, require: &[Guarantee]) -> Outcome {
 }
 
 pub fn extract(c: &ExtractConfig) -> Result<Outcome> {
+    let batch = crate::outputs::plan_extract(c)?;
     let loaded = open_input(&c.input, c.max_memory)?;
     let name = input_name(&c.input);
     let default_iso = match &loaded {
@@ -164,7 +172,7 @@ pub fn extract(c: &ExtractConfig) -> Result<Outcome> {
     let mut mask = None;
     let mut input_lattice = None;
     if let Some(labels) = &c.labels {
-        return extract_labels(c, loaded, labels, &name);
+        return extract_labels(c, loaded, labels, &name, batch);
     }
     let loaded = match loaded {
         Loaded::Stream(_) if c.repeat > 1 => bail!("--repeat: out-of-core extraction (--max-memory) runs once"),
@@ -172,7 +180,7 @@ pub fn extract(c: &ExtractConfig) -> Result<Outcome> {
         Loaded::Stream(_) if !c.region.is_identity() => {
             bail!("--roi, --close and --space index need the volume in memory (drop --max-memory)")
         }
-        Loaded::Stream(reader) => return extract_streaming(c, reader, isos[0], &name, &bar),
+        Loaded::Stream(reader) => return extract_streaming(c, reader, isos[0], &name, &bar, batch),
         Loaded::Field(_) if !c.region.is_identity() => {
             bail!("--roi, --close and --space index apply to volume files (a field has its own lattice)")
         }
@@ -224,17 +232,21 @@ pub fn extract(c: &ExtractConfig) -> Result<Outcome> {
     };
     // glTF and OBJ hold several meshes: one file with a node (object) per iso; other formats
     // get a file per iso.
-    let one_gltf = isos.len() > 1 && matches!(c.format, MeshFormat::Glb | MeshFormat::Gltf | MeshFormat::Obj);
+    let one_gltf = crate::outputs::one_file_for_all_isos(c, isos.len());
     let mut outcome = Outcome::Success;
     let mut meshes = Vec::new();
     for &iso in &isos {
-        let (output, time_json) = if isos.len() == 1 || one_gltf {
-            (c.output.clone(), c.time_json.clone())
-        } else {
-            (with_suffix(&c.output, iso.value), c.time_json.as_ref().map(|t| with_suffix(t, iso.value)))
-        };
+        let (output, time_json) = crate::outputs::extract_paths(c, iso.value, isos.len());
         let target = if one_gltf { None } else { Some(output.as_path()) };
-        let job = Job { c, loaded: &loaded, name: &name, bar: &bar, attributes: &attribute_grids, rgb: rgb.as_ref() };
+        let job = Job {
+            c,
+            loaded: &loaded,
+            name: &name,
+            bar: &bar,
+            attributes: &attribute_grids,
+            rgb: rgb.as_ref(),
+            batch: &batch,
+        };
         let (o, mesh, data) = extract_one(&job, iso, target, time_json.as_deref())?;
         if o != Outcome::Success {
             outcome = o;
@@ -247,12 +259,14 @@ pub fn extract(c: &ExtractConfig) -> Result<Outcome> {
         let named: Vec<isoforge_io::NamedMesh> =
             meshes.iter().map(|(n, m, d)| isoforge_io::NamedMesh { name: n, mesh: m, data: d }).collect();
         if c.format == MeshFormat::Obj {
-            isoforge_io::write_obj_objects(&c.output, &named)?;
+            batch.write_obj_objects(&c.output, &named)?;
         } else {
-            isoforge_io::write_gltf(&c.output, &named, c.format == MeshFormat::Glb)?;
+            batch.write_gltf(&c.output, &named, c.format == MeshFormat::Glb)?;
         }
         eprintln!("{}: {} meshes (one object per iso value)", c.output.display(), named.len());
     }
+    // Every iso succeeded: now, and only now, the files appear.
+    batch.commit()?;
     bar.finish();
     Ok(outcome)
 }
@@ -271,7 +285,13 @@ fn load_mask(input: &InputConfig, dims: [u32; 3], region: &Region) -> Result<iso
 }
 
 /// `--labels`: a closed surface per label, written as one file (triangles tagged by label).
-fn extract_labels(c: &ExtractConfig, loaded: Loaded, labels: &pipeline::Labels, name: &str) -> Result<Outcome> {
+fn extract_labels(
+    c: &ExtractConfig,
+    loaded: Loaded,
+    labels: &pipeline::Labels,
+    name: &str,
+    batch: isoforge_io::Batch,
+) -> Result<Outcome> {
     let Loaded::Grid(g) = loaded else { bail!("{name}: --labels needs a label volume file in memory") };
     let g = apply_region(g, &Region { close: false, ..c.region.clone() }, 0.0, name)?;
     let start = Instant::now();
@@ -286,7 +306,7 @@ fn extract_labels(c: &ExtractConfig, loaded: Loaded, labels: &pipeline::Labels, 
             .zip(&names)
             .map(|((_, e), n)| isoforge_io::NamedMesh { name: n, mesh: &e.mesh, data: &data })
             .collect();
-        isoforge_io::write_gltf(&c.output, &named, c.format == MeshFormat::Glb)?;
+        batch.write_gltf(&c.output, &named, c.format == MeshFormat::Glb)?;
     } else {
         // One mesh, each triangle tagged with its label.
         let mut mesh = isoforge::mesh::Mesh::default();
@@ -299,8 +319,9 @@ fn extract_labels(c: &ExtractConfig, loaded: Loaded, labels: &pipeline::Labels, 
             tags.extend(std::iter::repeat_n(*label as i32, e.mesh.triangles.len()));
         }
         let data = isoforge_io::MeshData { triangle_labels: Some(tags), ..Default::default() };
-        isoforge_io::write_mesh_with(&c.output, &mesh, &data, c.format)?;
+        batch.write_mesh(&c.output, &mesh, &data, c.format)?;
     }
+    batch.commit()?;
     let mut outcome = Outcome::Success;
     for (label, e) in &surfaces {
         let rep = topo::check(&e.mesh);
@@ -408,16 +429,6 @@ fn vertex_data(
     data
 }
 
-/// `out.ply` → `out-300.ply` for iso 300.
-fn with_suffix(path: &Path, iso: f64) -> std::path::PathBuf {
-    let name = path.file_name().map(|n| n.to_string_lossy().into_owned()).unwrap_or_default();
-    let (stem, ext) = match name.split_once('.') {
-        Some((s, e)) => (s.to_string(), format!(".{e}")),
-        None => (name.clone(), String::new()),
-    };
-    path.with_file_name(format!("{stem}-{iso}{ext}"))
-}
-
 /// Crops (`--roi`), pads (`--close`) and re-places (`--space index`) a grid.
 fn apply_region(mut g: AnyGrid, region: &Region, outside: f64, name: &str) -> Result<AnyGrid> {
     let dims = g.lattice().dims();
@@ -477,6 +488,8 @@ struct Job<'a> {
     /// `--color-volume`: the colours, the input lattice in the output frame, and whether the
     /// vertices are already voxel indices.
     rgb: Option<&'a (isoforge_io::RgbVolume, isoforge::grid::Lattice, bool)>,
+    /// The command's outputs, committed together at the end.
+    batch: &'a isoforge_io::Batch,
 }
 
 /// One extraction of an in-memory input at `iso`, written to `output` when given; returns the
@@ -487,7 +500,7 @@ fn extract_one(
     output: Option<&Path>,
     time_json: Option<&Path>,
 ) -> Result<(Outcome, isoforge::mesh::Mesh, isoforge_io::MeshData)> {
-    let Job { c, loaded, name, bar, attributes, rgb } = *job;
+    let Job { c, loaded, name, bar, attributes, rgb, batch } = *job;
     let mut runs = Vec::with_capacity(c.repeat as usize);
     let mut last: Option<Extraction> = None;
     for _ in 0..c.repeat {
@@ -524,7 +537,7 @@ fn extract_one(
         data.colors = Some(out.mesh.positions.iter().map(|&p| v.sample(at(p))).collect());
     }
     if let Some(output) = output {
-        isoforge_io::write_mesh_with(output, &out.mesh, &data, c.format)?;
+        batch.write_mesh(output, &out.mesh, &data, c.format)?;
     }
     if let Some(t) = time_json {
         let body = json!({
@@ -533,7 +546,7 @@ fn extract_one(
             "vertices": out.mesh.num_vertices(),
             "triangles": out.mesh.num_triangles()
         });
-        isoforge_io::write_atomic(t, |w| w.write_all(body.to_string().as_bytes()))?;
+        batch.write(t, |w| w.write_all(body.to_string().as_bytes()))?;
     }
     let shown = output.unwrap_or(&c.output);
     eprintln!(
@@ -652,12 +665,14 @@ pub fn check(c: &CheckConfig) -> Result<Outcome> {
 }
 
 pub fn demo(c: &DemoConfig) -> Result<Outcome> {
+    let format = crate::config::output_format(&c.output, false)?;
+    let batch = crate::outputs::plan_one(&c.output, Some(format), None, None)?;
     let b = catalog::parse(&format!("metaballs?n={}", c.n))?;
     let start = Instant::now();
     let out = pipeline::extract_builtin(&b, b.iso, &Default::default(), None)?;
     let seconds = start.elapsed().as_secs_f64();
-    let format = crate::config::output_format(&c.output, false)?;
-    isoforge_io::write_mesh(&c.output, &out.mesh, format).with_context(|| "writing the demo mesh")?;
+    batch.write_mesh(&c.output, &out.mesh, &Default::default(), format)?;
+    batch.commit()?;
     let rep = topo::check(&out.mesh);
     if c.json {
         let mut v = report::mesh_json(&rep);
@@ -698,6 +713,7 @@ fn slice_of(grid: &AnyGrid, axis: usize, k: u32) -> ([u32; 2], Vec<f64>) {
 }
 
 pub fn contour(c: &ContourConfig) -> Result<Outcome> {
+    let batch = crate::outputs::plan_one(&c.output, None, Some(&c.input), None)?;
     let name = input_name(&c.input);
     let Loaded::Grid(grid) = load(&c.input)? else { bail!("{name}: contour needs an image or a volume file") };
     let dims = grid.lattice().dims();
@@ -709,6 +725,19 @@ pub fn contour(c: &ContourConfig) -> Result<Outcome> {
         Some(k) => k,
         None => dims[c.axis] / 2,
     };
+    // The slice is meshed as f64 (8 bytes a sample): it counts against --max-bytes too.
+    let [u, v] = match c.axis {
+        0 => [dims[1], dims[2]],
+        1 => [dims[0], dims[2]],
+        _ => [dims[0], dims[1]],
+    };
+    let slice_bytes = u as u64 * v as u64 * 8;
+    if slice_bytes > c.input.limits.max_bytes {
+        bail!(
+            "{name}: slice {axis_name} = {k} ({u} x {v}) needs {slice_bytes} bytes as f64, over the limit of {} bytes (raise it with --max-bytes)",
+            c.input.limits.max_bytes
+        );
+    }
     let (size, values) = slice_of(&grid, c.axis, k);
     let (lo, hi) = values.iter().fold((f64::INFINITY, f64::NEG_INFINITY), |(a, b), &v| (a.min(v), b.max(v)));
     if c.iso.value < lo || c.iso.value > hi {
@@ -717,7 +746,8 @@ pub fn contour(c: &ContourConfig) -> Result<Outcome> {
     let start = Instant::now();
     let lines = isoforge::extract::marching_squares(size, &values, c.iso, c.saddle);
     let seconds = start.elapsed().as_secs_f64();
-    isoforge_io::write::contour::write_contour_file(&c.output, &lines, c.format, size, c.iso.value)?;
+    batch.write(&c.output, |w| isoforge_io::write::contour::write_contours(w, &lines, c.format, size, c.iso.value))?;
+    batch.commit()?;
     let closed = lines.iter().filter(|l| l.closed).count();
     let length: f64 = lines.iter().map(|l| l.length()).sum::<f64>() + 0.0; // no "-0" for no contour
     let points: usize = lines.iter().map(|l| l.points.len()).sum();
@@ -744,15 +774,18 @@ pub fn contour(c: &ContourConfig) -> Result<Outcome> {
 }
 
 pub fn convert(input: &InputConfig, output: &Path) -> Result<Outcome> {
+    let batch = crate::outputs::plan_one(output, None, Some(input), None)?;
     let name = input_name(input);
     let Loaded::Grid(grid) = load(input)? else { bail!("{name}: convert reads volume and image files, not fields") };
-    isoforge_io::write_volume(output, &grid)?;
+    batch.write_volume(output, &grid)?;
+    batch.commit()?;
     let d = grid.lattice().dims();
     eprintln!("{}: {} x {} x {} {} samples from {name}", output.display(), d[0], d[1], d[2], grid.dtype());
     Ok(Outcome::Success)
 }
 
 pub fn render(c: &RenderConfig) -> Result<Outcome> {
+    let batch = crate::outputs::plan_one(&c.output, None, c.input.as_ref(), c.mesh.as_deref())?;
     let mesh = match (&c.mesh, &c.input) {
         (Some(path), _) => isoforge_io::read_mesh(path, &Limits::default())?,
         (None, Some(input)) => {
@@ -771,7 +804,8 @@ pub fn render(c: &RenderConfig) -> Result<Outcome> {
         }
         (None, None) => bail!("internal: render has no input"),
     };
-    isoforge_io::write_render(&c.output, &mesh, None, &c.render)?;
+    batch.write_render(&c.output, &mesh, None, &c.render)?;
+    batch.commit()?;
     let [w, h] = c.render.size;
     eprintln!("{}: {w} x {h} picture of {} triangles", c.output.display(), mesh.num_triangles());
     Ok(Outcome::Success)
