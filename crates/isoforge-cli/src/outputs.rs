@@ -18,9 +18,17 @@ fn input_files(input: &InputConfig, role: &str) -> Vec<(PathBuf, String)> {
     }
 }
 
-/// A batch holding `outputs` (path, format or `None` for a plain file, role), refusing any that
-/// would overwrite one of `inputs`.
+/// A batch holding `outputs` (path, format or `None` for a plain file, role), refusing first
+/// any file they would write that is one of `inputs`.
 fn plan(outputs: &[(PathBuf, Option<MeshFormat>, String)], inputs: &[(PathBuf, String)]) -> Result<Batch> {
+    let files: Vec<(PathBuf, String)> = outputs
+        .iter()
+        .flat_map(|(path, format, role)| match format {
+            Some(f) => f.outputs(path, role),
+            None => vec![(path.clone(), role.clone())],
+        })
+        .collect();
+    isoforge_io::refuse_overwrite(&files, inputs)?;
     let batch = Batch::new();
     for (path, format, role) in outputs {
         match format {
@@ -28,7 +36,6 @@ fn plan(outputs: &[(PathBuf, Option<MeshFormat>, String)], inputs: &[(PathBuf, S
             None => batch.reserve(path, role)?,
         }
     }
-    batch.refuse_inputs(inputs)?;
     Ok(batch)
 }
 
@@ -88,13 +95,20 @@ pub fn plan_extract(c: &ExtractConfig) -> Result<Batch> {
     plan(&outputs, &inputs)
 }
 
-/// One output file of `role` (`-o`) that must not be any of `inputs`' files.
-pub fn plan_one(output: &Path, format: Option<MeshFormat>, input: Option<&InputConfig>, mesh: Option<&Path>) -> Result<Batch> {
-    let mut inputs = input.map(|i| input_files(i, "the input")).unwrap_or_default();
+/// One output file, named by `role` (`-o`, or "the output" when positional), that must not be
+/// one of the files the (positional) input volume or mesh reads.
+pub fn plan_one(
+    output: &Path,
+    role: &str,
+    format: Option<MeshFormat>,
+    input: Option<&InputConfig>,
+    mesh: Option<&Path>,
+) -> Result<Batch> {
+    let mut inputs = input.map(|i| input_files(i, "")).unwrap_or_default();
     if let Some(m) = mesh {
-        inputs.push((m.to_path_buf(), "the input".to_string()));
+        inputs.push((m.to_path_buf(), String::new()));
     }
-    plan(&[(output.to_path_buf(), format, "-o".to_string())], &inputs)
+    plan(&[(output.to_path_buf(), format, role.to_string())], &inputs)
 }
 
 #[cfg(test)]

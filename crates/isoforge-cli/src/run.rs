@@ -235,6 +235,7 @@ pub fn extract(c: &ExtractConfig) -> Result<Outcome> {
     let one_gltf = crate::outputs::one_file_for_all_isos(c, isos.len());
     let mut outcome = Outcome::Success;
     let mut meshes = Vec::new();
+    let done = std::cell::RefCell::new(Vec::new());
     for &iso in &isos {
         let (output, time_json) = crate::outputs::extract_paths(c, iso.value, isos.len());
         let target = if one_gltf { None } else { Some(output.as_path()) };
@@ -246,6 +247,7 @@ pub fn extract(c: &ExtractConfig) -> Result<Outcome> {
             attributes: &attribute_grids,
             rgb: rgb.as_ref(),
             batch: &batch,
+            done: &done,
         };
         let (o, mesh, data) = extract_one(&job, iso, target, time_json.as_deref())?;
         if o != Outcome::Success {
@@ -263,10 +265,13 @@ pub fn extract(c: &ExtractConfig) -> Result<Outcome> {
         } else {
             batch.write_gltf(&c.output, &named, c.format == MeshFormat::Glb)?;
         }
-        eprintln!("{}: {} meshes (one object per iso value)", c.output.display(), named.len());
+        done.borrow_mut().push(format!("{}: {} meshes (one object per iso value)", c.output.display(), named.len()));
     }
     // Every iso succeeded: now, and only now, the files appear.
     batch.commit()?;
+    for line in done.take() {
+        eprintln!("{line}");
+    }
     bar.finish();
     Ok(outcome)
 }
@@ -490,6 +495,8 @@ struct Job<'a> {
     rgb: Option<&'a (isoforge_io::RgbVolume, isoforge::grid::Lattice, bool)>,
     /// The command's outputs, committed together at the end.
     batch: &'a isoforge_io::Batch,
+    /// One summary line per written file, printed after the commit.
+    done: &'a std::cell::RefCell<Vec<String>>,
 }
 
 /// One extraction of an in-memory input at `iso`, written to `output` when given; returns the
@@ -500,7 +507,7 @@ fn extract_one(
     output: Option<&Path>,
     time_json: Option<&Path>,
 ) -> Result<(Outcome, isoforge::mesh::Mesh, isoforge_io::MeshData)> {
-    let Job { c, loaded, name, bar, attributes, rgb, batch } = *job;
+    let Job { c, loaded, name, bar, attributes, rgb, batch, done } = *job;
     let mut runs = Vec::with_capacity(c.repeat as usize);
     let mut last: Option<Extraction> = None;
     for _ in 0..c.repeat {
@@ -549,7 +556,8 @@ fn extract_one(
         batch.write(t, |w| w.write_all(body.to_string().as_bytes()))?;
     }
     let shown = output.unwrap_or(&c.output);
-    eprintln!(
+    // Said once the batch is committed: before that the file does not exist.
+    done.borrow_mut().push(format!(
         "{}: {} vertices, {} triangles ({} method, iso {}, extraction {:.3} s)",
         shown.display(),
         out.mesh.num_vertices(),
@@ -557,7 +565,7 @@ fn extract_one(
         c.options.method.name(),
         iso.value,
         seconds
-    );
+    ));
     if c.require.is_empty() {
         return Ok((Outcome::Success, out.mesh, data));
     }
@@ -666,7 +674,7 @@ pub fn check(c: &CheckConfig) -> Result<Outcome> {
 
 pub fn demo(c: &DemoConfig) -> Result<Outcome> {
     let format = crate::config::output_format(&c.output, false)?;
-    let batch = crate::outputs::plan_one(&c.output, Some(format), None, None)?;
+    let batch = crate::outputs::plan_one(&c.output, "-o", Some(format), None, None)?;
     let b = catalog::parse(&format!("metaballs?n={}", c.n))?;
     let start = Instant::now();
     let out = pipeline::extract_builtin(&b, b.iso, &Default::default(), None)?;
@@ -713,7 +721,7 @@ fn slice_of(grid: &AnyGrid, axis: usize, k: u32) -> ([u32; 2], Vec<f64>) {
 }
 
 pub fn contour(c: &ContourConfig) -> Result<Outcome> {
-    let batch = crate::outputs::plan_one(&c.output, None, Some(&c.input), None)?;
+    let batch = crate::outputs::plan_one(&c.output, "-o", None, Some(&c.input), None)?;
     let name = input_name(&c.input);
     let Loaded::Grid(grid) = load(&c.input)? else { bail!("{name}: contour needs an image or a volume file") };
     let dims = grid.lattice().dims();
@@ -774,7 +782,7 @@ pub fn contour(c: &ContourConfig) -> Result<Outcome> {
 }
 
 pub fn convert(input: &InputConfig, output: &Path) -> Result<Outcome> {
-    let batch = crate::outputs::plan_one(output, None, Some(input), None)?;
+    let batch = crate::outputs::plan_one(output, "the output", None, Some(input), None)?;
     let name = input_name(input);
     let Loaded::Grid(grid) = load(input)? else { bail!("{name}: convert reads volume and image files, not fields") };
     batch.write_volume(output, &grid)?;
@@ -785,7 +793,7 @@ pub fn convert(input: &InputConfig, output: &Path) -> Result<Outcome> {
 }
 
 pub fn render(c: &RenderConfig) -> Result<Outcome> {
-    let batch = crate::outputs::plan_one(&c.output, None, c.input.as_ref(), c.mesh.as_deref())?;
+    let batch = crate::outputs::plan_one(&c.output, "-o", None, c.input.as_ref(), c.mesh.as_deref())?;
     let mesh = match (&c.mesh, &c.input) {
         (Some(path), _) => isoforge_io::read_mesh(path, &Limits::default())?,
         (None, Some(input)) => {

@@ -338,6 +338,22 @@ fn canonical(p: &Path) -> Option<PathBuf> {
     Some(folder_of(p).canonicalize().ok()?.join(p.file_name()?))
 }
 
+/// Refuses `outputs` that name the same file as one of `inputs` (both `(path, role)` pairs,
+/// an empty input role for a positional argument), before anything is created.
+///
+/// # Errors
+/// [`Error::InvalidInput`] naming the output, its role, the input and its role.
+pub fn refuse_overwrite(outputs: &[(PathBuf, String)], inputs: &[(PathBuf, String)]) -> Result<()> {
+    for (path, out_role) in outputs {
+        if let Some((input, role)) = inputs.iter().find(|(i, _)| same_file(path, i)) {
+            let what = if input == path { String::new() } else { format!(" {}", input.display()) };
+            let role = if role.is_empty() { String::new() } else { format!(" ({role})") };
+            return Err(output_error(path, format!("{out_role} would overwrite the input{what}{role}")));
+        }
+    }
+    Ok(())
+}
+
 // ---------------------------------------------------------------------------------------------
 // Batches.
 
@@ -433,18 +449,14 @@ impl Batch {
     }
 
     /// Refuses outputs that would overwrite an input: `inputs` are `(path, role)` pairs
-    /// (`("ct.nrrd", "-i")`); see [`crate::input_files`] for the files a volume reads.
+    /// (`("ct.nrrd", "-i")`, or an empty role for a positional argument); see
+    /// [`crate::input_files`] for the files a volume reads.
     ///
     /// # Errors
     /// [`Error::InvalidInput`] naming the output, its role, the input and its role.
     pub fn refuse_inputs(&self, inputs: &[(PathBuf, String)]) -> Result<()> {
-        for e in self.lock().iter() {
-            if let Some((input, role)) = inputs.iter().find(|(i, _)| same_file(&e.path, i)) {
-                let what = if input == &e.path { String::new() } else { format!(" {}", input.display()) };
-                return Err(output_error(&e.path, format!("{} would overwrite the input{what} ({role})", e.role)));
-            }
-        }
-        Ok(())
+        let outputs: Vec<(PathBuf, String)> = self.lock().iter().map(|e| (e.path.clone(), e.role.clone())).collect();
+        refuse_overwrite(&outputs, inputs)
     }
 
     /// The paths reserved so far, in order.

@@ -114,9 +114,17 @@ impl MeshFormat {
     /// The files a write of this format to `path` produces: `path`, and for `.gltf` the buffer
     /// [`MeshFormat::gltf_buffer`] beside it.
     pub fn files(self, path: &Path) -> Vec<PathBuf> {
+        self.outputs(path, "").into_iter().map(|(p, _)| p).collect()
+    }
+
+    /// [`MeshFormat::files`], each with how messages name it when the output is named `role`
+    /// (`-o`, and "the buffer of -o" for a glTF buffer).
+    pub fn outputs(self, path: &Path, role: &str) -> Vec<(PathBuf, String)> {
         match self {
-            MeshFormat::Gltf => vec![path.to_path_buf(), Self::gltf_buffer(path)],
-            _ => vec![path.to_path_buf()],
+            MeshFormat::Gltf => {
+                vec![(path.to_path_buf(), role.to_string()), (Self::gltf_buffer(path), format!("the buffer of {role}"))]
+            }
+            _ => vec![(path.to_path_buf(), role.to_string())],
         }
     }
 

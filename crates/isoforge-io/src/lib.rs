@@ -21,7 +21,7 @@ pub mod write;
 
 use std::path::{Path, PathBuf};
 
-pub use atomic::{install_signal_cleanup, same_file, write_atomic, Batch};
+pub use atomic::{install_signal_cleanup, refuse_overwrite, same_file, write_atomic, Batch};
 pub use attributes::{MeshData, NamedMesh};
 pub use error::{Error, Result};
 pub use format::{MeshFormat, VolumeFormat};
@@ -243,10 +243,11 @@ impl Batch {
                     path.display()
                 )));
             }
-            self.reserve(path, role)?;
-            return self.reserve(&bin, &format!("the buffer of {role}"));
         }
-        self.reserve(path, role)
+        for (file, file_role) in format.outputs(path, role) {
+            self.reserve(&file, &file_role)?;
+        }
+        Ok(())
     }
 
     /// Writes `mesh` (with `data`) to `path` in `format`.

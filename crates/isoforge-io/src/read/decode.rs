@@ -118,7 +118,10 @@ pub(crate) fn split_axes(axes: [[f64; 3]; 3]) -> Option<([f64; 3], [[f64; 3]; 3]
     let mut spacing = [0.0; 3];
     let mut dir = [[0.0; 3]; 3];
     for a in 0..3 {
-        let len = (axes[a][0] * axes[a][0] + axes[a][1] * axes[a][1] + axes[a][2] * axes[a][2]).sqrt();
+        // Scaled so huge (1e308) or tiny components do not overflow or vanish when squared.
+        let scale = axes[a].iter().fold(0.0f64, |m, x| m.max(x.abs()));
+        let unit = axes[a].map(|x| x / scale);
+        let len = scale * (unit[0] * unit[0] + unit[1] * unit[1] + unit[2] * unit[2]).sqrt();
         if !(len.is_finite() && len > 0.0) {
             return None;
         }

@@ -299,7 +299,7 @@ impl Header {
         let mut spacing = [1.0; 3];
         let mut direction = None;
         let mut origin3 = [0.0; 3];
-        let mut fields = Vec::new();
+        let mut fields: Vec<String> = Vec::new();
         if let Some((no, dirs)) = directions {
             if dirs.len() != dimension {
                 return Err(ctx.bad(format!("line {no}: space directions has {} vectors for {dimension} axes", dirs.len())));
@@ -311,7 +311,7 @@ impl Header {
             })?;
             spacing = s;
             direction = Some(d);
-            fields.push("space directions");
+            fields.push(format!("line {no}: space directions"));
         } else if let Some((no, sp)) = spacings {
             if sp.len() != dimension {
                 return Err(ctx.bad(format!("line {no}: spacings has {} values for {dimension} axes", sp.len())));
@@ -324,11 +324,11 @@ impl Header {
             let mut dims3 = [1u32; 3];
             dims3[..dimension].copy_from_slice(&sizes);
             spacing = decode::spacings(ctx, &format!("line {no}: spacings"), dims3, spacing)?;
-            fields.push("spacings");
+            fields.push(format!("line {no}: spacings"));
         }
-        if let Some((_, o)) = origin {
+        if let Some((no, o)) = origin {
             origin3 = o;
-            fields.push("space origin");
+            fields.push(format!("line {no}: space origin"));
         }
         Ok(Header {
             dims,
