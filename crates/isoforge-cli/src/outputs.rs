@@ -13,7 +13,9 @@ use crate::config::{AttributeSource, ExtractConfig, InputConfig, Source};
 /// The files an input reads, labelled by the flag that named them.
 fn input_files(input: &InputConfig, role: &str) -> Vec<(PathBuf, String)> {
     match &input.source {
-        Source::File { path, .. } => isoforge_io::input_files(path).into_iter().map(|p| (p, role.to_string())).collect(),
+        Source::File { path, .. } => {
+            isoforge_io::input_files(path).into_iter().map(|p| (p, role.to_string())).collect()
+        }
         Source::Field(_) => Vec::new(),
     }
 }

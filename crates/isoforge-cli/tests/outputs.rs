@@ -86,9 +86,18 @@ fn issue_10_outputs_never_overwrite_inputs() {
         (raw("vol.ply", &["-o", "alias.ply"]), "alias.ply: -o would overwrite the input vol.ply (-i)"),
         (raw("scan.bin", &["-o", "scan.gltf"]), "scan.bin: the buffer of -o would overwrite the input (-i)"),
         (raw("vol.ply", &["--mask", "m.ply", "-o", "m.ply"]), "m.ply: -o would overwrite the input (--mask)"),
-        (raw("vol.ply", &["--attribute", "t=att.obj", "-o", "att.obj"]), "att.obj: -o would overwrite the input (--attribute t)"),
-        (raw("vol.ply", &["--color-volume", "m.ply", "-o", "m.ply"]), "m.ply: -o would overwrite the input (--color-volume)"),
-        (raw("vol.ply", &["-o", "o.ply", "--time-json", "vol.ply"]), "vol.ply: --time-json would overwrite the input (-i)"),
+        (
+            raw("vol.ply", &["--attribute", "t=att.obj", "-o", "att.obj"]),
+            "att.obj: -o would overwrite the input (--attribute t)",
+        ),
+        (
+            raw("vol.ply", &["--color-volume", "m.ply", "-o", "m.ply"]),
+            "m.ply: -o would overwrite the input (--color-volume)",
+        ),
+        (
+            raw("vol.ply", &["-o", "o.ply", "--time-json", "vol.ply"]),
+            "vol.ply: --time-json would overwrite the input (-i)",
+        ),
         (raw("vol.ply", &["-o", "o.ply", "--time-json", "o.ply"]), "o.ply: --time-json names the same file as -o"),
     ];
     for (args, message) in &cases {
@@ -117,10 +126,14 @@ fn issue_10_outputs_never_overwrite_inputs() {
         w.write_image_data(&(0..64).map(|i| (i * 4) as u8).collect::<Vec<_>>()).unwrap();
     }
     let before = std::fs::read(&img).unwrap();
-    fails_with(&["render", p(&img), "--iso", "100", "-o", p(&img)], &format!("{}: -o would overwrite the input", img.display()));
+    fails_with(
+        &["render", p(&img), "--iso", "100", "-o", p(&img)],
+        &format!("{}: -o would overwrite the input", img.display()),
+    );
     assert_eq!(std::fs::read(&img).unwrap(), before);
     let nrrd = d("v.nrrd");
-    std::fs::write(&nrrd, "NRRD0004\ntype: uchar\ndimension: 3\nsizes: 2 2 2\nencoding: ascii\n\n0 1 2 3 4 5 6 7\n").unwrap();
+    std::fs::write(&nrrd, "NRRD0004\ntype: uchar\ndimension: 3\nsizes: 2 2 2\nencoding: ascii\n\n0 1 2 3 4 5 6 7\n")
+        .unwrap();
     fails_with(&["convert", p(&nrrd), p(&nrrd)], &format!("{}: the output would overwrite the input", nrrd.display()));
     // Nothing was touched, nothing was left.
     for n in ["vol.ply", "scan.bin", "m.ply", "att.obj", "data.ply"] {
@@ -166,7 +179,17 @@ fn issue_10_outputs_appear_all_or_not_at_all() {
     // The second iso gives no surface (every point outside), after the first was meshed.
     fails_containing(&["extract", "-i", "field:sphere", "--iso", "0,-1000", "-o", p(&o)], "iso -1000 gives no surface");
     fails_containing(
-        &["extract", "-i", "field:sphere", "--iso", "0,-1000", "-o", p(&o), "--time-json", p(&dir.path().join("t.json"))],
+        &[
+            "extract",
+            "-i",
+            "field:sphere",
+            "--iso",
+            "0,-1000",
+            "-o",
+            p(&o),
+            "--time-json",
+            p(&dir.path().join("t.json")),
+        ],
         "iso -1000 gives no surface",
     );
     fails_with(
@@ -227,7 +250,8 @@ fn issue_10_links_planted_at_temporary_names_are_never_followed() {
             if stream {
                 args.extend(["--max-memory", "1K"]);
             }
-            let r = Command::new(env!("CARGO_BIN_EXE_isoforge")).args(&args).env("ISOFORGE_TEMP", temp).output().unwrap();
+            let r =
+                Command::new(env!("CARGO_BIN_EXE_isoforge")).args(&args).env("ISOFORGE_TEMP", temp).output().unwrap();
             assert_eq!(r.status.code(), Some(0), "{temp} {args:?}: {}", String::from_utf8_lossy(&r.stderr));
             assert!(std::fs::symlink_metadata(out).unwrap().file_type().is_file());
         }
@@ -330,12 +354,22 @@ fn issue_10_signals_and_kills_leave_no_temporary_files() {
 fn issue_10_device_inputs_fail_at_once() {
     let dir = tempfile::tempdir().unwrap();
     let nhdr = dir.path().join("z.nhdr");
-    std::fs::write(&nhdr, "NRRD0004\ntype: uchar\ndimension: 3\nsizes: 99 99 99\nencoding: ascii\ndata file: /dev/zero\n\n").unwrap();
+    std::fs::write(
+        &nhdr,
+        "NRRD0004\ntype: uchar\ndimension: 3\nsizes: 99 99 99\nencoding: ascii\ndata file: /dev/zero\n\n",
+    )
+    .unwrap();
     let ply = dir.path().join("z.ply");
     std::os::unix::fs::symlink("/dev/zero", &ply).unwrap();
     let start = Instant::now();
     fails_with(&["info", p(&nhdr)], "/dev/zero: is a character device, not a regular file (isoforge reads volumes and meshes from regular files only)");
-    fails_with(&["check", p(&ply)], &format!("{}: is a character device, not a regular file (isoforge reads volumes and meshes from regular files only)", ply.display()));
+    fails_with(
+        &["check", p(&ply)],
+        &format!(
+            "{}: is a character device, not a regular file (isoforge reads volumes and meshes from regular files only)",
+            ply.display()
+        ),
+    );
     assert!(start.elapsed() < Duration::from_secs(20));
 }
 
@@ -403,12 +437,14 @@ fn issue_10_contour_memory_stays_within_max_bytes() {
     zeros_png(&img, 6000, 6000);
     let svg = dir.path().join("c.svg");
     // 36 MB of samples fit 64M; their f64 copy (288 MB) does not: refused before it is made.
-    let (code, err, peak) = run_measured(test, &["contour", p(&img), "--iso", "0.5", "-o", p(&svg), "--max-bytes", "64M"]);
+    let (code, err, peak) =
+        run_measured(test, &["contour", p(&img), "--iso", "0.5", "-o", p(&svg), "--max-bytes", "64M"]);
     assert_eq!(code, Some(2), "{err}");
     assert!(err.contains("needs 288000000 bytes as f64, over the limit of 67108864 bytes"), "{err}");
     assert!(peak < 150 << 20, "peak {} MiB", peak >> 20);
     // Below the image's own size: refused before decoding.
-    let (code, err, peak) = run_measured(test, &["contour", p(&img), "--iso", "0.5", "-o", p(&svg), "--max-bytes", "1M"]);
+    let (code, err, peak) =
+        run_measured(test, &["contour", p(&img), "--iso", "0.5", "-o", p(&svg), "--max-bytes", "1M"]);
     assert_eq!(code, Some(2), "{err}");
     assert!(err.contains("6000 x 6000 image needs 36000000 bytes, over the limit"), "{err}");
     assert!(peak < 40 << 20, "peak {} MiB", peak >> 20);

@@ -65,7 +65,8 @@ fn issue_10_detached_data_on_a_device_or_fifo_is_refused() {
     }
     // MetaImage and NIfTI .hdr/.img pairs too.
     let mhd = dir.path().join("z.mhd");
-    std::fs::write(&mhd, "NDims = 3\nDimSize = 10 10 10\nElementType = MET_UCHAR\nElementDataFile = pipe.raw\n").unwrap();
+    std::fs::write(&mhd, "NDims = 3\nDimSize = 10 10 10\nElementType = MET_UCHAR\nElementDataFile = pipe.raw\n")
+        .unwrap();
     assert!(err(&mhd, Limits::default()).contains("a FIFO (named pipe), not a regular file"));
 }
 
@@ -74,8 +75,8 @@ fn issue_10_detached_data_on_a_device_or_fifo_is_refused() {
 fn issue_10_symlinks_to_devices_are_refused_for_every_format() {
     let dir = tempfile::tempdir().unwrap();
     let names = [
-        "z.ply", "z.obj", "z.stl", "z.off", "z.nrrd", "z.nhdr", "z.nii", "z.nii.gz", "z.hdr", "z.mha", "z.mhd", "z.mrc",
-        "z.vtk", "z.vti", "z.png", "z.tif",
+        "z.ply", "z.obj", "z.stl", "z.off", "z.nrrd", "z.nhdr", "z.nii", "z.nii.gz", "z.hdr", "z.mha", "z.mhd",
+        "z.mrc", "z.vtk", "z.vti", "z.png", "z.tif",
     ];
     for name in names {
         let p = dir.path().join(name);
@@ -120,8 +121,16 @@ fn issue_10_ply_counts_are_bounded_before_looping() {
     [0i32, 1, 2].iter().for_each(|i| binary.extend_from_slice(&i.to_le_bytes()));
     let tail = "element vertex 3\nproperty float x\nproperty float y\nproperty float z\nelement face 1\nproperty list uchar int vertex_indices\nend_header\n";
     let cases: [(&str, String, &[u8]); 4] = [
-        ("empty_ascii", format!("ply\nformat ascii 1.0\nelement junk 18446744073709551615\n{tail}"), b"0 0 0\n1 0 0\n0 1 0\n3 0 1 2\n"),
-        ("empty_binary", format!("ply\nformat binary_little_endian 1.0\nelement junk 18446744073709551615\n{tail}"), &binary),
+        (
+            "empty_ascii",
+            format!("ply\nformat ascii 1.0\nelement junk 18446744073709551615\n{tail}"),
+            b"0 0 0\n1 0 0\n0 1 0\n3 0 1 2\n",
+        ),
+        (
+            "empty_binary",
+            format!("ply\nformat binary_little_endian 1.0\nelement junk 18446744073709551615\n{tail}"),
+            &binary,
+        ),
         (
             "prop_ascii",
             format!("ply\nformat ascii 1.0\nelement junk 18446744073709551615\nproperty uchar a\n{tail}"),
@@ -209,9 +218,7 @@ fn dicom_slice(extra_private: bool) -> Vec<u8> {
         put(Tag(0x0009, 0x1010), VR::OB, PrimitiveValue::from(vec![7u8; 8]));
     }
     put(tags::PIXEL_DATA, VR::OW, PrimitiveValue::from(vec![1u8; 8]));
-    let file = obj
-        .with_meta(dicom_object::FileMetaTableBuilder::new().transfer_syntax("1.2.840.10008.1.2.1"))
-        .unwrap();
+    let file = obj.with_meta(dicom_object::FileMetaTableBuilder::new().transfer_syntax("1.2.840.10008.1.2.1")).unwrap();
     let mut bytes = Vec::new();
     file.write_all(&mut bytes).unwrap();
     bytes
@@ -334,7 +341,14 @@ fn issue_10_image_sizes_are_checked_before_decoding() {
 
 /// A NIfTI-1 header (u8 samples, `dims` points) with `pixdim`, the codes, and an sform, followed
 /// by the samples when `magic` is "n+1".
-fn nifti_header(dims: [i16; 3], pixdim: [f32; 4], qcode: i16, scode: i16, srow: Option<[[f32; 4]; 3]>, magic: &[u8; 4]) -> Vec<u8> {
+fn nifti_header(
+    dims: [i16; 3],
+    pixdim: [f32; 4],
+    qcode: i16,
+    scode: i16,
+    srow: Option<[[f32; 4]; 3]>,
+    magic: &[u8; 4],
+) -> Vec<u8> {
     let mut h = vec![0u8; 352];
     let put16 = |h: &mut Vec<u8>, at: usize, v: i16| h[at..at + 2].copy_from_slice(&v.to_le_bytes());
     let put32 = |h: &mut Vec<u8>, at: usize, v: f32| h[at..at + 4].copy_from_slice(&v.to_le_bytes());
@@ -411,7 +425,11 @@ fn issue_10_nonsense_geometry_is_refused_naming_file_field_and_value() {
     };
     // NRRD: spacings and space directions.
     check("huge.nrrd", nrrd("spacings: 1e308 1 1").as_bytes(), &["line 6: spacings: lattice of 2x2x2 points", "reach"]);
-    check("neg.nrrd", nrrd("spacings: -1 1 1").as_bytes(), &["line 6: spacings [-1.0, 1.0, 1.0]: the spacing of axis 0 is -1"]);
+    check(
+        "neg.nrrd",
+        nrrd("spacings: -1 1 1").as_bytes(),
+        &["line 6: spacings [-1.0, 1.0, 1.0]: the spacing of axis 0 is -1"],
+    );
     check("zero.nrrd", nrrd("spacings: 1 0 1").as_bytes(), &["spacings [1.0, 0.0, 1.0]: the spacing of axis 1 is 0"]);
     check("inf.nrrd", nrrd("spacings: 1 1 inf").as_bytes(), &["the spacing of axis 2 is inf"]);
     check(
@@ -425,7 +443,11 @@ fn issue_10_nonsense_geometry_is_refused_naming_file_field_and_value() {
         &["line 7: space directions, line 8: space origin: lattice", "reach 6.00e38"],
     );
     // NIfTI: pixdim in the qform and pixdim methods, huge sform axes.
-    check("q.nii", &nifti_header([2, 2, 2], [1.0, -1.5, 1.0, 1.0], 1, 0, None, b"n+1\0"), &["pixdim[1] = -1.5: voxel sizes must be finite and positive"]);
+    check(
+        "q.nii",
+        &nifti_header([2, 2, 2], [1.0, -1.5, 1.0, 1.0], 1, 0, None, b"n+1\0"),
+        &["pixdim[1] = -1.5: voxel sizes must be finite and positive"],
+    );
     check("q0.nii", &nifti_header([2, 2, 2], [1.0, 1.0, 0.0, 1.0], 1, 0, None, b"n+1\0"), &["pixdim[2] = 0"]);
     check("qnan.nii", &nifti_header([2, 2, 2], [1.0, 1.0, 1.0, f32::NAN], 0, 0, None, b"n+1\0"), &["pixdim[3] = NaN"]);
     let huge = [[3e38, 0.0, 0.0, 0.0], [0.0, 1.0, 0.0, 0.0], [0.0, 0.0, 1.0, 3e38]];
@@ -441,20 +463,39 @@ fn issue_10_nonsense_geometry_is_refused_naming_file_field_and_value() {
         b"# vtk DataFile Version 3.0\nt\nASCII\nDATASET STRUCTURED_POINTS\nDIMENSIONS 2 2 2\nSPACING 1e308 1 1\nORIGIN 0 0 0\nPOINT_DATA 8\nSCALARS v unsigned_char 1\nLOOKUP_TABLE default\n0 1 2 3 4 5 6 7\n",
         &["SPACING, ORIGIN: lattice", "reach 1.00e308"],
     );
-    check("neg.vti", vti("Spacing=\"-1 1 1\"").as_bytes(), &["ImageData Spacing [-1.0, 1.0, 1.0]: the spacing of axis 0 is -1"]);
+    check(
+        "neg.vti",
+        vti("Spacing=\"-1 1 1\"").as_bytes(),
+        &["ImageData Spacing [-1.0, 1.0, 1.0]: the spacing of axis 0 is -1"],
+    );
     check("nan.vti", vti("Spacing=\"nan 1 1\"").as_bytes(), &["Spacing \"nan 1 1\": expected 3 finite numbers"]);
     check("origin.vti", vti("Origin=\"0 x 0\"").as_bytes(), &["Origin \"0 x 0\": expected 3 finite numbers"]);
-    check("cell.mrc", &mrc([2, 2, 2], [2, 2, 2], [-4.0, 2.0, 2.0], [0.0; 3]), &["CELLA.X = -4: cell lengths must be finite and positive"]);
+    check(
+        "cell.mrc",
+        &mrc([2, 2, 2], [2, 2, 2], [-4.0, 2.0, 2.0], [0.0; 3]),
+        &["CELLA.X = -4: cell lengths must be finite and positive"],
+    );
     check("m0.mrc", &mrc([2, 2, 2], [0, 2, 2], [4.0, 2.0, 2.0], [0.0; 3]), &["MX = 0 with CELLA.X = 4"]);
-    check("o.mrc", &mrc([2, 2, 2], [2, 2, 2], [2.0; 3], [f32::INFINITY, 0.0, 0.0]), &["ORIGIN [inf, 0.0, 0.0]: inf is not a finite coordinate"]);
-    check("big.mrc", &mrc([2, 2, 2], [1, 1, 1], [3e38, 3e38, 3e38], [0.0; 3]), &["CELLA / MX MY MZ, ORIGIN: lattice", "reach"]);
+    check(
+        "o.mrc",
+        &mrc([2, 2, 2], [2, 2, 2], [2.0; 3], [f32::INFINITY, 0.0, 0.0]),
+        &["ORIGIN [inf, 0.0, 0.0]: inf is not a finite coordinate"],
+    );
+    check(
+        "big.mrc",
+        &mrc([2, 2, 2], [1, 1, 1], [3e38, 3e38, 3e38], [0.0; 3]),
+        &["CELLA / MX MY MZ, ORIGIN: lattice", "reach"],
+    );
     // Raw volumes: the caller's spacing.
     let raw = dir.path().join("v.raw");
     std::fs::write(&raw, [0u8; 8]).unwrap();
     let mut spec = isoforge_io::RawSpec::new([2, 2, 2], isoforge::grid::DType::U8);
     spec.spacing = [1e308, 1.0, 1.0];
     let e = isoforge_io::read::raw::read_raw(&raw, &spec, &Limits::default()).unwrap_err().to_string();
-    assert!(e.starts_with(&raw.display().to_string()) && e.contains("spacing, origin: lattice") && e.contains("reach"), "{e}");
+    assert!(
+        e.starts_with(&raw.display().to_string()) && e.contains("spacing, origin: lattice") && e.contains("reach"),
+        "{e}"
+    );
     spec.spacing = [1.0, f64::NAN, 1.0];
     let e = isoforge_io::read::raw::read_raw(&raw, &spec, &Limits::default()).unwrap_err().to_string();
     assert!(e.contains("spacing [1.0, NaN, 1.0]: the spacing of axis 1 is NaN"), "{e}");
@@ -472,7 +513,10 @@ fn issue_10_documented_geometry_rules_apply() {
     // NRRD: "nan" is an axis without spacing information: unit spacing.
     assert_eq!(read("nan.nrrd", nrrd("spacings: nan 2 3").as_bytes()).lattice().spacing(), [1.0, 2.0, 3.0]);
     // MRC: a cell length of 0 is "not set": unit voxels.
-    assert_eq!(read("c0.mrc", &mrc([2, 2, 2], [2, 2, 2], [0.0, 3.0, 4.0], [0.0; 3])).lattice().spacing(), [1.0, 1.5, 2.0]);
+    assert_eq!(
+        read("c0.mrc", &mrc([2, 2, 2], [2, 2, 2], [0.0, 3.0, 4.0], [0.0; 3])).lattice().spacing(),
+        [1.0, 1.5, 2.0]
+    );
     // NIfTI qform: qfac = pixdim[0] = -1 flips the third axis (a mirrored lattice).
     let g = read("qfac.nii", &nifti_header([2, 2, 2], [-1.0, 1.0, 1.0, 2.0], 1, 0, None, b"n+1\0"));
     assert!(g.lattice().is_mirrored());

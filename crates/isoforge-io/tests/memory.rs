@@ -41,7 +41,8 @@ fn peak_of(path: &Path, limit: u64) -> (u64, String) {
         .output()
         .unwrap();
     let text = String::from_utf8_lossy(&out.stdout).into_owned();
-    let line = text.lines().find_map(|l| l.split_once("PEAK ").map(|(_, r)| r)).unwrap_or_else(|| panic!("child: {text}"));
+    let line =
+        text.lines().find_map(|l| l.split_once("PEAK ").map(|(_, r)| r)).unwrap_or_else(|| panic!("child: {text}"));
     let (peak, outcome) = line.split_once(' ').unwrap();
     (peak.parse().unwrap(), outcome.to_string())
 }
@@ -79,9 +80,8 @@ fn write_series(dir: &Path, nrrd: &Path, dims: [u32; 3]) {
             }
         }
         put(tags::PIXEL_DATA, VR::OW, PrimitiveValue::from(px));
-        let file = obj
-            .with_meta(dicom_object::FileMetaTableBuilder::new().transfer_syntax("1.2.840.10008.1.2.1"))
-            .unwrap();
+        let file =
+            obj.with_meta(dicom_object::FileMetaTableBuilder::new().transfer_syntax("1.2.840.10008.1.2.1")).unwrap();
         file.write_to_file(dir.join(format!("slice{k:04}.dcm"))).unwrap();
     }
     let mut data = Vec::with_capacity((nx * ny * nz) as usize);

@@ -151,7 +151,9 @@ pub(crate) fn ascii_grid(ctx: Ctx, r: impl Read, lattice: Lattice, dtype: DType)
         };
         let mut end = false;
         while data.len() < n && !end {
-            let buf = r.fill_buf().map_err(|e| ctx.bad(format!("ASCII data: unreadable after {} values: {e}", data.len())))?;
+            let buf = r
+                .fill_buf()
+                .map_err(|e| ctx.bad(format!("ASCII data: unreadable after {} values: {e}", data.len())))?;
             end = buf.is_empty();
             let available = buf.len();
             let mut used = 0;

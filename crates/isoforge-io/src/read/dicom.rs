@@ -149,7 +149,9 @@ pub fn open_dicom_dir(dir: &Path, limits: &Limits) -> Result<VolumeReader> {
             )));
         }
         if (s.rows, s.cols) != (rows, cols) {
-            return Err(sctx.bad(format!("{} x {} pixels, the series' first slice has {cols} x {rows}", s.cols, s.rows)));
+            return Err(
+                sctx.bad(format!("{} x {} pixels, the series' first slice has {cols} x {rows}", s.cols, s.rows))
+            );
         }
     }
     slices.sort_by(|a, b| a.along.total_cmp(&b.along));
@@ -225,8 +227,12 @@ pub fn open_dicom_dir(dir: &Path, limits: &Limits) -> Result<VolumeReader> {
         match (px.bits_allocated(), signed) {
             (8, false) => samples.iter().for_each(|&b| values.push(rescale(b as f64))),
             (8, true) => samples.iter().for_each(|&b| values.push(rescale(b as i8 as f64))),
-            (16, false) => samples.chunks_exact(2).for_each(|b| values.push(rescale(u16::from_ne_bytes([b[0], b[1]]) as f64))),
-            (16, true) => samples.chunks_exact(2).for_each(|b| values.push(rescale(i16::from_ne_bytes([b[0], b[1]]) as f64))),
+            (16, false) => {
+                samples.chunks_exact(2).for_each(|b| values.push(rescale(u16::from_ne_bytes([b[0], b[1]]) as f64)))
+            }
+            (16, true) => {
+                samples.chunks_exact(2).for_each(|b| values.push(rescale(i16::from_ne_bytes([b[0], b[1]]) as f64)))
+            }
             (32, false) => samples
                 .chunks_exact(4)
                 .for_each(|b| values.push(rescale(u32::from_ne_bytes([b[0], b[1], b[2], b[3]]) as f64))),
@@ -371,7 +377,9 @@ fn parse(ctx: Ctx, bytes: &[u8], limits: &Limits) -> Result<DefaultDicomObject> 
         Codec::Dataset(Some(adapter)) => {
             read_guarded(adapter.adapt_reader(Box::new(rest)), ts, limits.max_bytes, guard.clone())
         }
-        Codec::Dataset(None) => return Err(ctx.unsupported(format!("transfer syntax {uid} ({}) is not supported", ts.name()))),
+        Codec::Dataset(None) => {
+            return Err(ctx.unsupported(format!("transfer syntax {uid} ({}) is not supported", ts.name())))
+        }
         _ => read_guarded(rest, ts, rest.len() as u64, guard.clone()),
     };
     let obj = read.map_err(|e| match guard.reason.borrow_mut().take() {
@@ -516,8 +524,27 @@ fn check_meta(b: &[u8]) -> std::result::Result<(), String> {
             let short = matches!(
                 b.get(pos + 4..pos + 6),
                 Some(
-                    b"AE" | b"AS" | b"AT" | b"CS" | b"DA" | b"DS" | b"DT" | b"FL" | b"FD" | b"IS" | b"LO" | b"LT"
-                        | b"PN" | b"SH" | b"SL" | b"SS" | b"ST" | b"TM" | b"UI" | b"UL" | b"US"
+                    b"AE"
+                        | b"AS"
+                        | b"AT"
+                        | b"CS"
+                        | b"DA"
+                        | b"DS"
+                        | b"DT"
+                        | b"FL"
+                        | b"FD"
+                        | b"IS"
+                        | b"LO"
+                        | b"LT"
+                        | b"PN"
+                        | b"SH"
+                        | b"SL"
+                        | b"SS"
+                        | b"ST"
+                        | b"TM"
+                        | b"UI"
+                        | b"UL"
+                        | b"US"
                 )
             );
             if short {

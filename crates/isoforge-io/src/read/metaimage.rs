@@ -5,7 +5,6 @@ use std::path::{Path, PathBuf};
 
 use isoforge::grid::{AnyGrid, DType};
 
-
 use super::decode;
 use super::stream::{open_data, Compression, VolumeReader};
 use crate::error::{Ctx, Result};
@@ -69,8 +68,9 @@ pub fn open_metaimage(path: &Path, limits: &Limits) -> Result<VolumeReader> {
         }
         None => None,
     };
-    let lattice = decode::lattice(ctx, "ElementSpacing, Offset, TransformMatrix", dims, h.spacing, h.origin, direction)?
-        .with_space(Some(isoforge::grid::WorldSpace::Lps));
+    let lattice =
+        decode::lattice(ctx, "ElementSpacing, Offset, TransformMatrix", dims, h.spacing, h.origin, direction)?
+            .with_space(Some(isoforge::grid::WorldSpace::Lps));
     let compression = if h.compressed { Compression::Zlib } else { Compression::None };
     if data_file.eq_ignore_ascii_case("LOCAL") {
         let start = data_start.unwrap_or(head.len()) as u64;

@@ -82,7 +82,8 @@ pub fn open_mrc(path: &Path, limits: &Limits) -> Result<VolumeReader> {
             continue;
         }
         if !(cell[a].is_finite() && cell[a] > 0.0) {
-            return Err(ctx.bad(format!("{} = {}: cell lengths must be finite and positive (or 0: not set)", cella[a], cell[a])));
+            return Err(ctx
+                .bad(format!("{} = {}: cell lengths must be finite and positive (or 0: not set)", cella[a], cell[a])));
         }
         if sampling[a] <= 0 {
             return Err(ctx.bad(format!(
@@ -97,11 +98,8 @@ pub fn open_mrc(path: &Path, limits: &Limits) -> Result<VolumeReader> {
     if let Some(o) = stored.iter().find(|o| !o.is_finite()) {
         return Err(ctx.bad(format!("ORIGIN {stored:?}: {o} is not a finite coordinate")));
     }
-    let origin = if stored.iter().any(|&o| o != 0.0) {
-        stored
-    } else {
-        [0, 1, 2].map(|a| start[a] as f64 * spacing[a])
-    };
+    let origin =
+        if stored.iter().any(|&o| o != 0.0) { stored } else { [0, 1, 2].map(|a| start[a] as f64 * spacing[a]) };
     let n = dims.iter().map(|&d| d as u64).product::<u64>();
     let need = n.checked_mul(file_bytes).ok_or_else(|| ctx.bad(format!("dims {dims:?}: the size overflows")))?;
     decode::sample_bytes(ctx, dims, dtype, limits)?;

@@ -237,6 +237,17 @@ impl Header {
         if origin.iter().any(|o| !o.is_finite()) {
             return Err(ctx.bad(format!("{source}: origin {origin:?} is not finite")));
         }
-        Ok(Header { dims, dtype, big_endian: big, spacing, origin, direction, vox_offset, scale, magic_pair, geometry: source })
+        Ok(Header {
+            dims,
+            dtype,
+            big_endian: big,
+            spacing,
+            origin,
+            direction,
+            vox_offset,
+            scale,
+            magic_pair,
+            geometry: source,
+        })
     }
 }

@@ -41,7 +41,8 @@ pub fn open_nrrd(path: &Path, limits: &Limits) -> Result<VolumeReader> {
         .map_err(|e| ctx.bad(format!("byte {}: header is not text", e.valid_up_to())))?;
     let h = Header::parse(ctx, header_text)?;
     let need = decode::sample_bytes(ctx, h.dims, h.dtype, limits)? as u64;
-    let lattice = decode::lattice(ctx, &h.geometry_fields, h.dims, h.spacing, h.origin, h.direction)?.with_space(h.space);
+    let lattice =
+        decode::lattice(ctx, &h.geometry_fields, h.dims, h.spacing, h.origin, h.direction)?.with_space(h.space);
 
     // The data: after the header, or in the detached file.
     let (data_path, mut offset) = match &h.data_file {
@@ -302,7 +303,9 @@ impl Header {
         let mut fields: Vec<String> = Vec::new();
         if let Some((no, dirs)) = directions {
             if dirs.len() != dimension {
-                return Err(ctx.bad(format!("line {no}: space directions has {} vectors for {dimension} axes", dirs.len())));
+                return Err(
+                    ctx.bad(format!("line {no}: space directions has {} vectors for {dimension} axes", dirs.len()))
+                );
             }
             let mut axes = [[1.0, 0.0, 0.0], [0.0, 1.0, 0.0], [0.0, 0.0, 1.0]];
             axes[..dimension].copy_from_slice(&dirs);

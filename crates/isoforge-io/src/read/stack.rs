@@ -74,7 +74,11 @@ pub fn open_image_stack(dir: &Path, files: Vec<PathBuf>, limits: &Limits) -> Res
             }
             let total = g.lattice().num_points().saturating_mul(g.dtype().size() as u64).saturating_mul(count as u64);
             if total > limits.max_bytes {
-                return Err(ctx.limit(format!("{count} slices of {} x {} {}", dims[0], dims[1], g.dtype()), total, limits.max_bytes));
+                return Err(ctx.limit(
+                    format!("{count} slices of {} x {} {}", dims[0], dims[1], g.dtype()),
+                    total,
+                    limits.max_bytes,
+                ));
             }
             first_dims = dims;
             let n = g.lattice().num_points() as usize * count as usize;

@@ -341,7 +341,10 @@ mod tests {
         assert!(Lattice::with_geometry([3, 2, 2], [1e38, 1.0, 1.0], [-3.3e38, 0.0, 0.0]).is_err());
         // One point along an axis: its spacing moves nothing.
         assert!(Lattice::with_geometry([1, 2, 2], [1e300, 1.0, 1.0], [0.0; 3]).is_ok());
-        assert!(Lattice::with_geometry([2, 2, 2], [1e-300, 1.0, 1.0], [0.0; 3]).unwrap_err().to_string().contains("1e-300"));
+        assert!(Lattice::with_geometry([2, 2, 2], [1e-300, 1.0, 1.0], [0.0; 3])
+            .unwrap_err()
+            .to_string()
+            .contains("1e-300"));
         // Crops and pads go through the same check: a pad cannot push a lattice past the bound.
         let l = Lattice::with_geometry([2, 2, 2], [1e37; 3], [3.0e38, 0.0, 0.0]).unwrap();
         assert!(l.with_dims([4, 4, 4]).is_err());
