@@ -275,13 +275,24 @@ fn wait_for(child: &mut std::process::Child, ready: impl Fn() -> bool) -> bool {
     panic!("the child neither started writing nor ended in 120 s");
 }
 
-/// Whether process `pid` holds an anonymous (O_TMPFILE) file open in `dir`.
-fn holds_anonymous_file(pid: u32, dir: &Path) -> bool {
+/// Whether process `pid` is writing an anonymous (O_TMPFILE) file in `dir`: one is open there
+/// and holds bytes already.
+fn writes_anonymous_file(pid: u32, dir: &Path) -> bool {
     let Ok(fds) = std::fs::read_dir(format!("/proc/{pid}/fd")) else { return false };
-    fds.filter_map(|e| e.ok()).filter_map(|e| std::fs::read_link(e.path()).ok()).any(|t| {
-        let t = t.to_string_lossy().into_owned();
-        t.starts_with(&*dir.to_string_lossy()) && t.ends_with("(deleted)")
+    fds.filter_map(|e| e.ok()).any(|e| {
+        let target = std::fs::read_link(e.path()).map(|t| t.to_string_lossy().into_owned()).unwrap_or_default();
+        target.starts_with(&*dir.to_string_lossy())
+            && target.ends_with("(deleted)")
+            && std::fs::metadata(e.path()).is_ok_and(|m| m.len() > 0)
     })
+}
+
+/// Whether a named temporary file (hidden) in `dir` holds bytes already.
+fn writes_named_file(dir: &Path) -> bool {
+    std::fs::read_dir(dir)
+        .unwrap()
+        .filter_map(|e| e.ok())
+        .any(|e| e.file_name().to_string_lossy().starts_with('.') && e.metadata().is_ok_and(|m| m.len() > 0))
 }
 
 /// Issue 10 item 5: 6/6 signals and 23/30 kills left hidden temporary files (up to 256 MB).
@@ -315,19 +326,27 @@ fn issue_10_signals_and_kills_leave_no_temporary_files() {
                 vec!["extract".into(), "-i".into(), format!("field:gyroid?n={n}&periods=6"), "--ascii".into()]
             };
             args.extend(["-o".to_string(), p(&out).to_string()]);
-            let mut child = Command::new(env!("CARGO_BIN_EXE_isoforge"))
-                .args(&args)
-                .env("ISOFORGE_TEMP", temp)
-                .stdout(Stdio::null())
-                .stderr(Stdio::null())
-                .spawn()
-                .unwrap();
+            let mut cmd = Command::new(env!("CARGO_BIN_EXE_isoforge"));
+            cmd.args(&args).env("ISOFORGE_TEMP", temp).stdout(Stdio::null()).stderr(Stdio::null());
+            // As in a terminal: a test run in the background (`cargo test &`) inherits SIGINT and
+            // SIGQUIT ignored, which the program rightly leaves alone.
+            // SAFETY: signal() is async-signal-safe; nothing else runs between fork and exec.
+            unsafe {
+                std::os::unix::process::CommandExt::pre_exec(&mut cmd, || {
+                    for s in [libc::SIGINT, libc::SIGTERM, libc::SIGHUP, libc::SIGQUIT] {
+                        libc::signal(s, libc::SIG_DFL);
+                    }
+                    Ok(())
+                });
+            }
+            let mut child = cmd.spawn().unwrap();
             let pid = child.id();
+            // Mid-write: the temporary file exists and has bytes.
             let writing = wait_for(&mut child, || {
                 if temp == "named" {
-                    names(dir.path()).iter().any(|n| n.ends_with(".tmp"))
+                    writes_named_file(dir.path())
                 } else {
-                    holds_anonymous_file(pid, dir.path())
+                    writes_anonymous_file(pid, dir.path())
                 }
             });
             if !writing {
@@ -378,6 +397,8 @@ const PROBE: &str = "ISOFORGE_TEST_PROBE";
 
 /// In the probe copy: runs isoforge with the arguments in `PROBE`, waits for it with wait4 and
 /// prints its exit code, stderr and peak resident memory. Returns false outside a probe.
+// Reaped by wait4 (std's wait would not give the child's rusage).
+#[allow(clippy::zombie_processes)]
 fn probe() -> bool {
     let Ok(args) = std::env::var(PROBE) else { return false };
     let child = Command::new(env!("CARGO_BIN_EXE_isoforge"))

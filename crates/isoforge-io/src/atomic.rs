@@ -594,7 +594,7 @@ mod tests {
         assert_eq!(std::fs::read(&target).unwrap(), b"new");
         assert!(!dir.path().join("nowhere").exists(), "a dangling link was followed");
         // All names taken: an error, the links untouched.
-        assert!(TempFile::create_named(names[..4].to_vec().into_iter()).is_err());
+        assert!(TempFile::create_named(names[..4].iter().cloned()).is_err());
         assert_eq!(std::fs::read(&victim).unwrap(), b"precious");
     }
 

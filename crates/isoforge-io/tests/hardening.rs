@@ -193,7 +193,7 @@ fn issue_10_meshes_cannot_grow_past_the_limit() {
 }
 
 /// A minimal single-slice DICOM file (explicit VR little endian) written by dicom-rs.
-fn dicom_slice(extra_private: bool) -> Vec<u8> {
+fn dicom_slice(extra_private: bool, pixel_spacing: &str) -> Vec<u8> {
     use dicom_core::{DataElement, PrimitiveValue, Tag, VR};
     use dicom_dictionary_std::tags;
     let mut obj = dicom_object::InMemDicomObject::new_empty();
@@ -211,7 +211,7 @@ fn dicom_slice(extra_private: bool) -> Vec<u8> {
     put(tags::BITS_STORED, VR::US, PrimitiveValue::from(16u16));
     put(tags::HIGH_BIT, VR::US, PrimitiveValue::from(15u16));
     put(tags::PIXEL_REPRESENTATION, VR::US, PrimitiveValue::from(1u16));
-    put(tags::PIXEL_SPACING, VR::DS, PrimitiveValue::from("0.8\\0.7"));
+    put(tags::PIXEL_SPACING, VR::DS, PrimitiveValue::from(pixel_spacing));
     put(tags::IMAGE_POSITION_PATIENT, VR::DS, PrimitiveValue::from("0\\0\\0"));
     put(tags::IMAGE_ORIENTATION_PATIENT, VR::DS, PrimitiveValue::from("1\\0\\0\\0\\1\\0"));
     if extra_private {
@@ -239,7 +239,7 @@ fn patch_length(bytes: &[u8], header: &[u8], len: u32) -> Vec<u8> {
 #[test]
 fn issue_10_dicom_lengths_beyond_the_file_are_refused_before_allocating() {
     let dir = tempfile::tempdir().unwrap();
-    let good = dicom_slice(true);
+    let good = dicom_slice(true, "0.8\\0.7");
     for (name, header) in [
         ("pixels", &[0xE0, 0x7F, 0x10, 0x00, b'O', b'W', 0, 0][..]),
         ("private", &[0x09, 0x00, 0x10, 0x10, b'O', b'B', 0, 0][..]),
@@ -486,6 +486,17 @@ fn issue_10_nonsense_geometry_is_refused_naming_file_field_and_value() {
         &mrc([2, 2, 2], [1, 1, 1], [3e38, 3e38, 3e38], [0.0; 3]),
         &["CELLA / MX MY MZ, ORIGIN: lattice", "reach"],
     );
+    // DICOM: PixelSpacing.
+    for (name, spacing, needle) in [
+        ("dcm_zero", "0\\0.7", "PixelSpacing [0.0, 0.7]: 0 is not a positive distance"),
+        ("dcm_huge", "1e300\\0.7", "PixelSpacing, ImagePositionPatient, ImageOrientationPatient: lattice"),
+    ] {
+        let series = dir.path().join(name);
+        std::fs::create_dir(&series).unwrap();
+        std::fs::write(series.join("slice.dcm"), dicom_slice(false, spacing)).unwrap();
+        let e = err(&series, Limits::default());
+        assert!(e.contains(needle), "{name}: {e}");
+    }
     // Raw volumes: the caller's spacing.
     let raw = dir.path().join("v.raw");
     std::fs::write(&raw, [0u8; 8]).unwrap();

@@ -446,11 +446,10 @@ impl<D: StatefulDecode> Guard<D> {
         let what = tag.map_or("an item".to_string(), |t| format!("element ({:04X},{:04X})", t.0, t.1));
         *self.state.reason.borrow_mut() = Some(format!("{what} declares {len} bytes, only {left} remain"));
         self.state.poisoned.set(true);
-        // Any read now fails: skipping a byte turns the poisoned source into the decoder's error.
+        // Any read now fails: skipping a byte turns the poisoned source into the decoder's error
+        // (the loop ends at its first turn).
         loop {
-            if let Err(e) = self.inner.skip_bytes(1) {
-                return Err(e);
-            }
+            self.inner.skip_bytes(1)?;
         }
     }
 }
