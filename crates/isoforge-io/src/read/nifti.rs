@@ -2,7 +2,9 @@
 //! `scl_inter`, and the sform (preferred) or qform to world coordinates, as nibabel chooses.
 //!
 //! Hand-written (348-byte fixed header) so every size is checked before allocating and no byte
-//! pattern can panic. World coordinates are NIfTI's RAS+ scanner space.
+//! pattern can panic. World coordinates are NIfTI's RAS+ scanner space. Voxel sizes
+//! `pixdim[1..3]` (qform and pixdim-only methods) must be finite and positive; a negative `qfac`
+//! (`pixdim[0]`) flips the third axis, as the standard says.
 
 use std::path::Path;
 

@@ -2,7 +2,8 @@
 //! `spacings`, `space directions`, `space origin`, `byte skip`, `line skip`.
 //!
 //! World coordinates are the file's own space (`space` is kept as given, e.g. LPS for DICOM-derived
-//! volumes). 2D images are read as one z-slab.
+//! volumes). 2D images are read as one z-slab. Spacings must be finite and positive (a flip
+//! belongs in `space directions`); `nan`, the format's "no spacing known", gives unit spacing.
 
 use std::path::{Path, PathBuf};
 
