@@ -1,5 +1,6 @@
 //! Issue 10: output safety end to end (items 5, 6, 9), error text said once, and the reader
 //! bounds seen from the command line (items 2, 3).
+#![cfg(target_os = "linux")]
 
 use std::os::unix::process::ExitStatusExt;
 use std::path::Path;

@@ -575,6 +575,7 @@ mod tests {
     }
 
     #[test]
+    #[cfg(unix)]
     fn issue_10_named_temporaries_skip_planted_links() {
         let dir = tempfile::tempdir().unwrap();
         let victim = dir.path().join("victim.txt");
@@ -599,6 +600,7 @@ mod tests {
     }
 
     #[test]
+    #[cfg(unix)]
     fn issue_10_a_link_at_the_target_is_replaced_not_followed() {
         let dir = tempfile::tempdir().unwrap();
         let victim = dir.path().join("victim.txt");

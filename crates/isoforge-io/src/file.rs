@@ -157,6 +157,7 @@ mod tests {
     }
 
     #[test]
+    #[cfg(unix)]
     fn issue_10_devices_fifos_and_folders_are_refused_by_name() {
         let dir = tempfile::tempdir().unwrap();
         for (p, kind) in [(Path::new("/dev/zero"), "a character device"), (dir.path(), "is a folder")] {

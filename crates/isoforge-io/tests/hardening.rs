@@ -1,6 +1,7 @@
 //! Issue 10, hardening of the readers: non-regular files refused and reads bounded (item 2),
 //! declared sizes checked before decoding (3), declared counts bounded before looping (4),
 //! nonsense geometry refused naming the file, the field and the value (7).
+#![cfg(unix)]
 
 use std::io::Write;
 use std::path::{Path, PathBuf};

@@ -2,6 +2,7 @@
 //! against the same volume as NRRD. Each read runs in a fresh child process (this test binary
 //! run again), whose peak resident memory (VmHWM) above its resident memory before the read is
 //! reported: nothing else allocates there, and no freed memory of an earlier read is reused.
+#![cfg(target_os = "linux")]
 
 use std::path::Path;
 
