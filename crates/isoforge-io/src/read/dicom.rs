@@ -457,11 +457,20 @@ impl<D: StatefulDecode> Guard<D> {
 impl<D: StatefulDecode> StatefulDecode for Guard<D> {
     type Reader = D::Reader;
 
+    // Headers are checked as soon as they are read: the data set reader reserves an item's
+    // declared length (pixel fragments, the offset table: 4 bytes per declared byte) before it
+    // asks for the value.
     fn decode_header(&mut self) -> DecodeResult<DataElementHeader> {
-        self.inner.decode_header()
+        let h = self.inner.decode_header()?;
+        self.check(Some(h.tag), h.len.0)?;
+        Ok(h)
     }
     fn decode_item_header(&mut self) -> DecodeResult<dicom_core::header::SequenceItemHeader> {
-        self.inner.decode_item_header()
+        let h = self.inner.decode_item_header()?;
+        if let dicom_core::header::SequenceItemHeader::Item { len } = h {
+            self.check(None, len.0)?;
+        }
+        Ok(h)
     }
     fn read_value(&mut self, header: &DataElementHeader) -> DecodeResult<PrimitiveValue> {
         self.check(Some(header.tag), header.len.0)?;
