@@ -216,6 +216,11 @@ def dicoms():
     rle = packbits(px8)
     rle = struct.pack("<16I", 1, 64, *([0] * 14)) + rle
     seed("read_dicom", "rle_8", 0, dicom("1.2.840.10008.1.2.5", rows, cols, 8, 0, rle, encapsulated=True))
+    # 16 bits: two segments, most significant bytes first.
+    p16 = px16(0)
+    msb, lsb = packbits(p16[1::2]), packbits(p16[0::2])
+    rle16 = struct.pack("<16I", 2, 64, 64 + len(msb), *([0] * 13)) + msb + lsb
+    seed("read_dicom", "rle_16", 0, dicom("1.2.840.10008.1.2.5", rows, cols, 16, 0, rle16, encapsulated=True))
     try:
         import io
         from PIL import Image

@@ -80,3 +80,14 @@ fn issue_10_fuzz_dicom_item_lengths_are_refused_at_the_header() {
     assert!(e.contains("damaged DICOM file: an item declares"), "{e}");
     assert!(largest < 4 << 20, "largest allocation {largest} bytes");
 }
+
+/// Issue 10 item 10, read_dicom: an RLE slice whose Columns grew past its segment's bytes made
+/// dicom-pixeldata's RLE decoder index out of bounds (a panic); RLE is decoded here now and a
+/// segment that ends early is an error naming it.
+#[test]
+fn issue_10_fuzz_dicom_rle_segment_shorter_than_the_image() {
+    let dir = tempfile::tempdir().unwrap();
+    let series = dicom_series(dir.path(), &artifact("read_dicom", "crash-rle-segment-shorter-than-image"));
+    let e = read_volume(&series, &Limits::new(16 << 20)).unwrap_err().to_string();
+    assert!(e.contains("s0.dcm: RLE segment 0"), "{e}");
+}

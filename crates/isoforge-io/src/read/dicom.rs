@@ -208,23 +208,14 @@ pub fn open_dicom_dir(dir: &Path, limits: &Limits) -> Result<VolumeReader> {
         let sctx = Ctx::new(&s.path, "DICOM");
         let obj = read_object(sctx, &s.path, limits)?.ok_or_else(|| sctx.bad("no longer a DICOM file"))?;
         check_pixels(sctx, &obj, s, limits)?;
-        let px = obj.decode_pixel_data().map_err(|e| sctx.bad(format!("pixel data: {e}")))?;
-        if px.samples_per_pixel() != 1 || px.number_of_frames() != 1 {
-            return Err(sctx.unsupported(format!(
-                "{} samples per pixel, {} frames: single-frame greyscale slices are supported",
-                px.samples_per_pixel(),
-                px.number_of_frames()
-            )));
-        }
-        let bytes = px.frame_data(0).map_err(|e| sctx.bad(format!("pixel data: {e}")))?;
-        let signed = matches!(px.pixel_representation(), dicom_pixeldata::PixelRepresentation::Signed);
-        let size = (px.bits_allocated() as usize).div_ceil(8).max(1);
+        let (bytes, bits, signed) = pixels(sctx, &obj, s)?;
+        let size = (bits as usize).div_ceil(8).max(1);
         if bytes.len() < plane * size {
             return Err(sctx.bad(format!("pixel data holds {} of the {plane} pixels", bytes.len() / size)));
         }
         let rescale = |v: f64| v * s.slope + s.inter;
         let samples = &bytes[..plane * size];
-        match (px.bits_allocated(), signed) {
+        match (bits, signed) {
             (8, false) => samples.iter().for_each(|&b| values.push(rescale(b as f64))),
             (8, true) => samples.iter().for_each(|&b| values.push(rescale(b as i8 as f64))),
             (16, false) => {
@@ -277,6 +268,96 @@ impl Values {
             Values::F32(d) => d.push(v as f32),
         }
     }
+}
+
+/// RLE Lossless: decoded here, not by dicom-pixeldata, whose decoder indexes past a segment
+/// that decodes to fewer bytes than the image (found by the `read_dicom` fuzz target).
+const RLE_LOSSLESS: &str = "1.2.840.10008.1.2.5";
+
+/// The decoded samples of one single-frame greyscale slice (native byte order, as
+/// dicom-pixeldata gives them), with bits allocated and signedness.
+fn pixels(ctx: Ctx, obj: &DefaultDicomObject, s: &Slice) -> Result<(Vec<u8>, u16, bool)> {
+    if obj.meta().transfer_syntax() == RLE_LOSSLESS {
+        let bits = uint(ctx, obj, tags::BITS_ALLOCATED, "BitsAllocated")? as u16;
+        let signed =
+            obj.element_opt(tags::PIXEL_REPRESENTATION).ok().flatten().and_then(|e| e.to_int::<u16>().ok()) == Some(1);
+        let fragments = obj
+            .element(tags::PIXEL_DATA)
+            .ok()
+            .and_then(|e| e.value().fragments().map(|f| f.to_vec()))
+            .ok_or_else(|| ctx.bad("RLE pixel data is not encapsulated"))?;
+        let [frame] = fragments.as_slice() else {
+            return Err(ctx.unsupported(format!("{} RLE frames: single-frame slices are supported", fragments.len())));
+        };
+        return Ok((decode_rle(ctx, frame, s.rows as usize * s.cols as usize, bits as usize / 8)?, bits, signed));
+    }
+    let px = obj.decode_pixel_data().map_err(|e| ctx.bad(format!("pixel data: {e}")))?;
+    if px.samples_per_pixel() != 1 || px.number_of_frames() != 1 {
+        return Err(ctx.unsupported(format!(
+            "{} samples per pixel, {} frames: single-frame greyscale slices are supported",
+            px.samples_per_pixel(),
+            px.number_of_frames()
+        )));
+    }
+    let bytes = px.frame_data(0).map_err(|e| ctx.bad(format!("pixel data: {e}")))?.to_vec();
+    let signed = matches!(px.pixel_representation(), dicom_pixeldata::PixelRepresentation::Signed);
+    Ok((bytes, px.bits_allocated(), signed))
+}
+
+/// One RLE Lossless frame (PS3.5 annex G) of `pixels` greyscale samples of `size` bytes: a
+/// 64-byte header (segment count, 15 offsets), then one PackBits segment per byte of a sample,
+/// most significant first. Every segment must decode to `pixels` bytes.
+fn decode_rle(ctx: Ctx, frame: &[u8], pixels: usize, size: usize) -> Result<Vec<u8>> {
+    let word = |i: usize| frame.get(4 * i..4 * i + 4).map(|b| u32::from_le_bytes([b[0], b[1], b[2], b[3]]) as usize);
+    let count = word(0).ok_or_else(|| ctx.bad("RLE header: shorter than 64 bytes"))?;
+    if count != size {
+        return Err(ctx.bad(format!("RLE header: {count} segments, {size} expected (one per byte of a sample)")));
+    }
+    let mut out = vec![0u8; pixels * size];
+    for seg in 0..size {
+        let start = word(1 + seg).ok_or_else(|| ctx.bad("RLE header: shorter than 64 bytes"))?;
+        let end = if seg + 1 < size { word(2 + seg).unwrap_or(frame.len()) } else { frame.len() };
+        let data = frame
+            .get(start..end)
+            .ok_or_else(|| ctx.bad(format!("RLE segment {seg}: offsets {start}..{end} outside the frame")))?;
+        // Segment `seg` holds byte `size - 1 - seg` of each sample (little-endian position).
+        let byte = if cfg!(target_endian = "little") { size - 1 - seg } else { seg };
+        let (mut i, mut n) = (0usize, 0usize);
+        while n < pixels && i < data.len() {
+            let h = data[i] as i8;
+            i += 1;
+            match h {
+                0..=127 => {
+                    let run = (h as usize + 1).min(pixels - n);
+                    let lit = data
+                        .get(i..i + run)
+                        .ok_or_else(|| ctx.bad(format!("RLE segment {seg}: a literal run is cut short")))?;
+                    for &b in lit {
+                        out[n * size + byte] = b;
+                        n += 1;
+                    }
+                    i += h as usize + 1;
+                }
+                -127..=-1 => {
+                    let b =
+                        *data.get(i).ok_or_else(|| ctx.bad(format!("RLE segment {seg}: a repeat run is cut short")))?;
+                    i += 1;
+                    for _ in 0..(1 - h as isize) as usize {
+                        if n == pixels {
+                            break;
+                        }
+                        out[n * size + byte] = b;
+                        n += 1;
+                    }
+                }
+                _ => {} // -128: no operation
+            }
+        }
+        if n < pixels {
+            return Err(ctx.bad(format!("RLE segment {seg} decodes to {n} of the {pixels} bytes")));
+        }
+    }
+    Ok(out)
 }
 
 /// Checks what decoding the pixels of `obj` would produce before decoding: one frame, one
@@ -610,4 +691,32 @@ fn floats<const N: usize>(ctx: Ctx, obj: &DefaultDicomObject, tag: Tag, name: &s
         return Err(ctx.bad(format!("{name} {v:?}: expected {N} finite numbers")));
     }
     Ok(std::array::from_fn(|i| v[i]))
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn rle_segments_interleave_most_significant_first() {
+        let ctx = Ctx::new(Path::new("x.dcm"), "DICOM");
+        // Two 16-bit samples 0x0102 and 0x0304: segment 0 = [01, 03], segment 1 = [02, 04], as
+        // a literal run and a repeat run.
+        let mut frame = vec![0u8; 64];
+        frame[0..4].copy_from_slice(&2u32.to_le_bytes());
+        frame[4..8].copy_from_slice(&64u32.to_le_bytes());
+        frame[8..12].copy_from_slice(&67u32.to_le_bytes());
+        frame.extend_from_slice(&[1, 0x01, 0x03, 1, 0x02, 0x04]);
+        let out = decode_rle(ctx, &frame, 2, 2).unwrap();
+        let v: Vec<u16> = out.chunks_exact(2).map(|b| u16::from_ne_bytes([b[0], b[1]])).collect();
+        assert_eq!(v, [0x0102, 0x0304]);
+        // A repeat run (-1: twice) fills both; a segment one byte short is named.
+        let mut short = frame[..64].to_vec();
+        short[8..12].copy_from_slice(&66u32.to_le_bytes());
+        short.extend_from_slice(&[0xFF, 0x07, 0, 0x09]);
+        let e = decode_rle(ctx, &short, 2, 2).unwrap_err().to_string();
+        assert!(e.contains("RLE segment 1 decodes to 1 of the 2 bytes"), "{e}");
+        assert!(decode_rle(ctx, &frame[..10], 2, 2).is_err());
+        assert!(decode_rle(ctx, &frame, 2, 1).unwrap_err().to_string().contains("2 segments, 1 expected"));
+    }
 }
