@@ -14,7 +14,8 @@
 //! - **World**: DICOM patient coordinates (LPS, millimetres): origin = the first slice's
 //!   ImagePositionPatient, axis directions = row direction, column direction, normal.
 //! - **Transfer syntaxes**: whatever dicom-pixeldata decodes in pure Rust (native little/big
-//!   endian, deflate, RLE, JPEG baseline/lossless); single-frame greyscale slices.
+//!   endian, deflate, JPEG baseline/lossless) and RLE Lossless (decoded here: dicom-pixeldata's
+//!   RLE decoder panics on short segments); single-frame greyscale slices.
 //! - **Bounded**: a file is parsed from memory (at most `max_bytes` + 1 MiB) through a guard
 //!   that refuses any element declaring more bytes than remain (a 566-byte file cannot make the
 //!   parser allocate 4 GiB); rows × columns × bits are checked against the limits before pixels
