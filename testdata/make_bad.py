@@ -172,6 +172,27 @@ def main():
     w("off_counts_too_large.off", "OFF\n999999999 999999999 0\n0 0 0\n")
     w("off_bad_index.off", "OFF\n3 1 0\n0 0 0\n1 0 0\n0 1 0\n3 0 1 3\n")
     w("off_truncated.off", "OFF\n3 1 0\n0 0 0\n1 0 0\n")
+    # Issue 10: nonsense geometry (refused naming the field) and absurd counts (bounded before looping)
+    w("nrrd_spacing_huge.nrrd", nrrd(BASE + [("spacings", "1e308 1 1")], bytes(64)))
+    w("nrrd_spacing_negative.nrrd", nrrd(BASE + [("spacings", "1 -0.5 1")], bytes(64)))
+    w("nrrd_spacing_zero.nrrd", nrrd(BASE + [("spacings", "1 1 0")], bytes(64)))
+    w("nrrd_direction_huge.nrrd", nrrd(BASE + [("space directions", "(1e300,0,0) (0,1,0) (0,0,1)")], bytes(64)))
+    neg = bytearray(nifti())
+    struct.pack_into("<h", neg, 252, 1)  # qform_code: the qform (and pixdim) give the geometry
+    struct.pack_into("<f", neg, 80, -1.5)  # pixdim[1]
+    w("nifti_negative_pixdim.nii", bytes(neg))
+    zero = bytearray(nifti())
+    struct.pack_into("<f", zero, 84, 0.0)  # pixdim[2], no qform nor sform
+    w("nifti_zero_pixdim.nii", bytes(zero))
+    w("mha_spacing_huge.mha", mha + "ElementSpacing = 1e308 1 1\nElementDataFile = LOCAL\n" + "\0" * 64)
+    cell = bytearray(mrc_header(nx=2, ny=2, nz=2))
+    struct.pack_into("<f", cell, 40, -2.0)  # CELLA.X
+    w("mrc_negative_cell.mrc", bytes(cell) + bytes(32))
+    w("vtk_spacing_huge.vtk", vtkf().replace("SPACING 1 1 1", "SPACING 1e308 1 1") + "0 " * 8)
+    w("vti_negative_spacing.vti", vtif().replace('Spacing="1 1 1"', 'Spacing="-1 1 1"'))
+    w("vti_nan_spacing.vti", vtif().replace('Spacing="1 1 1"', 'Spacing="nan 1 1"'))
+    w("ply_junk_huge_count.ply", "ply\nformat ascii 1.0\nelement junk 18446744073709551615\nproperty uchar a\n"
+      "element vertex 3\nproperty float x\nproperty float y\nproperty float z\nend_header\n0 0 0\n1 0 0\n0 1 0\n")
 
 
 if __name__ == "__main__":

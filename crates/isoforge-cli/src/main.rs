@@ -5,6 +5,7 @@
 
 mod args;
 mod config;
+mod outputs;
 mod progress;
 mod report;
 mod run;
@@ -26,6 +27,7 @@ fn main() -> ExitCode {
     unsafe {
         libc::signal(libc::SIGPIPE, libc::SIG_DFL);
     }
+    isoforge_io::install_signal_cleanup();
     let args = match Args::try_parse() {
         Ok(a) => a,
         Err(e) => {

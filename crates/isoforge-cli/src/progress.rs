@@ -7,6 +7,7 @@
 //!
 //! `ISOFORGE_PROGRESS=never` turns progress off; `ISOFORGE_PROGRESS=always` draws it at once,
 //! terminal or not (plain lines when stderr is a file or a pipe: for logs of long runs, and tests).
+//! `ISOFORGE_PROGRESS_AFTER_MS=N` changes [`SHOW_AFTER`] (tests of the terminal case use 0).
 
 use std::borrow::Cow;
 use std::io::{IsTerminal, Write};
@@ -20,6 +21,14 @@ use isoforge::walk::Progress;
 
 /// Work shorter than this never shows anything.
 pub const SHOW_AFTER: Duration = Duration::from_secs(1);
+
+/// [`SHOW_AFTER`], or `ISOFORGE_PROGRESS_AFTER_MS` when set.
+fn show_after() -> Duration {
+    std::env::var("ISOFORGE_PROGRESS_AFTER_MS")
+        .ok()
+        .and_then(|v| v.parse().ok())
+        .map_or(SHOW_AFTER, Duration::from_millis)
+}
 
 /// How often a shown task redraws by itself (the spinner and the elapsed time stay live between
 /// reports).
@@ -160,7 +169,7 @@ impl Task {
             std::thread::spawn(move || {
                 let (lock, cv) = &*done;
                 let Ok(guard) = lock.lock() else { return };
-                let Ok((finished, _)) = cv.wait_timeout_while(guard, SHOW_AFTER, |d| !*d) else { return };
+                let Ok((finished, _)) = cv.wait_timeout_while(guard, show_after(), |d| !*d) else { return };
                 if !*finished {
                     bar.set_draw_target(draw_target());
                     bar.enable_steady_tick(TICK);

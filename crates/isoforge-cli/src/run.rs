@@ -157,13 +157,13 @@ fn failed(report: &MeshReport, require: &[Guarantee]) -> Vec<&'static str> {
 
 /// The streamed mesh goes to the PLY writer and, with `--require`, to the streaming checker,
 /// whose memory (4 bytes per vertex and a window) must stay within `--max-memory`.
-struct Tee<'a> {
-    ply: &'a mut PlyStream,
+struct Tee<'a, 'b> {
+    ply: &'a mut PlyStream<'b>,
     check: Option<&'a mut StreamCheck>,
     budget: u64,
 }
 
-impl MeshSink for Tee<'_> {
+impl MeshSink for Tee<'_, '_> {
     fn push(&mut self, batch: MeshBatch<'_>) -> Result<(), ExternalError> {
         MeshSink::push(self.ply, batch)?;
         if let Some(c) = self.check.as_deref_mut() {
@@ -187,13 +187,18 @@ impl MeshSink for Tee<'_> {
 
 /// Out-of-core extraction: slab by slab from the file straight into a binary PLY, checked in the
 /// same pass when `--require` asks.
-fn extract_streaming(c: &ExtractConfig, mut reader: VolumeReader, iso: Iso, name: &str) -> Result<Outcome> {
+fn extract_streaming(
+    c: &ExtractConfig,
+    mut reader: VolumeReader,
+    iso: Iso,
+    name: &str,
+    batch: isoforge_io::Batch,
+) -> Result<Outcome> {
     if c.format != MeshFormat::Ply {
         bail!("{}: out-of-core extraction (--max-memory) writes binary PLY only", c.output.display());
     }
     let normals = c.options.normals == Normals::Gradient;
-    let mut ply =
-        PlyStream::create(&c.output, normals).with_context(|| format!("{}: cannot create", c.output.display()))?;
+    let mut ply = PlyStream::create_in(&batch, &c.output, normals)?;
     let mut check = (!c.require.is_empty())
         .then(|| StreamCheck::new(&CheckOptions { max_examples: CheckOptions::default().max_examples, lattice: None }));
     let mut sink = Tee { ply: &mut ply, check: check.as_mut(), budget: c.max_memory.unwrap_or(u64::MAX) };
@@ -207,12 +212,13 @@ fn extract_streaming(c: &ExtractConfig, mut reader: VolumeReader, iso: Iso, name
         let side = if w.cells_outside == w.cells { "outside" } else { "inside" };
         bail!("{name}: iso {} gives no surface: every lattice point is {side}", iso.value);
     }
-    ply.finish().with_context(|| format!("{}: cannot finish writing", c.output.display()))?;
+    ply.finish()?;
     if let Some(t) = &c.time_json {
         let body =
             json!({ "seconds": seconds, "vertices": stats.vertices, "triangles": stats.triangles, "streamed": true });
-        isoforge_io::write_atomic(t, |w| w.write_all(body.to_string().as_bytes()))?;
+        batch.write(t, |w| w.write_all(body.to_string().as_bytes()))?;
     }
+    batch.commit()?;
     eprintln!(
         "{}: {} vertices, {} triangles ({}, streamed slab by slab, iso {}, reading + extraction + writing {:.3} s)",
         c.output.display(),
@@ -253,6 +259,7 @@ pub fn extract(c: &ExtractConfig) -> Result<Outcome> {
         normals: c.options.normals == Normals::Gradient,
         check: !c.require.is_empty(),
     });
+    let batch = crate::outputs::plan_extract(c)?;
     let loaded = open_input(&c.input, budget.as_ref())?;
     let name = input_name(&c.input);
     let default_iso = match &loaded {
@@ -268,7 +275,7 @@ pub fn extract(c: &ExtractConfig) -> Result<Outcome> {
     let mut mask = None;
     let mut input_lattice = None;
     if let Some(labels) = &c.labels {
-        return extract_labels(c, loaded, labels, &name);
+        return extract_labels(c, loaded, labels, &name, batch);
     }
     let loaded = match loaded {
         Loaded::Stream(_) if c.repeat > 1 => bail!("--repeat: out-of-core extraction (--max-memory) runs once"),
@@ -276,7 +283,7 @@ pub fn extract(c: &ExtractConfig) -> Result<Outcome> {
         Loaded::Stream(_) if !c.region.is_identity() => {
             bail!("--roi, --close and --space index need the volume in memory (drop --max-memory)")
         }
-        Loaded::Stream(reader) => return extract_streaming(c, reader, isos[0], &name),
+        Loaded::Stream(reader) => return extract_streaming(c, reader, isos[0], &name, batch),
         Loaded::Field(_) if !c.region.is_identity() => {
             bail!("--roi, --close and --space index apply to volume files (a field has its own lattice)")
         }
@@ -328,17 +335,22 @@ pub fn extract(c: &ExtractConfig) -> Result<Outcome> {
     };
     // glTF and OBJ hold several meshes: one file with a node (object) per iso; other formats
     // get a file per iso.
-    let one_gltf = isos.len() > 1 && matches!(c.format, MeshFormat::Glb | MeshFormat::Gltf | MeshFormat::Obj);
+    let one_gltf = crate::outputs::one_file_for_all_isos(c, isos.len());
     let mut outcome = Outcome::Success;
     let mut meshes = Vec::new();
+    let done = std::cell::RefCell::new(Vec::new());
     for &iso in &isos {
-        let (output, time_json) = if isos.len() == 1 || one_gltf {
-            (c.output.clone(), c.time_json.clone())
-        } else {
-            (with_suffix(&c.output, iso.value), c.time_json.as_ref().map(|t| with_suffix(t, iso.value)))
-        };
+        let (output, time_json) = crate::outputs::extract_paths(c, iso.value, isos.len());
         let target = if one_gltf { None } else { Some(output.as_path()) };
-        let job = Job { c, loaded: &loaded, name: &name, attributes: &attribute_grids, rgb: rgb.as_ref() };
+        let job = Job {
+            c,
+            loaded: &loaded,
+            name: &name,
+            attributes: &attribute_grids,
+            rgb: rgb.as_ref(),
+            batch: &batch,
+            done: &done,
+        };
         let (o, mesh, data) = extract_one(&job, iso, target, time_json.as_deref())?;
         if o != Outcome::Success {
             outcome = o;
@@ -352,12 +364,17 @@ pub fn extract(c: &ExtractConfig) -> Result<Outcome> {
             meshes.iter().map(|(n, m, d)| isoforge_io::NamedMesh { name: n, mesh: m, data: d }).collect();
         spin(format!("writing {}", c.output.display()), || {
             if c.format == MeshFormat::Obj {
-                isoforge_io::write_obj_objects(&c.output, &named)
+                batch.write_obj_objects(&c.output, &named)
             } else {
-                isoforge_io::write_gltf(&c.output, &named, c.format == MeshFormat::Glb)
+                batch.write_gltf(&c.output, &named, c.format == MeshFormat::Glb)
             }
         })?;
-        eprintln!("{}: {} meshes (one object per iso value)", c.output.display(), named.len());
+        done.borrow_mut().push(format!("{}: {} meshes (one object per iso value)", c.output.display(), named.len()));
+    }
+    // Every iso succeeded: now, and only now, the files appear.
+    batch.commit()?;
+    for line in done.take() {
+        eprintln!("{line}");
     }
     Ok(outcome)
 }
@@ -376,7 +393,13 @@ fn load_mask(input: &InputConfig, dims: [u32; 3], region: &Region) -> Result<iso
 }
 
 /// `--labels`: a closed surface per label, written as one file (triangles tagged by label).
-fn extract_labels(c: &ExtractConfig, loaded: Loaded, labels: &pipeline::Labels, name: &str) -> Result<Outcome> {
+fn extract_labels(
+    c: &ExtractConfig,
+    loaded: Loaded,
+    labels: &pipeline::Labels,
+    name: &str,
+    batch: isoforge_io::Batch,
+) -> Result<Outcome> {
     let Loaded::Grid(g) = loaded else { bail!("{name}: --labels needs a label volume file in memory") };
     let g = apply_region(g, &Region { close: false, ..c.region.clone() }, 0.0, name)?;
     let start = Instant::now();
@@ -395,7 +418,7 @@ fn extract_labels(c: &ExtractConfig, loaded: Loaded, labels: &pipeline::Labels, 
             .zip(&names)
             .map(|((_, e), n)| isoforge_io::NamedMesh { name: n, mesh: &e.mesh, data: &data })
             .collect();
-        isoforge_io::write_gltf(&c.output, &named, c.format == MeshFormat::Glb)?;
+        batch.write_gltf(&c.output, &named, c.format == MeshFormat::Glb)?;
     } else {
         // One mesh, each triangle tagged with its label.
         let mut mesh = isoforge::mesh::Mesh::default();
@@ -408,8 +431,9 @@ fn extract_labels(c: &ExtractConfig, loaded: Loaded, labels: &pipeline::Labels, 
             tags.extend(std::iter::repeat_n(*label as i32, e.mesh.triangles.len()));
         }
         let data = isoforge_io::MeshData { triangle_labels: Some(tags), ..Default::default() };
-        isoforge_io::write_mesh_with(&c.output, &mesh, &data, c.format)?;
+        batch.write_mesh(&c.output, &mesh, &data, c.format)?;
     }
+    batch.commit()?;
     writing.finish();
     let mut outcome = Outcome::Success;
     let checking = Task::counting("checking label");
@@ -527,16 +551,6 @@ fn vertex_data(
     data
 }
 
-/// `out.ply` → `out-300.ply` for iso 300.
-fn with_suffix(path: &Path, iso: f64) -> std::path::PathBuf {
-    let name = path.file_name().map(|n| n.to_string_lossy().into_owned()).unwrap_or_default();
-    let (stem, ext) = match name.split_once('.') {
-        Some((s, e)) => (s.to_string(), format!(".{e}")),
-        None => (name.clone(), String::new()),
-    };
-    path.with_file_name(format!("{stem}-{iso}{ext}"))
-}
-
 /// Crops (`--roi`), pads (`--close`) and re-places (`--space index`) a grid.
 fn apply_region(mut g: AnyGrid, region: &Region, outside: f64, name: &str) -> Result<AnyGrid> {
     let dims = g.lattice().dims();
@@ -595,6 +609,10 @@ struct Job<'a> {
     /// `--color-volume`: the colours, the input lattice in the output frame, and whether the
     /// vertices are already voxel indices.
     rgb: Option<&'a (isoforge_io::RgbVolume, isoforge::grid::Lattice, bool)>,
+    /// The command's outputs, committed together at the end.
+    batch: &'a isoforge_io::Batch,
+    /// One summary line per written file, printed after the commit.
+    done: &'a std::cell::RefCell<Vec<String>>,
 }
 
 /// One extraction of an in-memory input at `iso`, written to `output` when given; returns the
@@ -605,7 +623,7 @@ fn extract_one(
     output: Option<&Path>,
     time_json: Option<&Path>,
 ) -> Result<(Outcome, isoforge::mesh::Mesh, isoforge_io::MeshData)> {
-    let Job { c, loaded, name, attributes, rgb } = *job;
+    let Job { c, loaded, name, attributes, rgb, batch, done } = *job;
     let mut runs = Vec::with_capacity(c.repeat as usize);
     let mut last: Option<Extraction> = None;
     for _ in 0..c.repeat {
@@ -646,9 +664,7 @@ fn extract_one(
         data.colors = Some(out.mesh.positions.iter().map(|&p| v.sample(at(p))).collect());
     }
     if let Some(output) = output {
-        spin(format!("writing {}", output.display()), || {
-            isoforge_io::write_mesh_with(output, &out.mesh, &data, c.format)
-        })?;
+        spin(format!("writing {}", output.display()), || batch.write_mesh(output, &out.mesh, &data, c.format))?;
     }
     if let Some(t) = time_json {
         let body = json!({
@@ -657,10 +673,11 @@ fn extract_one(
             "vertices": out.mesh.num_vertices(),
             "triangles": out.mesh.num_triangles()
         });
-        isoforge_io::write_atomic(t, |w| w.write_all(body.to_string().as_bytes()))?;
+        batch.write(t, |w| w.write_all(body.to_string().as_bytes()))?;
     }
     let shown = output.unwrap_or(&c.output);
-    eprintln!(
+    // Said once the batch is committed: before that the file does not exist.
+    done.borrow_mut().push(format!(
         "{}: {} vertices, {} triangles ({} method, iso {}, extraction {:.3} s)",
         shown.display(),
         out.mesh.num_vertices(),
@@ -668,7 +685,7 @@ fn extract_one(
         c.options.method.name(),
         iso.value,
         seconds
-    );
+    ));
     if c.require.is_empty() {
         return Ok((Outcome::Success, out.mesh, data));
     }
@@ -784,15 +801,16 @@ pub fn check(c: &CheckConfig) -> Result<Outcome> {
 }
 
 pub fn demo(c: &DemoConfig) -> Result<Outcome> {
+    let format = crate::config::output_format(&c.output, false)?;
+    let batch = crate::outputs::plan_one(&c.output, "-o", Some(format), None, None)?;
     let b = catalog::parse(&format!("metaballs?n={}", c.n))?;
     let start = Instant::now();
     let task = Task::start("extracting the demo field");
     let out = pipeline::extract_builtin(&b, b.iso, &c.options, Some(&task))?;
     task.finish();
     let seconds = start.elapsed().as_secs_f64();
-    let format = crate::config::output_format(&c.output, false)?;
-    spin("writing the demo mesh", || isoforge_io::write_mesh(&c.output, &out.mesh, format))
-        .with_context(|| "writing the demo mesh")?;
+    spin("writing the demo mesh", || batch.write_mesh(&c.output, &out.mesh, &Default::default(), format))?;
+    batch.commit()?;
     let rep = check_mesh(&out.mesh, &CheckOptions::default());
     if c.json {
         let mut v = report::mesh_json(&rep);
@@ -838,6 +856,7 @@ fn slice_of(grid: &AnyGrid, axis: usize, k: u32) -> ([u32; 2], Vec<f64>) {
 }
 
 pub fn contour(c: &ContourConfig) -> Result<Outcome> {
+    let batch = crate::outputs::plan_one(&c.output, "-o", None, Some(&c.input), None)?;
     let name = input_name(&c.input);
     let Loaded::Grid(grid) = load(&c.input)? else { bail!("{name}: contour needs an image or a volume file") };
     let dims = grid.lattice().dims();
@@ -849,6 +868,19 @@ pub fn contour(c: &ContourConfig) -> Result<Outcome> {
         Some(k) => k,
         None => dims[c.axis] / 2,
     };
+    // The slice is meshed as f64 (8 bytes a sample): it counts against --max-bytes too.
+    let [u, v] = match c.axis {
+        0 => [dims[1], dims[2]],
+        1 => [dims[0], dims[2]],
+        _ => [dims[0], dims[1]],
+    };
+    let slice_bytes = u as u64 * v as u64 * 8;
+    if slice_bytes > c.input.limits.max_bytes {
+        bail!(
+            "{name}: slice {axis_name} = {k} ({u} x {v}) needs {slice_bytes} bytes as f64, over the limit of {} bytes (raise it with --max-bytes)",
+            c.input.limits.max_bytes
+        );
+    }
     let (size, values) = slice_of(&grid, c.axis, k);
     let (lo, hi) = values.iter().fold((f64::INFINITY, f64::NEG_INFINITY), |(a, b), &v| (a.min(v), b.max(v)));
     if c.iso.value < lo || c.iso.value > hi {
@@ -866,7 +898,9 @@ pub fn contour(c: &ContourConfig) -> Result<Outcome> {
         ContourFrame::pixels(size)
     };
     let lines: Vec<_> = lines.iter().map(|l| frame.place(l)).collect();
-    isoforge_io::write::contour::write_contour_file(&c.output, &lines, c.format, &frame, c.iso.value)?;
+    batch
+        .write(&c.output, |w| isoforge_io::write::contour::write_contours(w, &lines, c.format, &frame, c.iso.value))?;
+    batch.commit()?;
     let closed = lines.iter().filter(|l| l.closed).count();
     let length: f64 = lines.iter().map(|l| l.length()).sum::<f64>() + 0.0; // no "-0" for no contour
     let points: usize = lines.iter().map(|l| l.points.len()).sum();
@@ -895,15 +929,18 @@ pub fn contour(c: &ContourConfig) -> Result<Outcome> {
 }
 
 pub fn convert(input: &InputConfig, output: &Path) -> Result<Outcome> {
+    let batch = crate::outputs::plan_one(output, "the output", None, Some(input), None)?;
     let name = input_name(input);
     let Loaded::Grid(grid) = load(input)? else { bail!("{name}: convert reads volume and image files, not fields") };
-    spin(format!("writing {}", output.display()), || isoforge_io::write_volume(output, &grid))?;
+    spin(format!("writing {}", output.display()), || batch.write_volume(output, &grid))?;
+    batch.commit()?;
     let d = grid.lattice().dims();
     eprintln!("{}: {} x {} x {} {} samples from {name}", output.display(), d[0], d[1], d[2], grid.dtype());
     Ok(Outcome::Success)
 }
 
 pub fn render(c: &RenderConfig) -> Result<Outcome> {
+    let batch = crate::outputs::plan_one(&c.output, "-o", None, c.input.as_ref(), c.mesh.as_deref())?;
     let mesh = match (&c.mesh, &c.input) {
         (Some(path), _) => {
             spin(format!("reading {}", path.display()), || isoforge_io::read_mesh(path, &Limits::default()))?
@@ -927,7 +964,8 @@ pub fn render(c: &RenderConfig) -> Result<Outcome> {
         }
         (None, None) => bail!("internal: render has no input"),
     };
-    spin(format!("rendering {}", c.output.display()), || isoforge_io::write_render(&c.output, &mesh, None, &c.render))?;
+    spin(format!("rendering {}", c.output.display()), || batch.write_render(&c.output, &mesh, None, &c.render))?;
+    batch.commit()?;
     let [w, h] = c.render.size;
     eprintln!("{}: {w} x {h} picture of {} triangles", c.output.display(), mesh.num_triangles());
     Ok(Outcome::Success)

@@ -4,11 +4,14 @@ use std::fmt;
 use std::path::{Path, PathBuf};
 
 /// What went wrong reading or writing a file. Messages start with the path and say what to fix.
-#[derive(Debug, thiserror::Error)]
+///
+/// The message is complete on its own: [`Error::Io`] includes the operating system's reason in
+/// its `Display` and does not repeat it through [`std::error::Error::source`], so a printed chain
+/// (`anyhow`'s `{:#}`) says it once.
+#[derive(Debug)]
 #[non_exhaustive]
 pub enum Error {
     /// The file's content is malformed: `detail` names the line or byte offset, field and value.
-    #[error("{}: {detail}", path.display())]
     Read {
         /// The file.
         path: PathBuf,
@@ -18,7 +21,6 @@ pub enum Error {
         detail: String,
     },
     /// A header-declared size exceeds the limits (checked before allocating).
-    #[error("{}: {what} needs {requested} bytes, over the limit of {allowed} bytes (raise it with --max-bytes)", path.display())]
     Limit {
         /// The file.
         path: PathBuf,
@@ -30,7 +32,6 @@ pub enum Error {
         allowed: u64,
     },
     /// Well-formed but not supported (a data type, an encoding, a layout).
-    #[error("{}: {detail}", path.display())]
     Unsupported {
         /// The file.
         path: PathBuf,
@@ -38,7 +39,6 @@ pub enum Error {
         detail: String,
     },
     /// The operating system refused (missing file, permissions, disk full).
-    #[error("{}: {source}", path.display())]
     Io {
         /// The file.
         path: PathBuf,
@@ -46,8 +46,36 @@ pub enum Error {
         source: std::io::Error,
     },
     /// The request itself is inconsistent (e.g. raw dims missing).
-    #[error("{0}")]
     InvalidInput(String),
+}
+
+impl fmt::Display for Error {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        match self {
+            Error::Read { path, detail, .. } | Error::Unsupported { path, detail } => {
+                write!(f, "{}: {detail}", path.display())
+            }
+            Error::Limit { path, what, requested, allowed } => write!(
+                f,
+                "{}: {what} needs {requested} bytes, over the limit of {allowed} bytes (raise it with --max-bytes)",
+                path.display()
+            ),
+            Error::Io { path, source } => write!(f, "{}: {}", path.display(), os_reason(source)),
+            Error::InvalidInput(msg) => f.write_str(msg),
+        }
+    }
+}
+
+/// No `source()`: every variant's message already says everything (see the type's doc).
+impl std::error::Error for Error {}
+
+/// The reason of an I/O error without Rust's " (os error N)" suffix, e.g. "No such file or directory".
+pub(crate) fn os_reason(e: &std::io::Error) -> String {
+    let text = e.to_string();
+    match text.rfind(" (os error ") {
+        Some(i) if text.ends_with(')') => text[..i].to_string(),
+        _ => text,
+    }
 }
 
 /// Shorthand for results of this crate.

@@ -1,6 +1,6 @@
 //! File formats, recognised by extension.
 
-use std::path::Path;
+use std::path::{Path, PathBuf};
 
 /// A volume file format.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
@@ -133,6 +133,28 @@ impl MeshFormat {
         let n = lower_name(path);
         let ext = n.rsplit_once('.').map(|(_, e)| e)?;
         Self::ALL.into_iter().find(|f| f.extension() == Some(ext))
+    }
+
+    /// The files a write of this format to `path` produces: `path`, and for `.gltf` the buffer
+    /// [`MeshFormat::gltf_buffer`] beside it.
+    pub fn files(self, path: &Path) -> Vec<PathBuf> {
+        self.outputs(path, "").into_iter().map(|(p, _)| p).collect()
+    }
+
+    /// [`MeshFormat::files`], each with how messages name it when the output is named `role`
+    /// (`-o`, and "the buffer of -o" for a glTF buffer).
+    pub fn outputs(self, path: &Path, role: &str) -> Vec<(PathBuf, String)> {
+        match self {
+            MeshFormat::Gltf => {
+                vec![(path.to_path_buf(), role.to_string()), (Self::gltf_buffer(path), format!("the buffer of {role}"))]
+            }
+            _ => vec![(path.to_path_buf(), role.to_string())],
+        }
+    }
+
+    /// The binary buffer written beside a `.gltf` file: the same stem with `.bin`.
+    pub fn gltf_buffer(path: &Path) -> PathBuf {
+        path.with_extension("bin")
     }
 
     /// Display name.

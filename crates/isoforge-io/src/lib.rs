@@ -1,14 +1,17 @@
 //! File formats for isoforge: volumes in, meshes in and out.
 //!
-//! Every reader checks header-declared sizes against [`Limits`] before allocating, rejects
-//! non-finite samples naming the first one, and returns an [`Error`] naming the file, the field
-//! and the value instead of panicking on bad bytes. Every writer goes through [`write_atomic`].
+//! Every reader opens regular files only and reads no further than the sizes it planned for,
+//! checks header-declared sizes against [`Limits`] before allocating, rejects non-finite samples
+//! naming the first one, and returns an [`Error`] naming the file, the field and the value
+//! instead of panicking on bad bytes. Every writer goes through a [`Batch`]: outputs are checked
+//! and created before any work, and appear whole, all together, or not at all.
 #![warn(missing_docs)]
 #![cfg_attr(not(test), deny(clippy::unwrap_used, clippy::expect_used))]
 
 mod atomic;
 pub mod attributes;
 pub mod error;
+mod file;
 pub mod format;
 pub mod limits;
 pub mod read;
@@ -16,9 +19,9 @@ pub mod read;
 pub mod render;
 pub mod write;
 
-use std::path::Path;
+use std::path::{Path, PathBuf};
 
-pub use atomic::write_atomic;
+pub use atomic::{install_signal_cleanup, refuse_overwrite, same_file, write_atomic, Batch};
 pub use attributes::{MeshData, NamedMesh};
 pub use error::{Error, Result};
 pub use format::{MeshFormat, VolumeFormat};
@@ -46,11 +49,8 @@ pub fn read_volume(path: &Path, limits: &Limits) -> Result<AnyGrid> {
 /// # Errors
 /// As [`read_volume`], for the header.
 pub fn open_volume(path: &Path, limits: &Limits) -> Result<VolumeReader> {
-    if !path.exists() {
-        return Err(Error::Io {
-            path: path.to_path_buf(),
-            source: std::io::Error::new(std::io::ErrorKind::NotFound, "no such file"),
-        });
+    if let Err(source) = std::fs::metadata(path) {
+        return Err(Error::Io { path: path.to_path_buf(), source });
     }
     let unsupported = |detail: &str| Err(Error::Unsupported { path: path.to_path_buf(), detail: detail.to_string() });
     if path.is_dir() {
@@ -97,42 +97,13 @@ pub fn open_volume(path: &Path, limits: &Limits) -> Result<VolumeReader> {
     }
 }
 
-/// Writes a volume, choosing the format by extension: `.nrrd` (gzip-encoded), `.nii`, `.nii.gz`.
-/// Atomic: a failed write leaves no file.
-///
-/// # Errors
-/// [`Error::Unsupported`] for another extension, or NIfTI-1 dims above 32767;
-/// [`Error::Io`] when the file cannot be written.
-#[cfg(all(feature = "nrrd", feature = "nifti"))]
-pub fn write_volume(path: &Path, grid: &AnyGrid) -> Result<()> {
-    let unsupported = |detail: String| Err(Error::Unsupported { path: path.to_path_buf(), detail });
-    match VolumeFormat::from_path(path) {
-        Some(VolumeFormat::Nrrd) => write_atomic(path, |w| write::volume::write_nrrd(w, grid, true)),
-        Some(VolumeFormat::Nifti) => {
-            let dims = grid.lattice().dims();
-            if dims.iter().any(|&d| d > i16::MAX as u32) {
-                return unsupported(format!("dims {dims:?}: NIfTI-1 stores dims as 16-bit integers (at most 32767)"));
-            }
-            let name = path.to_string_lossy().to_ascii_lowercase();
-            if name.ends_with(".hdr") {
-                return unsupported("write a single-file .nii or .nii.gz (not .hdr/.img pairs)".into());
-            }
-            write_atomic(path, |w| write::volume::write_nifti(w, grid, name.ends_with(".gz")))
-        }
-        _ => unsupported("volumes are written as .nrrd, .nii or .nii.gz".into()),
-    }
-}
-
 /// Reads a mesh, choosing the reader by extension.
 ///
 /// # Errors
 /// [`Error::Unsupported`] for an unknown extension; otherwise the reader's errors.
 pub fn read_mesh(path: &Path, limits: &Limits) -> Result<Mesh> {
-    if !path.exists() {
-        return Err(Error::Io {
-            path: path.to_path_buf(),
-            source: std::io::Error::new(std::io::ErrorKind::NotFound, "no such file"),
-        });
+    if let Err(source) = std::fs::metadata(path) {
+        return Err(Error::Io { path: path.to_path_buf(), source });
     }
     match MeshFormat::from_path(path) {
         #[cfg(feature = "ply")]
@@ -150,10 +121,49 @@ pub fn read_mesh(path: &Path, limits: &Limits) -> Result<Mesh> {
     }
 }
 
+/// The files reading the volume at `path` opens: the file itself and its detached data (NRRD
+/// `data file`, MetaImage `ElementDataFile`, the `.img` beside a NIfTI `.hdr`), or every file of
+/// a folder (a DICOM series or numbered slices). An output must be none of them
+/// ([`Batch::refuse_inputs`]). A header that cannot be parsed contributes its own path only;
+/// reading it reports the problem.
+pub fn input_files(path: &Path) -> Vec<PathBuf> {
+    let mut files = vec![path.to_path_buf()];
+    if path.is_dir() {
+        if let Ok(entries) = std::fs::read_dir(path) {
+            files.extend(entries.filter_map(|e| e.ok().map(|e| e.path())).filter(|p| p.is_file()));
+        }
+        return files;
+    }
+    let detached = match VolumeFormat::from_path(path) {
+        #[cfg(feature = "nrrd")]
+        Some(VolumeFormat::Nrrd) => read::nrrd::data_file(path),
+        #[cfg(feature = "metaimage")]
+        Some(VolumeFormat::MetaImage) => read::metaimage::data_file(path),
+        Some(VolumeFormat::Nifti) if path.to_string_lossy().to_ascii_lowercase().ends_with(".hdr") => {
+            Some(path.with_extension("img"))
+        }
+        _ => None,
+    };
+    files.extend(detached);
+    files
+}
+
+/// Writes a volume, choosing the format by extension: `.nrrd` (gzip-encoded), `.nii`, `.nii.gz`.
+/// Atomic: a failed write leaves no file.
+///
+/// # Errors
+/// As [`Batch::write_volume`] and [`Batch::commit`].
+#[cfg(all(feature = "nrrd", feature = "nifti"))]
+pub fn write_volume(path: &Path, grid: &AnyGrid) -> Result<()> {
+    let batch = Batch::new();
+    batch.write_volume(path, grid)?;
+    batch.commit()
+}
+
 /// Writes `mesh` to `path` atomically in `format`.
 ///
 /// # Errors
-/// [`Error::Io`] naming `path`; [`Error::Unsupported`] when the format is not compiled in.
+/// As [`Batch::write_mesh`] and [`Batch::commit`].
 pub fn write_mesh(path: &Path, mesh: &Mesh, format: MeshFormat) -> Result<()> {
     write_mesh_with(path, mesh, &MeshData::default(), format)
 }
@@ -162,73 +172,191 @@ pub fn write_mesh(path: &Path, mesh: &Mesh, format: MeshFormat) -> Result<()> {
 /// and glTF both, OBJ and OFF (COFF) colours, PLY triangle labels; STL positions only).
 ///
 /// # Errors
-/// As [`write_mesh`]; [`Error::InvalidInput`] when the data does not have one entry per vertex.
+/// As [`Batch::write_mesh`] and [`Batch::commit`].
 pub fn write_mesh_with(path: &Path, mesh: &Mesh, data: &MeshData, format: MeshFormat) -> Result<()> {
-    if !data.fits(mesh) {
-        return Err(Error::InvalidInput(format!("{}: vertex data does not match the mesh", path.display())));
-    }
-    match format {
-        #[cfg(feature = "ply")]
-        MeshFormat::Ply => write_atomic(path, |w| write::ply::write_ply_with(w, mesh, data, false)),
-        #[cfg(feature = "ply")]
-        MeshFormat::PlyAscii => write_atomic(path, |w| write::ply::write_ply_with(w, mesh, data, true)),
-        #[cfg(feature = "obj")]
-        MeshFormat::Obj => write_atomic(path, |w| write::obj::write_obj_with(w, mesh, data)),
-        #[cfg(feature = "stl")]
-        MeshFormat::Stl => write_atomic(path, |w| write::stl::write_stl(w, mesh)),
-        #[cfg(feature = "stl")]
-        MeshFormat::StlAscii => write_atomic(path, |w| write::stl::write_stl_ascii(w, mesh)),
-        #[cfg(feature = "off")]
-        MeshFormat::Off => write_atomic(path, |w| write::off::write_off_with(w, mesh, data)),
-        MeshFormat::Glb | MeshFormat::Gltf => {
-            write_gltf(path, &[NamedMesh { name: "isosurface", mesh, data }], format == MeshFormat::Glb)
-        }
-        #[allow(unreachable_patterns)]
-        f => Err(Error::Unsupported {
-            path: path.to_path_buf(),
-            detail: format!("{} support is not compiled in", f.name()),
-        }),
-    }
+    let batch = Batch::new();
+    batch.write_mesh(path, mesh, data, format)?;
+    batch.commit()
 }
 
 /// Renders `mesh` into a PNG file (atomic); see [`render::render`].
 ///
 /// # Errors
-/// [`Error::Io`] when the file cannot be written.
+/// As [`Batch::write_render`] and [`Batch::commit`].
 #[cfg(feature = "png")]
 pub fn write_render(path: &Path, mesh: &Mesh, colors: Option<&[[u8; 3]]>, opts: &render::RenderOptions) -> Result<()> {
-    let img = render::render(mesh, colors, opts);
-    let size = opts.size.map(|s| s.clamp(1, render::MAX_SIDE));
-    write_atomic(path, |w| render::write_png(w, &img, size))
+    let batch = Batch::new();
+    batch.write_render(path, mesh, colors, opts)?;
+    batch.commit()
 }
 
 /// Writes several meshes into one OBJ file, one object (`o NAME`) each. Atomic.
 ///
 /// # Errors
-/// As [`write_mesh`].
+/// As [`Batch::write_obj_objects`] and [`Batch::commit`].
 #[cfg(feature = "obj")]
 pub fn write_obj_objects(path: &Path, meshes: &[NamedMesh]) -> Result<()> {
-    write_atomic(path, |w| write::obj::write_obj_objects(w, meshes))
+    let batch = Batch::new();
+    batch.write_obj_objects(path, meshes)?;
+    batch.commit()
 }
 
 /// Writes several meshes into one glTF file (`binary`: .glb; else .gltf beside a .bin of the same
-/// stem), one mesh and node each. Both files are written atomically, the buffer first.
+/// stem), one mesh and node each. Both files appear together or not at all.
 ///
 /// # Errors
-/// [`Error::Io`] when a file cannot be written; [`Error::InvalidInput`] for an empty mesh.
+/// As [`Batch::write_gltf`] and [`Batch::commit`].
 pub fn write_gltf(path: &Path, meshes: &[NamedMesh], binary: bool) -> Result<()> {
-    if let Some(m) = meshes.iter().find(|m| m.mesh.positions.is_empty() || !m.data.fits(m.mesh)) {
-        return Err(Error::InvalidInput(format!(
-            "{}: mesh {:?} is empty or its vertex data does not match",
-            path.display(),
-            m.name
-        )));
+    let batch = Batch::new();
+    batch.write_gltf(path, meshes, binary)?;
+    batch.commit()
+}
+
+/// Whether the glTF JSON at `gltf` names `bin` as its buffer (`"uri": "NAME.bin"`), i.e. `bin`
+/// belongs to it and may be replaced along with it.
+fn gltf_owns_buffer(gltf: &Path, bin: &Path) -> bool {
+    let Some(name) = bin.file_name().map(|n| n.to_string_lossy().into_owned()) else { return false };
+    let ctx = error::Ctx::new(gltf, "glTF");
+    file::read_all(ctx, gltf, 64 << 20).is_ok_and(|json| {
+        let json = String::from_utf8_lossy(&json);
+        json.contains("\"uri\"") && json.contains(&format!("\"{name}\""))
+    })
+}
+
+/// Writers that fill a [`Batch`]: nothing appears before [`Batch::commit`].
+impl Batch {
+    /// Reserves the files a mesh written to `path` in `format` produces ([`MeshFormat::files`]:
+    /// a `.gltf` comes with a `.bin` buffer beside it). An existing `.bin` is replaced only when
+    /// the existing `.gltf` names it as its buffer (a previous run); otherwise it belongs to
+    /// something else and the write is refused.
+    ///
+    /// # Errors
+    /// As [`Batch::reserve`]; [`Error::InvalidInput`] for an unrelated existing `.bin`.
+    pub fn reserve_mesh(&self, path: &Path, format: MeshFormat, role: &str) -> Result<()> {
+        if format == MeshFormat::Gltf {
+            let bin = MeshFormat::gltf_buffer(path);
+            if bin.exists() && !gltf_owns_buffer(path, &bin) {
+                return Err(Error::InvalidInput(format!(
+                    "{}: {role} writes its buffer to {}, which exists and is not the buffer of {}; remove it or choose another name",
+                    path.display(),
+                    bin.display(),
+                    path.display()
+                )));
+            }
+        }
+        for (file, file_role) in format.outputs(path, role) {
+            self.reserve(&file, &file_role)?;
+        }
+        Ok(())
     }
-    if binary {
-        return write_atomic(path, |w| write::gltf::write_glb(w, meshes));
+
+    /// Writes `mesh` (with `data`) to `path` in `format`.
+    ///
+    /// # Errors
+    /// [`Error::InvalidInput`] when the data does not have one entry per vertex;
+    /// [`Error::Unsupported`] when the format is not compiled in; as [`Batch::write`].
+    pub fn write_mesh(&self, path: &Path, mesh: &Mesh, data: &MeshData, format: MeshFormat) -> Result<()> {
+        if !data.fits(mesh) {
+            return Err(Error::InvalidInput(format!("{}: vertex data does not match the mesh", path.display())));
+        }
+        match format {
+            #[cfg(feature = "ply")]
+            MeshFormat::Ply => self.write(path, |w| write::ply::write_ply_with(w, mesh, data, false)),
+            #[cfg(feature = "ply")]
+            MeshFormat::PlyAscii => self.write(path, |w| write::ply::write_ply_with(w, mesh, data, true)),
+            #[cfg(feature = "obj")]
+            MeshFormat::Obj => self.write(path, |w| write::obj::write_obj_with(w, mesh, data)),
+            #[cfg(feature = "stl")]
+            MeshFormat::Stl => self.write(path, |w| write::stl::write_stl(w, mesh)),
+            #[cfg(feature = "stl")]
+            MeshFormat::StlAscii => self.write(path, |w| write::stl::write_stl_ascii(w, mesh)),
+            #[cfg(feature = "off")]
+            MeshFormat::Off => self.write(path, |w| write::off::write_off_with(w, mesh, data)),
+            MeshFormat::Glb | MeshFormat::Gltf => {
+                self.write_gltf(path, &[NamedMesh { name: "isosurface", mesh, data }], format == MeshFormat::Glb)
+            }
+            #[allow(unreachable_patterns)]
+            f => Err(Error::Unsupported {
+                path: path.to_path_buf(),
+                detail: format!("{} support is not compiled in", f.name()),
+            }),
+        }
     }
-    let bin = path.with_extension("bin");
-    let uri = bin.file_name().map(|n| n.to_string_lossy().into_owned()).unwrap_or_default();
-    write_atomic(&bin, |w| write::gltf::write_gltf_bin(w, meshes))?;
-    write_atomic(path, |w| write::gltf::write_gltf_json(w, meshes, &uri))
+
+    /// Writes several meshes into one glTF file (`binary`: .glb; else .gltf and its .bin, see
+    /// [`Batch::reserve_mesh`]), one mesh and node each.
+    ///
+    /// # Errors
+    /// [`Error::InvalidInput`] for an empty mesh or an unrelated existing `.bin`; as [`Batch::write`].
+    pub fn write_gltf(&self, path: &Path, meshes: &[NamedMesh], binary: bool) -> Result<()> {
+        if let Some(m) = meshes.iter().find(|m| m.mesh.positions.is_empty() || !m.data.fits(m.mesh)) {
+            return Err(Error::InvalidInput(format!(
+                "{}: mesh {:?} is empty or its vertex data does not match",
+                path.display(),
+                m.name
+            )));
+        }
+        if binary {
+            return self.write(path, |w| write::gltf::write_glb(w, meshes));
+        }
+        let bin = MeshFormat::gltf_buffer(path);
+        if !self.paths().contains(&bin) {
+            self.reserve_mesh(path, MeshFormat::Gltf, "the output")?;
+        }
+        let uri = bin.file_name().map(|n| n.to_string_lossy().into_owned()).unwrap_or_default();
+        self.write(&bin, |w| write::gltf::write_gltf_bin(w, meshes))?;
+        self.write(path, |w| write::gltf::write_gltf_json(w, meshes, &uri))
+    }
+
+    /// Writes several meshes into one OBJ file, one object (`o NAME`) each.
+    ///
+    /// # Errors
+    /// As [`Batch::write`].
+    #[cfg(feature = "obj")]
+    pub fn write_obj_objects(&self, path: &Path, meshes: &[NamedMesh]) -> Result<()> {
+        self.write(path, |w| write::obj::write_obj_objects(w, meshes))
+    }
+
+    /// Renders `mesh` into a PNG file; see [`render::render`].
+    ///
+    /// # Errors
+    /// As [`Batch::write`].
+    #[cfg(feature = "png")]
+    pub fn write_render(
+        &self,
+        path: &Path,
+        mesh: &Mesh,
+        colors: Option<&[[u8; 3]]>,
+        opts: &render::RenderOptions,
+    ) -> Result<()> {
+        let img = render::render(mesh, colors, opts);
+        let size = opts.size.map(|s| s.clamp(1, render::MAX_SIDE));
+        self.write(path, |w| render::write_png(w, &img, size))
+    }
+
+    /// Writes a volume, choosing the format by extension: `.nrrd` (gzip-encoded), `.nii`, `.nii.gz`.
+    ///
+    /// # Errors
+    /// [`Error::Unsupported`] for another extension, or NIfTI-1 dims above 32767; as [`Batch::write`].
+    #[cfg(all(feature = "nrrd", feature = "nifti"))]
+    pub fn write_volume(&self, path: &Path, grid: &AnyGrid) -> Result<()> {
+        let unsupported = |detail: String| Err(Error::Unsupported { path: path.to_path_buf(), detail });
+        match VolumeFormat::from_path(path) {
+            Some(VolumeFormat::Nrrd) => self.write(path, |w| write::volume::write_nrrd(w, grid, true)),
+            Some(VolumeFormat::Nifti) => {
+                let dims = grid.lattice().dims();
+                if dims.iter().any(|&d| d > i16::MAX as u32) {
+                    return unsupported(format!(
+                        "dims {dims:?}: NIfTI-1 stores dims as 16-bit integers (at most 32767)"
+                    ));
+                }
+                let name = path.to_string_lossy().to_ascii_lowercase();
+                if name.ends_with(".hdr") {
+                    return unsupported("write a single-file .nii or .nii.gz (not .hdr/.img pairs)".into());
+                }
+                self.write(path, |w| write::volume::write_nifti(w, grid, name.ends_with(".gz")))
+            }
+            _ => unsupported("volumes are written as .nrrd, .nii or .nii.gz".into()),
+        }
+    }
 }

@@ -1,6 +1,7 @@
 //! Shared steps of the volume readers: size checks before allocation, decompression to an exact
 //! size, byte decoding in the sample's own type, and the non-finite check.
 
+use std::io::{BufRead, Read};
 use std::path::Path;
 
 use isoforge::grid::{AnyGrid, DType, DenseGrid, Lattice, Sample};
@@ -23,13 +24,9 @@ pub(crate) fn sample_bytes(ctx: Ctx, dims: [u32; 3], dtype: DType, limits: &Limi
     usize::try_from(bytes).map_err(|_| ctx.limit("samples", bytes, usize::MAX as u64))
 }
 
-/// Reads a whole file whose size must not exceed `max` bytes.
+/// Reads a whole regular file whose size must not exceed `max` bytes.
 pub(crate) fn read_file(ctx: Ctx, path: &Path, max: u64) -> Result<Vec<u8>> {
-    let len = std::fs::metadata(path).map_err(|e| ctx.io(e))?.len();
-    if len > max {
-        return Err(ctx.limit("the file", len, max));
-    }
-    std::fs::read(path).map_err(|e| ctx.io(e))
+    crate::file::read_all(ctx, path, max)
 }
 
 /// Decodes exactly `lattice.num_points()` samples of `dtype` and rejects non-finite values.
@@ -82,19 +79,38 @@ pub(crate) fn find_header_end(bytes: &[u8], max_header: usize) -> Option<usize> 
     })
 }
 
-/// Builds a lattice from file geometry, naming the file in errors.
+/// Builds a lattice from file geometry; errors name the file and the header `fields` the
+/// geometry came from (e.g. "space directions, space origin").
 pub(crate) fn lattice(
     ctx: Ctx,
+    fields: &str,
     dims: [u32; 3],
     spacing: [f64; 3],
     origin: [f64; 3],
     direction: Option<[[f64; 3]; 3]>,
 ) -> Result<Lattice> {
-    let l = Lattice::with_geometry(dims, spacing, origin).map_err(|e| ctx.lib(e))?;
+    let l = Lattice::with_geometry(dims, spacing, origin).map_err(|e| ctx.bad(format!("{fields}: {e}")))?;
     match direction {
-        Some(d) => l.with_direction(d).map_err(|e| ctx.unsupported(e)),
+        Some(d) => l.with_direction(d).map_err(|e| ctx.unsupported(format!("{fields}: {e}"))),
         None => Ok(l),
     }
+}
+
+/// Checks spacings read from header `field`: finite and positive. An axis with a single point
+/// has no spacing to speak of (no coordinate depends on it): any value there becomes 1.
+pub(crate) fn spacings(ctx: Ctx, field: &str, dims: [u32; 3], values: [f64; 3]) -> Result<[f64; 3]> {
+    let mut out = values;
+    for a in 0..3 {
+        if dims[a] == 1 && !(values[a].is_finite() && values[a] > 0.0) {
+            out[a] = 1.0;
+        } else if !(values[a].is_finite() && values[a] > 0.0) {
+            return Err(ctx.bad(format!(
+                "{field} {values:?}: the spacing of axis {a} is {}; spacings must be finite and positive",
+                values[a]
+            )));
+        }
+    }
+    Ok(out)
 }
 
 /// Splits a 3×3 matrix given as three axis vectors into spacings (lengths) and unit directions.
@@ -102,7 +118,10 @@ pub(crate) fn split_axes(axes: [[f64; 3]; 3]) -> Option<([f64; 3], [[f64; 3]; 3]
     let mut spacing = [0.0; 3];
     let mut dir = [[0.0; 3]; 3];
     for a in 0..3 {
-        let len = (axes[a][0] * axes[a][0] + axes[a][1] * axes[a][1] + axes[a][2] * axes[a][2]).sqrt();
+        // Scaled so huge (1e308) or tiny components do not overflow or vanish when squared.
+        let scale = axes[a].iter().fold(0.0f64, |m, x| m.max(x.abs()));
+        let unit = axes[a].map(|x| x / scale);
+        let len = scale * (unit[0] * unit[0] + unit[1] * unit[1] + unit[2] * unit[2]).sqrt();
         if !(len.is_finite() && len > 0.0) {
             return None;
         }
@@ -112,38 +131,73 @@ pub(crate) fn split_axes(axes: [[f64; 3]; 3]) -> Option<([f64; 3], [[f64; 3]; 3]
     Some((spacing, dir))
 }
 
-/// Parses whitespace- or comma-separated ASCII samples into little-endian bytes of `dtype`.
-pub(crate) fn ascii_to_bytes(ctx: Ctx, data: &[u8], dims: [u32; 3], dtype: DType) -> Result<Vec<u8>> {
-    let text =
-        std::str::from_utf8(data).map_err(|e| ctx.bad(format!("ASCII data: byte {} is not text", e.valid_up_to())))?;
-    let n = dims.iter().map(|&d| d as usize).product::<usize>();
-    let mut out = Vec::with_capacity(n * dtype.size());
-    let mut count = 0usize;
-    for tok in text.split(|c: char| c.is_whitespace() || c == ',').filter(|t| !t.is_empty()) {
-        if count == n {
-            break;
+/// The longest ASCII sample accepted (digits, sign, exponent): longer tokens are not numbers.
+const MAX_TOKEN: usize = 512;
+
+/// Parses whitespace- or comma-separated ASCII samples from `r` straight into a grid on
+/// `lattice` (read as a stream: memory is the grid, not the text), then rejects non-finite ones.
+/// Reading stops after the samples the lattice needs.
+pub(crate) fn ascii_grid(ctx: Ctx, r: impl Read, lattice: Lattice, dtype: DType) -> Result<AnyGrid> {
+    fn go<S: Sample + std::str::FromStr>(ctx: Ctx, r: impl Read, lattice: Lattice) -> Result<AnyGrid>
+    where
+        AnyGrid: From<DenseGrid<S>>,
+    {
+        let n = lattice.num_points() as usize;
+        let mut data: Vec<S> = Vec::with_capacity(n);
+        let mut tok: Vec<u8> = Vec::with_capacity(64);
+        let mut r = std::io::BufReader::with_capacity(1 << 16, r);
+        let bad = |count: usize, tok: &[u8]| {
+            ctx.bad(format!("ASCII data: value {} {:?} is not a {}", count + 1, String::from_utf8_lossy(tok), S::DTYPE))
+        };
+        let mut end = false;
+        while data.len() < n && !end {
+            let buf = r
+                .fill_buf()
+                .map_err(|e| ctx.bad(format!("ASCII data: unreadable after {} values: {e}", data.len())))?;
+            end = buf.is_empty();
+            let available = buf.len();
+            let mut used = 0;
+            // At the end of the stream one pass over an empty buffer ends the last token.
+            for &b in buf.iter().chain(end.then_some(&b' ')) {
+                used += 1;
+                if !(b.is_ascii_whitespace() || b == b',') {
+                    if tok.len() == MAX_TOKEN {
+                        return Err(bad(data.len(), &tok));
+                    }
+                    tok.push(b);
+                } else if !tok.is_empty() {
+                    let v = std::str::from_utf8(&tok).ok().and_then(|t| t.parse::<S>().ok());
+                    data.push(v.ok_or_else(|| bad(data.len(), &tok))?);
+                    tok.clear();
+                    if data.len() == n {
+                        break;
+                    }
+                }
+            }
+            r.consume(used.min(available));
         }
-        let bad = || ctx.bad(format!("ASCII data: value {} {tok:?} is not a {dtype}", count + 1));
-        macro_rules! put {
-            ($t:ty) => {{
-                let v: $t = tok.parse().map_err(|_| bad())?;
-                out.extend_from_slice(&v.to_le_bytes());
-            }};
+        if data.len() < n {
+            return Err(ctx.bad(format!("ASCII data has {} values, the header declares {n}", data.len())));
         }
-        match dtype {
-            DType::U8 => put!(u8),
-            DType::I8 => put!(i8),
-            DType::U16 => put!(u16),
-            DType::I16 => put!(i16),
-            DType::U32 => put!(u32),
-            DType::I32 => put!(i32),
-            DType::F32 => put!(f32),
-            _ => put!(f64),
+        let grid = DenseGrid::new(lattice, data).map_err(|e| ctx.lib(e))?;
+        if let Some(nf) = grid.first_non_finite() {
+            let [i, j, k] = nf.ijk;
+            return Err(ctx.bad(format!(
+                "sample ({i}, {j}, {k}) is {}: volumes must be finite (replace or mask such samples before meshing)",
+                nf.value
+            )));
         }
-        count += 1;
+        Ok(grid.into())
     }
-    if count < n {
-        return Err(ctx.bad(format!("ASCII data has {count} values, the header declares {n}")));
+    match dtype {
+        DType::U8 => go::<u8>(ctx, r, lattice),
+        DType::I8 => go::<i8>(ctx, r, lattice),
+        DType::U16 => go::<u16>(ctx, r, lattice),
+        DType::I16 => go::<i16>(ctx, r, lattice),
+        DType::U32 => go::<u32>(ctx, r, lattice),
+        DType::I32 => go::<i32>(ctx, r, lattice),
+        DType::F32 => go::<f32>(ctx, r, lattice),
+        DType::F64 => go::<f64>(ctx, r, lattice),
+        other => Err(ctx.unsupported(format!("ASCII samples of type {other}"))),
     }
-    Ok(out)
 }

@@ -15,11 +15,41 @@ pub(crate) fn check_mesh_size(ctx: Ctx, vertices: u64, triangles: u64, limits: &
     }
 }
 
-/// Appends polygon `poly` (already 0-based, validated) as a triangle fan.
-pub(crate) fn push_fan(mesh: &mut Mesh, poly: &[u32]) {
+/// Bytes a mesh takes in memory (positions and triangles), as [`check_mesh_size`] counts them.
+fn mesh_bytes(vertices: usize, triangles: usize) -> u64 {
+    (vertices as u64).saturating_add(triangles as u64).saturating_mul(12)
+}
+
+/// Appends polygon `poly` (already 0-based, validated) as a triangle fan, refusing to grow the
+/// mesh past the limit (polygons can make more triangles than a header's face count says).
+pub(crate) fn push_fan(ctx: Ctx, mesh: &mut Mesh, poly: &[u32], limits: &Limits) -> Result<()> {
+    let add = poly.len().saturating_sub(2);
+    let bytes = mesh_bytes(mesh.positions.len(), mesh.triangles.len() + add);
+    if bytes > limits.max_bytes {
+        return Err(ctx.limit(
+            format!("{} vertices and {} triangles", mesh.positions.len(), mesh.triangles.len() + add),
+            bytes,
+            limits.max_bytes,
+        ));
+    }
     for i in 1..poly.len().saturating_sub(1) {
         mesh.triangles.push([poly[0], poly[i], poly[i + 1]]);
     }
+    Ok(())
+}
+
+/// Appends vertex `p`, refusing to grow the mesh past the limit.
+pub(crate) fn push_vertex(ctx: Ctx, mesh: &mut Mesh, p: [f32; 3], limits: &Limits) -> Result<()> {
+    let bytes = mesh_bytes(mesh.positions.len() + 1, mesh.triangles.len());
+    if bytes > limits.max_bytes {
+        return Err(ctx.limit(
+            format!("{} vertices and {} triangles", mesh.positions.len() + 1, mesh.triangles.len()),
+            bytes,
+            limits.max_bytes,
+        ));
+    }
+    mesh.positions.push(p);
+    Ok(())
 }
 
 /// A finite coordinate or an error naming where it was found.

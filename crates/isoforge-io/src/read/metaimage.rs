@@ -1,11 +1,9 @@
 //! MetaImage (`.mha` with `ElementDataFile = LOCAL`, `.mhd` with a separate data file): raw or
 //! zlib-compressed, either byte order, spacing, offset and `TransformMatrix`.
 
-use std::path::Path;
+use std::path::{Path, PathBuf};
 
 use isoforge::grid::{AnyGrid, DType};
-
-use std::io::Read;
 
 use super::decode;
 use super::stream::{open_data, Compression, VolumeReader};
@@ -30,12 +28,7 @@ pub fn read_metaimage(path: &Path, limits: &Limits) -> Result<AnyGrid> {
 /// than the header declares.
 pub fn open_metaimage(path: &Path, limits: &Limits) -> Result<VolumeReader> {
     let ctx = Ctx::new(path, "MetaImage");
-    let mut head = Vec::new();
-    std::fs::File::open(path)
-        .map_err(|e| ctx.io(e))?
-        .take(MAX_HEADER_BYTES as u64)
-        .read_to_end(&mut head)
-        .map_err(|e| ctx.io(e))?;
+    let head = crate::file::read_prefix(ctx, path, MAX_HEADER_BYTES as u64)?;
     let mut h = Header::default();
     let mut offset = 0usize;
     let mut line_no = 0usize;
@@ -76,7 +69,8 @@ pub fn open_metaimage(path: &Path, limits: &Limits) -> Result<VolumeReader> {
         None => None,
     };
     let lattice =
-        decode::lattice(ctx, dims, h.spacing, h.origin, direction)?.with_space(Some(isoforge::grid::WorldSpace::Lps));
+        decode::lattice(ctx, "ElementSpacing, Offset, TransformMatrix", dims, h.spacing, h.origin, direction)?
+            .with_space(Some(isoforge::grid::WorldSpace::Lps));
     let compression = if h.compressed { Compression::Zlib } else { Compression::None };
     if data_file.eq_ignore_ascii_case("LOCAL") {
         let start = data_start.unwrap_or(head.len()) as u64;
@@ -88,7 +82,7 @@ pub fn open_metaimage(path: &Path, limits: &Limits) -> Result<VolumeReader> {
     }
     let external = path.parent().unwrap_or(Path::new(".")).join(&data_file);
     let dctx = Ctx::new(&external, "MetaImage data");
-    let len = std::fs::metadata(&external).map_err(|e| dctx.io(e))?.len();
+    let len = crate::file::open(dctx, &external)?.len;
     let skip = match h.header_size {
         Some(-1) if !h.compressed => len.saturating_sub(need),
         Some(n) if n >= 0 => n as u64,
@@ -214,6 +208,20 @@ impl Header {
         }
         Ok(false)
     }
+}
+
+/// The external data file a `.mhd` header names (`ElementDataFile = NAME`), if any.
+pub(crate) fn data_file(path: &Path) -> Option<PathBuf> {
+    let head = crate::file::read_prefix(Ctx::new(path, "MetaImage"), path, MAX_HEADER_BYTES as u64).ok()?;
+    let text = String::from_utf8_lossy(&head).into_owned();
+    let value = text.lines().find_map(|l| {
+        let (k, v) = l.split_once('=')?;
+        (k.trim() == "ElementDataFile").then(|| v.trim().to_string())
+    })?;
+    if value.eq_ignore_ascii_case("LOCAL") || value.starts_with("LIST") || value.contains('%') {
+        return None;
+    }
+    Some(path.parent().unwrap_or(Path::new(".")).join(value))
 }
 
 fn parse_bool(s: &str) -> Option<bool> {

@@ -1,7 +1,8 @@
 //! MRC2014 / CCP4 maps (cryo-EM, crystallography): modes 0 (int8), 1 (int16), 2 (float32),
 //! 6 (uint16) and 12 (float16, widened to float32); little- or big-endian (machine stamp).
 //!
-//! Geometry: voxel size = cell length / sampling (`CELLA / MX`, in Å); origin = the `ORIGIN`
+//! Geometry: voxel size = cell length / sampling (`CELLA / MX`, in Å; a cell length of 0 means
+//! "not set" and gives unit voxels, negative or non-finite ones are refused); origin = the `ORIGIN`
 //! fields when set (MRC2014), else the start indices times the voxel size (CCP4); axes in file
 //! order (`MAPC MAPR MAPS` = 1 2 3; other orders are refused rather than guessed). The extended
 //! header (`NSYMBT` bytes) is skipped.
@@ -27,8 +28,7 @@ const HEADER: usize = 1024;
 pub fn open_mrc(path: &Path, limits: &Limits) -> Result<VolumeReader> {
     let ctx = Ctx::new(path, "MRC");
     let mut h = [0u8; HEADER];
-    let mut f = std::fs::File::open(path).map_err(|e| ctx.io(e))?;
-    let len = f.metadata().map_err(|e| ctx.io(e))?.len();
+    let crate::file::Input { file: mut f, len } = crate::file::open(ctx, path)?;
     if len < HEADER as u64 {
         return Err(ctx.bad(format!("the file has {len} bytes; an MRC header alone has {HEADER}")));
     }
@@ -73,23 +73,37 @@ pub fn open_mrc(path: &Path, limits: &Limits) -> Result<VolumeReader> {
     }
     let sampling = [i(28), i(32), i(36)];
     let cell = [fl(40), fl(44), fl(48)];
+    // Voxel size = CELLA / M. A cell length of 0 means "not set" (many writers leave it so):
+    // unit voxels then. Anything else must be a finite positive length over a positive count.
     let mut spacing = [1.0; 3];
+    let (cella, m) = (["CELLA.X", "CELLA.Y", "CELLA.Z"], ["MX", "MY", "MZ"]);
     for a in 0..3 {
-        if sampling[a] > 0 && cell[a].is_finite() && cell[a] > 0.0 {
-            spacing[a] = cell[a] / sampling[a] as f64;
+        if cell[a] == 0.0 {
+            continue;
         }
+        if !(cell[a].is_finite() && cell[a] > 0.0) {
+            return Err(ctx
+                .bad(format!("{} = {}: cell lengths must be finite and positive (or 0: not set)", cella[a], cell[a])));
+        }
+        if sampling[a] <= 0 {
+            return Err(ctx.bad(format!(
+                "{} = {} with {} = {}: the sampling must be positive to give a voxel size",
+                m[a], sampling[a], cella[a], cell[a]
+            )));
+        }
+        spacing[a] = cell[a] / sampling[a] as f64;
     }
     let start = [i(16), i(20), i(24)];
     let stored = [fl(196), fl(200), fl(204)];
-    let origin = if stored.iter().any(|&o| o != 0.0) && stored.iter().all(|o| o.is_finite()) {
-        stored
-    } else {
-        [0, 1, 2].map(|a| start[a] as f64 * spacing[a])
-    };
+    if let Some(o) = stored.iter().find(|o| !o.is_finite()) {
+        return Err(ctx.bad(format!("ORIGIN {stored:?}: {o} is not a finite coordinate")));
+    }
+    let origin =
+        if stored.iter().any(|&o| o != 0.0) { stored } else { [0, 1, 2].map(|a| start[a] as f64 * spacing[a]) };
     let n = dims.iter().map(|&d| d as u64).product::<u64>();
     let need = n.checked_mul(file_bytes).ok_or_else(|| ctx.bad(format!("dims {dims:?}: the size overflows")))?;
     decode::sample_bytes(ctx, dims, dtype, limits)?;
-    let lattice = decode::lattice(ctx, dims, spacing, origin, None)?;
+    let lattice = decode::lattice(ctx, "CELLA / MX MY MZ, ORIGIN", dims, spacing, origin, None)?;
     let offset = HEADER as u64 + nsymbt as u64;
     let mut data = open_data(ctx, path, offset, Compression::None, need, "map data")?;
     if mode != 12 {

@@ -2,7 +2,9 @@
 //! `scl_inter`, and the sform (preferred) or qform to world coordinates, as nibabel chooses.
 //!
 //! Hand-written (348-byte fixed header) so every size is checked before allocating and no byte
-//! pattern can panic. World coordinates are NIfTI's RAS+ scanner space.
+//! pattern can panic. World coordinates are NIfTI's RAS+ scanner space. Voxel sizes
+//! `pixdim[1..3]` (qform and pixdim-only methods) must be finite and positive; a negative `qfac`
+//! (`pixdim[0]`) flips the third axis, as the standard says.
 
 use std::path::Path;
 
@@ -32,13 +34,13 @@ pub fn read_nifti(path: &Path, limits: &Limits) -> Result<AnyGrid> {
 /// A [`crate::Error`] naming the header field and value, or data shorter than declared.
 pub fn open_nifti(path: &Path, limits: &Limits) -> Result<VolumeReader> {
     let ctx = Ctx::new(path, "NIfTI");
-    let mut file = std::fs::File::open(path).map_err(|e| ctx.io(e))?;
+    let crate::file::Input { mut file, len } = crate::file::open(ctx, path)?;
     let mut magic = [0u8; 2];
-    let n = file.read(&mut magic).map_err(|e| ctx.io(e))?;
+    let n = (&mut file).take(2).read(&mut magic).map_err(|e| ctx.io(e))?;
     let gz = n == 2 && magic == [0x1f, 0x8b];
-    let file = std::fs::File::open(path).map_err(|e| ctx.io(e))?;
+    std::io::Seek::rewind(&mut file).map_err(|e| ctx.io(e))?;
     let mut stream = stream::wrap(
-        std::io::BufReader::with_capacity(1 << 20, file),
+        std::io::BufReader::with_capacity(1 << 20, file.take(len)),
         if gz { Compression::Gzip } else { Compression::None },
         "data",
     );
@@ -56,7 +58,7 @@ pub fn open_nifti(path: &Path, limits: &Limits) -> Result<VolumeReader> {
     }
     let h = Header::parse(ctx, &head)?;
     let need = decode::sample_bytes(ctx, h.dims, h.dtype, limits)? as u64;
-    let lattice = decode::lattice(ctx, h.dims, h.spacing, h.origin, Some(h.direction))?
+    let lattice = decode::lattice(ctx, h.geometry, h.dims, h.spacing, h.origin, Some(h.direction))?
         .with_space(Some(isoforge::grid::WorldSpace::Ras));
     let reader = if h.magic_pair {
         let img = path.with_extension("img");
@@ -83,6 +85,8 @@ struct Header {
     vox_offset: usize,
     scale: Option<(f64, f64)>,
     magic_pair: bool,
+    /// Where the geometry came from ("sform", "qform", "pixdim"), for messages.
+    geometry: &'static str,
 }
 
 struct Bytes<'a> {
@@ -175,6 +179,23 @@ impl Header {
             return Err(ctx.bad(format!("bitpix {bitpix} does not match datatype {code} ({dtype})")));
         }
         let pix = |i: usize| b.f32(76 + 4 * i);
+        // Voxel sizes for the qform and for the pixdim-only method: finite and positive; an axis
+        // with one point has no size to speak of (1). A flip lives in qfac or in the sform.
+        let voxel_sizes = || -> Result<[f64; 3]> {
+            let mut s = [1.0; 3];
+            for a in 0..3 {
+                let v = pix(a + 1);
+                if v.is_finite() && v > 0.0 {
+                    s[a] = v;
+                } else if dims[a] > 1 {
+                    return Err(ctx.bad(format!(
+                        "pixdim[{}] = {v}: voxel sizes must be finite and positive (NIfTI stores a flip in qfac = pixdim[0] or in the sform)",
+                        a + 1
+                    )));
+                }
+            }
+            Ok(s)
+        };
         let vox = b.f32(108);
         if !(vox.is_finite() && vox >= 0.0 && vox <= (1u64 << 32) as f64) {
             return Err(ctx.bad(format!("vox_offset {vox}: must be a non-negative byte offset")));
@@ -201,12 +222,15 @@ impl Header {
                 [2.0 * (qb * qc + qa * qd), qa * qa + qc * qc - qb * qb - qd * qd, 2.0 * (qc * qd - qa * qb)],
                 [2.0 * (qb * qd - qa * qc), 2.0 * (qc * qd + qa * qb), qa * qa + qd * qd - qc * qc - qb * qb],
             ];
+            // qfac = pixdim[0]: negative for a left-handed index frame (the third axis flipped),
+            // as nifti1_io reads it; 0 and positive values mean 1.
             let qfac = if pix(0) < 0.0 { -1.0 } else { 1.0 };
-            let s = [pix(1).abs(), pix(2).abs(), pix(3).abs() * qfac];
+            let v = voxel_sizes()?;
+            let s = [v[0], v[1], v[2] * qfac];
             let axes = [0, 1, 2].map(|c| [r[0][c] * s[c], r[1][c] * s[c], r[2][c] * s[c]]);
             (axes, [b.f32(268), b.f32(272), b.f32(276)], "qform")
         } else {
-            let s = [1, 2, 3].map(|i| if pix(i) > 0.0 && pix(i).is_finite() { pix(i) } else { 1.0 });
+            let s = voxel_sizes()?;
             ([[s[0], 0.0, 0.0], [0.0, s[1], 0.0], [0.0, 0.0, s[2]]], [0.0; 3], "pixdim")
         };
         let (axes, origin, source) = axes_origin;
@@ -215,6 +239,17 @@ impl Header {
         if origin.iter().any(|o| !o.is_finite()) {
             return Err(ctx.bad(format!("{source}: origin {origin:?} is not finite")));
         }
-        Ok(Header { dims, dtype, big_endian: big, spacing, origin, direction, vox_offset, scale, magic_pair })
+        Ok(Header {
+            dims,
+            dtype,
+            big_endian: big,
+            spacing,
+            origin,
+            direction,
+            vox_offset,
+            scale,
+            magic_pair,
+            geometry: source,
+        })
     }
 }

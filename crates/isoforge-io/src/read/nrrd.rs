@@ -2,7 +2,8 @@
 //! `spacings`, `space directions`, `space origin`, `byte skip`, `line skip`.
 //!
 //! World coordinates are the file's own space (`space` is kept as given, e.g. LPS for DICOM-derived
-//! volumes). 2D images are read as one z-slab.
+//! volumes). 2D images are read as one z-slab. Spacings must be finite and positive (a flip
+//! belongs in `space directions`); `nan`, the format's "no spacing known", gives unit spacing.
 
 use std::path::{Path, PathBuf};
 
@@ -35,13 +36,14 @@ pub fn read_nrrd(path: &Path, limits: &Limits) -> Result<AnyGrid> {
 /// shorter than the header declares.
 pub fn open_nrrd(path: &Path, limits: &Limits) -> Result<VolumeReader> {
     let ctx = Ctx::new(path, "NRRD");
-    let head = read_prefix(ctx, path, MAX_HEADER_BYTES)?;
+    let head = crate::file::read_prefix(ctx, path, MAX_HEADER_BYTES as u64)?;
     let header_end = header_end(&head);
     let header_text = std::str::from_utf8(&head[..header_end.min(head.len())])
         .map_err(|e| ctx.bad(format!("byte {}: header is not text", e.valid_up_to())))?;
     let h = Header::parse(ctx, header_text)?;
     let need = decode::sample_bytes(ctx, h.dims, h.dtype, limits)? as u64;
-    let lattice = decode::lattice(ctx, h.dims, h.spacing, h.origin, h.direction)?.with_space(h.space);
+    let lattice =
+        decode::lattice(ctx, &h.geometry_fields, h.dims, h.spacing, h.origin, h.direction)?.with_space(h.space);
 
     // The data: after the header, or in the detached file.
     let (data_path, mut offset) = match &h.data_file {
@@ -52,14 +54,13 @@ pub fn open_nrrd(path: &Path, limits: &Limits) -> Result<VolumeReader> {
     offset = skip_lines(dctx, &data_path, offset, h.line_skip)?;
     match h.encoding {
         Encoding::Ascii => {
-            let all = decode::read_file(dctx, &data_path, limits.max_bytes.saturating_mul(8))?;
-            let text = all.get(offset as usize..).unwrap_or(&[]);
-            let bytes = decode::ascii_to_bytes(dctx, text, h.dims, h.dtype)?;
-            let grid = crate::read::decode::decode(dctx, lattice, h.dtype, false, &bytes)?;
+            let crate::file::Input { mut file, len } = crate::file::open(dctx, &data_path)?;
+            std::io::Seek::seek(&mut file, std::io::SeekFrom::Start(offset.min(len))).map_err(|e| dctx.io(e))?;
+            let grid = decode::ascii_grid(dctx, file.take(len.saturating_sub(offset)), lattice, h.dtype)?;
             Ok(VolumeReader::decoded(dctx, grid))
         }
         Encoding::Raw => {
-            let len = std::fs::metadata(&data_path).map_err(|e| dctx.io(e))?.len();
+            let len = crate::file::open(dctx, &data_path)?.len;
             offset = match h.byte_skip {
                 ByteSkip::Bytes(n) => offset.saturating_add(n as u64),
                 ByteSkip::FromEnd => len.checked_sub(need).ok_or_else(|| {
@@ -80,12 +81,16 @@ pub fn open_nrrd(path: &Path, limits: &Limits) -> Result<VolumeReader> {
     }
 }
 
-/// The first `max` bytes of a file (all of it when shorter).
-fn read_prefix(ctx: Ctx, path: &Path, max: usize) -> Result<Vec<u8>> {
-    let file = std::fs::File::open(path).map_err(|e| ctx.io(e))?;
-    let mut head = Vec::new();
-    file.take(max as u64).read_to_end(&mut head).map_err(|e| ctx.io(e))?;
-    Ok(head)
+/// The detached data file a header names (`data file: NAME`), if any; `None` when the header
+/// cannot be read (the reader reports why).
+pub(crate) fn data_file(path: &Path) -> Option<PathBuf> {
+    let head = crate::file::read_prefix(Ctx::new(path, "NRRD"), path, MAX_HEADER_BYTES as u64).ok()?;
+    let text = String::from_utf8_lossy(&head[..header_end(&head)]).into_owned();
+    let found = decode::numbered_lines(&text).take_while(|(_, l)| !l.is_empty()).find_map(|(_, l)| {
+        let (field, value) = l.split_once(": ")?;
+        matches!(field.to_ascii_lowercase().as_str(), "data file" | "datafile").then(|| resolve(path, value.trim()))
+    });
+    found
 }
 
 fn header_end(bytes: &[u8]) -> usize {
@@ -106,9 +111,9 @@ fn skip_lines(ctx: Ctx, path: &Path, offset: u64, n: usize) -> Result<u64> {
     if n == 0 {
         return Ok(offset);
     }
-    let mut file = std::fs::File::open(path).map_err(|e| ctx.io(e))?;
+    let crate::file::Input { mut file, len } = crate::file::open(ctx, path)?;
     std::io::Seek::seek(&mut file, std::io::SeekFrom::Start(offset)).map_err(|e| ctx.io(e))?;
-    let mut r = std::io::BufReader::new(file);
+    let mut r = std::io::BufReader::new(file.take(len.saturating_sub(offset)));
     let mut pos = offset;
     let mut line = Vec::new();
     for i in 0..n {
@@ -147,6 +152,8 @@ struct Header {
     byte_skip: ByteSkip,
     line_skip: usize,
     space: Option<WorldSpace>,
+    /// The header fields the geometry came from, for messages.
+    geometry_fields: String,
 }
 
 impl Header {
@@ -222,7 +229,7 @@ impl Header {
                 }
                 "spacings" => {
                     let v: Option<Vec<f64>> = value.split_whitespace().map(|t| t.parse().ok()).collect();
-                    spacings = Some(v.ok_or_else(|| bad("spacings must be numbers"))?);
+                    spacings = Some((no, v.ok_or_else(|| bad("spacings must be numbers"))?));
                 }
                 "space directions" => {
                     let mut v = Vec::new();
@@ -239,7 +246,7 @@ impl Header {
                             .ok_or_else(|| bad("vectors must have 3 numbers"))?;
                         v.push([n[0], n[1], n[2]]);
                     }
-                    directions = Some(v);
+                    directions = Some((no, v));
                 }
                 "space origin" => {
                     let inner = value
@@ -249,7 +256,7 @@ impl Header {
                     let n: Vec<f64> = decode::parse_numbers(inner)
                         .filter(|n: &Vec<f64>| n.len() == 3 && n.iter().all(|x| x.is_finite()))
                         .ok_or_else(|| bad("must be 3 finite numbers"))?;
-                    origin = Some([n[0], n[1], n[2]]);
+                    origin = Some((no, [n[0], n[1], n[2]]));
                 }
                 "data file" | "datafile" => {
                     if value.starts_with("LIST") || value.split_whitespace().count() > 1 {
@@ -294,28 +301,38 @@ impl Header {
         let mut spacing = [1.0; 3];
         let mut direction = None;
         let mut origin3 = [0.0; 3];
-        if let Some(dirs) = directions {
+        let mut fields: Vec<String> = Vec::new();
+        if let Some((no, dirs)) = directions {
             if dirs.len() != dimension {
-                return Err(ctx.bad(format!("space directions has {} vectors for {dimension} axes", dirs.len())));
+                return Err(
+                    ctx.bad(format!("line {no}: space directions has {} vectors for {dimension} axes", dirs.len()))
+                );
             }
             let mut axes = [[1.0, 0.0, 0.0], [0.0, 1.0, 0.0], [0.0, 0.0, 1.0]];
             axes[..dimension].copy_from_slice(&dirs);
-            let (s, d) = decode::split_axes(axes)
-                .ok_or_else(|| ctx.bad("space directions: every vector must be finite and non-zero"))?;
+            let (s, d) = decode::split_axes(axes).ok_or_else(|| {
+                ctx.bad(format!("line {no}: space directions {dirs:?}: every vector must be finite and non-zero"))
+            })?;
             spacing = s;
             direction = Some(d);
-        } else if let Some(sp) = spacings {
+            fields.push(format!("line {no}: space directions"));
+        } else if let Some((no, sp)) = spacings {
             if sp.len() != dimension {
-                return Err(ctx.bad(format!("spacings has {} values for {dimension} axes", sp.len())));
+                return Err(ctx.bad(format!("line {no}: spacings has {} values for {dimension} axes", sp.len())));
             }
+            // NRRD writes "nan" for an axis without spacing information: unit spacing there.
+            // Anything else must be a finite positive distance (a flip belongs in "space directions").
             for (a, &s) in sp.iter().enumerate() {
-                if s.is_finite() && s != 0.0 {
-                    spacing[a] = s.abs();
-                }
+                spacing[a] = if s.is_nan() { 1.0 } else { s };
             }
+            let mut dims3 = [1u32; 3];
+            dims3[..dimension].copy_from_slice(&sizes);
+            spacing = decode::spacings(ctx, &format!("line {no}: spacings"), dims3, spacing)?;
+            fields.push(format!("line {no}: spacings"));
         }
-        if let Some(o) = origin {
+        if let Some((no, o)) = origin {
             origin3 = o;
+            fields.push(format!("line {no}: space origin"));
         }
         Ok(Header {
             dims,
@@ -329,6 +346,7 @@ impl Header {
             byte_skip,
             line_skip,
             space,
+            geometry_fields: if fields.is_empty() { "sizes".to_string() } else { fields.join(", ") },
         })
     }
 }

@@ -6,7 +6,7 @@ use std::path::Path;
 use isoforge::mesh::Mesh;
 
 use super::decode;
-use super::mesh_text::{coord, push_fan};
+use super::mesh_text::{coord, push_fan, push_vertex};
 use crate::error::{Ctx, Result};
 use crate::limits::Limits;
 
@@ -31,7 +31,7 @@ pub fn read_obj(path: &Path, limits: &Limits) -> Result<Mesh> {
                         t.parse().map_err(|_| ctx.bad(format!("line {no}: coordinate {:?} is not a number", t)))?;
                     *slot = coord(ctx, v, || format!("line {no}, coordinate {a}"))?;
                 }
-                mesh.positions.push(p);
+                push_vertex(ctx, &mut mesh, p, limits)?;
             }
             Some("f") => {
                 poly.clear();
@@ -51,7 +51,7 @@ pub fn read_obj(path: &Path, limits: &Limits) -> Result<Mesh> {
                 if poly.len() < 3 {
                     return Err(ctx.bad(format!("line {no}: face has {} vertices, at least 3 are needed", poly.len())));
                 }
-                push_fan(&mut mesh, &poly);
+                push_fan(ctx, &mut mesh, &poly, limits)?;
             }
             _ => {}
         }

@@ -82,7 +82,7 @@ pub fn read_off(path: &Path, limits: &Limits) -> Result<Mesh> {
             }
             poly.push(i as u32);
         }
-        push_fan(&mut mesh, &poly);
+        push_fan(ctx, &mut mesh, &poly, limits)?;
     }
     Ok(mesh)
 }

@@ -6,7 +6,7 @@ use std::path::Path;
 use isoforge::mesh::Mesh;
 
 use super::decode;
-use super::mesh_text::{check_mesh_size, coord, push_fan};
+use super::mesh_text::{check_mesh_size, coord, push_fan, push_vertex};
 use crate::error::{Ctx, Result};
 use crate::limits::Limits;
 
@@ -136,28 +136,30 @@ pub fn read_ply(path: &Path, limits: &Limits) -> Result<Mesh> {
     let (nv, nf) = (count("vertex"), count("face"));
     check_mesh_size(ctx, nv, nf, limits)?;
     let body = &bytes[body_start.min(bytes.len())..];
-    // Each binary instance needs at least its fixed-size bytes: catches absurd counts before allocating.
-    if let Format::Binary { .. } = format {
-        let min: u64 = elements
+    // Every declared count is bounded by the body before any loop runs: each instance needs at
+    // least its fixed-size bytes (binary) or a character and a separator per value (ASCII).
+    // This catches absurd counts (`element junk 18446744073709551615`) before allocating or looping.
+    let min_instance = |e: &Element| -> u64 {
+        e.props
             .iter()
-            .map(|e| {
-                e.count.saturating_mul(
-                    e.props
-                        .iter()
-                        .map(|p| match p {
-                            Prop::Scalar(t, _) => t.size() as u64,
-                            Prop::List(c, _, _) => c.size() as u64,
-                        })
-                        .sum(),
-                )
+            .map(|p| match (format, p) {
+                (Format::Binary { .. }, Prop::Scalar(t, _)) => t.size() as u64,
+                (Format::Binary { .. }, Prop::List(c, _, _)) => c.size() as u64,
+                (Format::Ascii, _) => 2,
             })
-            .fold(0u64, |a, b| a.saturating_add(b));
-        if min > body.len() as u64 {
-            return Err(ctx.bad(format!(
-                "body has {} bytes, the header's elements need at least {min} (truncated file?)",
-                body.len()
-            )));
-        }
+            .sum()
+    };
+    let mut min = 0u64;
+    for e in &elements {
+        min = min.saturating_add(e.count.saturating_mul(min_instance(e)));
+    }
+    // An ASCII file may end without a newline after its last value.
+    let slack = u64::from(format == Format::Ascii);
+    if min > (body.len() as u64).saturating_add(slack) {
+        return Err(ctx.bad(format!(
+            "body has {} bytes, the header's element counts need at least {min} (truncated file or absurd count?)",
+            body.len()
+        )));
     }
     let mut src = Source { ctx, format, body, pos: 0 };
     let mut mesh = Mesh::default();
@@ -171,6 +173,9 @@ pub fn read_ply(path: &Path, limits: &Limits) -> Result<Mesh> {
             .collect();
         if el.name == "vertex" && xyz.iter().any(|p| p.is_none()) {
             return Err(ctx.bad("element vertex lacks an x, y or z property"));
+        }
+        if el.props.is_empty() {
+            continue; // instances without properties occupy no bytes: nothing to read
         }
         for idx in 0..el.count {
             let mut p = [0.0f64; 3];
@@ -206,14 +211,15 @@ pub fn read_ply(path: &Path, limits: &Limits) -> Result<Mesh> {
                                     ctx.bad(format!("face {idx} has {} vertices, at least 3 are needed", poly.len()))
                                 );
                             }
-                            push_fan(&mut mesh, &poly);
+                            push_fan(ctx, &mut mesh, &poly, limits)?;
                         }
                     }
                 }
             }
             if el.name == "vertex" {
                 let what = || format!("vertex {idx}");
-                mesh.positions.push([coord(ctx, p[0], what)?, coord(ctx, p[1], what)?, coord(ctx, p[2], what)?]);
+                let p = [coord(ctx, p[0], what)?, coord(ctx, p[1], what)?, coord(ctx, p[2], what)?];
+                push_vertex(ctx, &mut mesh, p, limits)?;
             }
         }
     }

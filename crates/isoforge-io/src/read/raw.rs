@@ -40,8 +40,9 @@ impl RawSpec {
 pub fn open_raw(path: &Path, spec: &RawSpec, limits: &Limits) -> Result<VolumeReader> {
     let ctx = Ctx::new(path, "raw");
     let need = decode::sample_bytes(ctx, spec.dims, spec.dtype, limits)? as u64;
-    let lattice = decode::lattice(ctx, spec.dims, spec.spacing, spec.origin, None)?;
-    let len = std::fs::metadata(path).map_err(|e| ctx.io(e))?.len();
+    let spacing = decode::spacings(ctx, "spacing", spec.dims, spec.spacing)?;
+    let lattice = decode::lattice(ctx, "spacing, origin", spec.dims, spacing, spec.origin, None)?;
+    let len = crate::file::open(ctx, path)?.len;
     let expected = spec.header_bytes.saturating_add(need);
     if len != expected {
         let [x, y, z] = spec.dims;

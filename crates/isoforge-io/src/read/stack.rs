@@ -60,57 +60,71 @@ pub fn open_image_stack(dir: &Path, files: Vec<PathBuf>, limits: &Limits) -> Res
             )));
         }
     }
-    let mut slices: Vec<AnyGrid> = Vec::with_capacity(numbered.len());
-    let mut total = 0u64;
-    for (_, f) in &numbered {
+    // The first slice fixes size and type; the total is checked before the others are read,
+    // and each slice is appended as it is read (memory: the volume and one slice).
+    let count = numbered.len() as u32;
+    let mut acc: Option<AnyGrid> = None;
+    let mut first_dims = [0u32; 3];
+    for (z, (_, f)) in numbered.iter().enumerate() {
         let g = crate::open_volume(f, limits)?.read_grid(limits)?;
-        if let Some(first) = slices.first() {
-            let (a, b) = (first.lattice().dims(), g.lattice().dims());
-            if a != b || first.dtype() != g.dtype() {
-                return Err(Ctx::new(f, "image stack").bad(format!(
-                    "{} x {} x {} {} differs from the first slice's {} x {} x {} {}",
-                    b[0],
-                    b[1],
-                    b[2],
-                    g.dtype(),
-                    a[0],
-                    a[1],
-                    a[2],
-                    first.dtype()
-                )));
+        let dims = g.lattice().dims();
+        let Some(all) = &mut acc else {
+            if dims[2] != 1 {
+                return Err(Ctx::new(f, "image stack").bad("a multi-page TIFF in a slice folder: one image per file"));
             }
-        } else if g.lattice().dims()[2] != 1 {
-            return Err(Ctx::new(f, "image stack").bad("a multi-page TIFF in a slice folder: one image per file"));
+            let total = g.lattice().num_points().saturating_mul(g.dtype().size() as u64).saturating_mul(count as u64);
+            if total > limits.max_bytes {
+                return Err(ctx.limit(
+                    format!("{count} slices of {} x {} {}", dims[0], dims[1], g.dtype()),
+                    total,
+                    limits.max_bytes,
+                ));
+            }
+            first_dims = dims;
+            let n = g.lattice().num_points() as usize * count as usize;
+            macro_rules! start {
+                ($($v:ident),*) => {
+                    match g {
+                        $( AnyGrid::$v(grid) => {
+                            let mut data = grid.into_data();
+                            data.reserve_exact(n.saturating_sub(data.len()));
+                            AnyGrid::$v(DenseGrid::new(Lattice::new([dims[0], dims[1], 1]).map_err(|e| ctx.lib(e))?, data).map_err(|e| ctx.lib(e))?)
+                        } )*
+                    }
+                };
+            }
+            acc = Some(start!(U8, I8, U16, I16, U32, I32, F32, F64));
+            continue;
+        };
+        if dims != first_dims || all.dtype() != g.dtype() {
+            return Err(Ctx::new(f, "image stack").bad(format!(
+                "{} x {} x {} {} differs from the first slice's {} x {} x {} {}",
+                dims[0],
+                dims[1],
+                dims[2],
+                g.dtype(),
+                first_dims[0],
+                first_dims[1],
+                first_dims[2],
+                all.dtype()
+            )));
         }
-        total += g.lattice().num_points() * g.dtype().size() as u64;
-        if total > limits.max_bytes {
-            return Err(ctx.limit(format!("{} slices", numbered.len()), total, limits.max_bytes));
-        }
-        slices.push(g);
-    }
-    let [w, h, _] = slices[0].lattice().dims();
-    let lattice = Lattice::new([w, h, slices.len() as u32]).map_err(|e| ctx.lib(e))?;
-    macro_rules! stack {
-        ($v:ident) => {{
-            let mut data = Vec::with_capacity(lattice.num_points() as usize);
-            for s in &slices {
-                if let AnyGrid::$v(g) = s {
-                    data.extend_from_slice(g.data());
+        let lattice = Lattice::new([dims[0], dims[1], z as u32 + 1]).map_err(|e| ctx.lib(e))?;
+        macro_rules! append {
+            ($($v:ident),*) => {
+                match (acc.take(), g) {
+                    $( (Some(AnyGrid::$v(a)), AnyGrid::$v(b)) => {
+                        let mut data = a.into_data();
+                        data.extend_from_slice(b.data());
+                        AnyGrid::$v(DenseGrid::new(lattice, data).map_err(|e| ctx.lib(e))?)
+                    } )*
+                    _ => return Err(ctx.bad("slices of different sample types")),
                 }
-            }
-            AnyGrid::$v(DenseGrid::new(lattice, data).map_err(|e| ctx.lib(e))?)
-        }};
+            };
+        }
+        acc = Some(append!(U8, I8, U16, I16, U32, I32, F32, F64));
     }
-    let grid = match &slices[0] {
-        AnyGrid::U8(_) => stack!(U8),
-        AnyGrid::I8(_) => stack!(I8),
-        AnyGrid::U16(_) => stack!(U16),
-        AnyGrid::I16(_) => stack!(I16),
-        AnyGrid::U32(_) => stack!(U32),
-        AnyGrid::I32(_) => stack!(I32),
-        AnyGrid::F32(_) => stack!(F32),
-        AnyGrid::F64(_) => stack!(F64),
-    };
+    let grid = acc.ok_or_else(|| ctx.bad("no image slices"))?;
     Ok(VolumeReader::decoded(ctx, grid))
 }
 

@@ -7,7 +7,7 @@ use std::path::Path;
 use isoforge::mesh::Mesh;
 
 use super::decode;
-use super::mesh_text::{check_mesh_size, coord};
+use super::mesh_text::{check_mesh_size, coord, push_fan};
 use crate::error::{Ctx, Result};
 use crate::limits::Limits;
 
@@ -60,7 +60,7 @@ pub fn read_stl(path: &Path, limits: &Limits) -> Result<Mesh> {
                                 ctx.bad(format!("line {no}: facet has {} vertices, STL facets have 3", corner.len()))
                             );
                         }
-                        w.mesh.triangles.push([corner[0], corner[1], corner[2]]);
+                        push_fan(ctx, &mut w.mesh, &corner, limits)?;
                         corner.clear();
                     }
                     _ => {}

@@ -2,7 +2,6 @@
 //! are read straight into the grid's storage ([`VolumeReader::read_grid`], one buffer, no copy);
 //! out-of-core extraction reads one z-slab at a time ([`VolumeReader::read_slab`]).
 
-use std::fs::File;
 use std::io::{BufReader, Read, Seek, SeekFrom};
 use std::path::{Path, PathBuf};
 
@@ -11,6 +10,7 @@ use isoforge::walk::Progress;
 
 use super::decode;
 use crate::error::{Ctx, Error, Result};
+use crate::file::Input;
 use crate::limits::Limits;
 
 /// Bytes read between two progress reports.
@@ -303,8 +303,10 @@ pub(crate) struct StreamSpec {
     pub what: &'static str,
 }
 
-/// Opens `path` at byte `offset`, wrapped in a decompressor; the stream must hold `need`
-/// uncompressed bytes, which is checked against the file size at once when uncompressed.
+/// Opens the regular file `path` at byte `offset`, wrapped in a decompressor; the stream must
+/// hold `need` uncompressed bytes, which is checked against the file size at once when
+/// uncompressed. No more than `need` bytes (uncompressed) or the rest of the file (compressed)
+/// is ever read from it.
 pub(crate) fn open_data(
     ctx: Ctx,
     path: &Path,
@@ -313,8 +315,7 @@ pub(crate) fn open_data(
     need: u64,
     what: &'static str,
 ) -> Result<StreamSpec> {
-    let mut file = File::open(path).map_err(|e| ctx.io(e))?;
-    let len = file.metadata().map_err(|e| ctx.io(e))?.len();
+    let Input { mut file, len } = crate::file::open(ctx, path)?;
     if offset > len {
         return Err(ctx.bad(format!("{what} starts at byte {offset}, past the end of the {len}-byte file")));
     }
@@ -325,7 +326,8 @@ pub(crate) fn open_data(
         )));
     }
     file.seek(SeekFrom::Start(offset)).map_err(|e| ctx.io(e))?;
-    let buffered = BufReader::with_capacity(1 << 20, file);
+    let available = if compression == Compression::None { need } else { len - offset };
+    let buffered = BufReader::with_capacity(1 << 20, file.take(available));
     Ok(wrap(buffered, compression, what))
 }
 

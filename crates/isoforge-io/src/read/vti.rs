@@ -23,10 +23,10 @@ use crate::limits::Limits;
 /// [`Error::Limit`](crate::Error::Limit) when the volume exceeds `limits`.
 pub fn open_vti(path: &Path, limits: &Limits) -> Result<VolumeReader> {
     let ctx = Ctx::new(path, "VTI");
-    let bytes = decode::read_file(ctx, path, limits.max_bytes.saturating_mul(4).saturating_add(1 << 20))?;
+    let bytes = decode::read_file(ctx, path, max_file_bytes(limits))?;
     // The XML part ends where raw appended data begins.
     let xml_end = find(&bytes, b"<AppendedData").map_or(bytes.len(), |p| p);
-    let xml = String::from_utf8_lossy(&bytes[..xml_end]).into_owned();
+    let xml = String::from_utf8_lossy(&bytes[..xml_end]);
     let root = tag(&xml, "VTKFile").ok_or_else(|| ctx.bad("no <VTKFile> element"))?;
     let file_type = attr(&root, "type").unwrap_or_default();
     if file_type != "ImageData" {
@@ -53,8 +53,18 @@ pub fn open_vti(path: &Path, limits: &Limits) -> Result<VolumeReader> {
         }
         dims[a] = n as u32;
     }
-    let origin0 = numbers(ctx, &image, "Origin", 3).unwrap_or_else(|_| vec![0.0; 3]);
-    let spacing = numbers(ctx, &image, "Spacing", 3).unwrap_or_else(|_| vec![1.0; 3]);
+    // Absent: the defaults; present: three finite numbers, spacings positive.
+    let origin0 = match attr(&image, "Origin") {
+        Some(_) => numbers(ctx, &image, "Origin", 3)?,
+        None => vec![0.0; 3],
+    };
+    let spacing = match attr(&image, "Spacing") {
+        Some(_) => {
+            let v = numbers(ctx, &image, "Spacing", 3)?;
+            decode::spacings(ctx, "ImageData Spacing", dims, [v[0], v[1], v[2]])?.to_vec()
+        }
+        None => vec![1.0; 3],
+    };
     let direction = match attr(&image, "Direction") {
         Some(_) => {
             let d = numbers(ctx, &image, "Direction", 9)?;
@@ -74,6 +84,7 @@ pub fn open_vti(path: &Path, limits: &Limits) -> Result<VolumeReader> {
         }
     }
     // The array: the PointData's `Scalars`, else the first DataArray of PointData.
+    let xml: &str = &xml;
     let pd_start = xml.find("<PointData").ok_or_else(|| ctx.bad("no <PointData> element"))?;
     let pd = &xml[pd_start..xml[pd_start..].find("</PointData>").map_or(xml.len(), |e| pd_start + e)];
     let scalars = tag(pd, "PointData").and_then(|t| attr(&t, "Scalars"));
@@ -83,7 +94,7 @@ pub fn open_vti(path: &Path, limits: &Limits) -> Result<VolumeReader> {
         let open_end = rest[p..].find('>').map(|e| p + e + 1).ok_or_else(|| ctx.bad("unterminated <DataArray>"))?;
         let head = rest[p..open_end].to_string();
         let body_end = rest[open_end..].find("</DataArray>").map_or(rest.len(), |e| open_end + e);
-        arrays.push((head, rest[open_end..body_end].to_string()));
+        arrays.push((head, &rest[open_end..body_end]));
         rest = &rest[body_end..];
     }
     let (head, body) = arrays
@@ -113,6 +124,7 @@ pub fn open_vti(path: &Path, limits: &Limits) -> Result<VolumeReader> {
     let need = decode::sample_bytes(ctx, dims, dtype, limits)?;
     let lattice = decode::lattice(
         ctx,
+        "ImageData Spacing, Origin, Direction",
         dims,
         [spacing[0], spacing[1], spacing[2]],
         [origin0[0], origin0[1], origin0[2]],
@@ -120,14 +132,13 @@ pub fn open_vti(path: &Path, limits: &Limits) -> Result<VolumeReader> {
     )?;
     let format = attr(head, "format").unwrap_or_default();
     let hsize = if header64 { 8 } else { 4 };
-    let payload: Vec<u8> = match format.as_str() {
-        "ascii" => {
-            let raw = decode::ascii_to_bytes(ctx, body.as_bytes(), dims, dtype)?;
-            return Ok(VolumeReader::decoded(ctx, decode::decode(ctx, lattice, dtype, false, &raw)?));
-        }
+    let grid = |payload: &[u8]| decode::decode(ctx, lattice.clone(), dtype, big, &payload[..need]);
+    let grid = match format.as_str() {
+        "ascii" => decode::ascii_grid(ctx, body.as_bytes(), lattice.clone(), dtype)?,
         "binary" => {
-            let data = base64(body.trim()).ok_or_else(|| ctx.bad(format!("DataArray {name:?}: invalid base64")))?;
-            unpack(ctx, &data, hsize, big, compressed, need)?
+            let data = base64(body.trim(), payload_bound(compressed, hsize, need))
+                .ok_or_else(|| ctx.bad(format!("DataArray {name:?}: invalid base64")))?;
+            grid(&unpack(ctx, &data, hsize, big, compressed, need)?)?
         }
         "appended" => {
             let offset: usize = attr(head, "offset")
@@ -149,24 +160,48 @@ pub fn open_vti(path: &Path, limits: &Limits) -> Result<VolumeReader> {
                 ctx.bad(format!("DataArray {name:?} offset {offset} is past the end of the appended data"))
             })?;
             match attr(&app_head, "encoding").as_deref() {
-                Some("raw") => unpack(ctx, &bytes[at..], hsize, big, compressed, need)?,
+                Some("raw") => grid(&unpack(ctx, &bytes[at..], hsize, big, compressed, need)?)?,
                 Some("base64") => {
                     let end = find(&bytes[at..], b"</AppendedData>").map_or(bytes.len(), |e| at + e);
-                    let text = String::from_utf8_lossy(&bytes[at..end]).into_owned();
-                    let data = base64(text.trim()).ok_or_else(|| ctx.bad("AppendedData: invalid base64"))?;
-                    unpack(ctx, &data, hsize, big, compressed, need)?
+                    let text = String::from_utf8_lossy(&bytes[at..end]);
+                    let data = base64(text.trim(), payload_bound(compressed, hsize, need))
+                        .ok_or_else(|| ctx.bad("AppendedData: invalid base64"))?;
+                    grid(&unpack(ctx, &data, hsize, big, compressed, need)?)?
                 }
                 e => return Err(ctx.unsupported(format!("AppendedData encoding {e:?}: raw or base64 are supported"))),
             }
         }
         f => return Err(ctx.bad(format!("DataArray {name:?} format {f:?}: expected ascii, binary or appended"))),
     };
-    Ok(VolumeReader::decoded(ctx, decode::decode(ctx, lattice, dtype, big, &payload[..need])?))
+    Ok(VolumeReader::decoded(ctx, grid))
+}
+
+/// The largest `.vti` file read into memory: twice the sample limit (text encodings take more
+/// room than the samples) and 1 MiB of XML.
+fn max_file_bytes(limits: &Limits) -> u64 {
+    limits.max_bytes.saturating_mul(2).saturating_add(1 << 20)
+}
+
+/// How many decoded bytes of a base64 array are needed: the header and the samples when
+/// uncompressed; everything when compressed (the block sizes say how much).
+fn payload_bound(compressed: bool, hsize: usize, need: usize) -> usize {
+    if compressed {
+        usize::MAX
+    } else {
+        hsize.saturating_add(need)
+    }
 }
 
 /// The samples behind a VTK binary header: `[nbytes]` then the data, or, compressed,
 /// `[nblocks, block size, last block size, compressed sizes…]` then zlib blocks.
-fn unpack(ctx: Ctx, data: &[u8], hsize: usize, big: bool, compressed: bool, need: usize) -> Result<Vec<u8>> {
+fn unpack<'d>(
+    ctx: Ctx,
+    data: &'d [u8],
+    hsize: usize,
+    big: bool,
+    compressed: bool,
+    need: usize,
+) -> Result<std::borrow::Cow<'d, [u8]>> {
     let word = |i: usize| -> Result<u64> {
         let b = data.get(i * hsize..(i + 1) * hsize).ok_or_else(|| ctx.bad("binary data ends inside its header"))?;
         Ok(match (hsize, big) {
@@ -184,7 +219,7 @@ fn unpack(ctx: Ctx, data: &[u8], hsize: usize, big: bool, compressed: bool, need
         let body = data.get(hsize..hsize + need).ok_or_else(|| {
             ctx.bad(format!("binary data ends after {} of the {need} bytes", data.len().saturating_sub(hsize)))
         })?;
-        return Ok(body.to_vec());
+        return Ok(std::borrow::Cow::Borrowed(body));
     }
     let blocks = word(0)? as usize;
     if blocks > 1 << 24 {
@@ -193,6 +228,9 @@ fn unpack(ctx: Ctx, data: &[u8], hsize: usize, big: bool, compressed: bool, need
     let mut out = Vec::with_capacity(need);
     let mut pos = hsize * (3 + blocks);
     for b in 0..blocks {
+        if out.len() > need {
+            break; // enough samples; the rest is not read
+        }
         let csize = word(3 + b)? as usize;
         let chunk = data
             .get(pos..pos.saturating_add(csize))
@@ -206,7 +244,7 @@ fn unpack(ctx: Ctx, data: &[u8], hsize: usize, big: bool, compressed: bool, need
     if out.len() < need {
         return Err(ctx.bad(format!("compressed data holds {} of the {need} bytes", out.len())));
     }
-    Ok(out)
+    Ok(std::borrow::Cow::Owned(out))
 }
 
 fn find(hay: &[u8], needle: &[u8]) -> Option<usize> {
@@ -256,8 +294,9 @@ fn numbers(ctx: Ctx, tag: &str, name: &str, n: usize) -> Result<Vec<f64>> {
     }
 }
 
-/// Decodes base64 text made of one or more padded chunks (VTK encodes headers and data apart).
-fn base64(text: &str) -> Option<Vec<u8>> {
+/// Decodes base64 text made of one or more padded chunks (VTK encodes headers and data apart),
+/// stopping once `max` bytes are decoded.
+fn base64(text: &str, max: usize) -> Option<Vec<u8>> {
     let val = |c: u8| -> Option<u32> {
         Some(match c {
             b'A'..=b'Z' => c - b'A',
@@ -268,12 +307,25 @@ fn base64(text: &str) -> Option<Vec<u8>> {
             _ => return None,
         } as u32)
     };
-    let chars: Vec<u8> = text.bytes().filter(|b| !b.is_ascii_whitespace()).collect();
-    if chars.len() % 4 != 0 {
-        return None;
-    }
-    let mut out = Vec::with_capacity(chars.len() / 4 * 3);
-    for q in chars.chunks_exact(4) {
+    let mut chars = text.bytes().filter(|b| !b.is_ascii_whitespace());
+    let mut out = Vec::with_capacity((text.len() / 4 * 3).min(max));
+    while out.len() < max {
+        let mut q = [0u8; 4];
+        let mut got = 0;
+        for slot in &mut q {
+            match chars.next() {
+                Some(c) => {
+                    *slot = c;
+                    got += 1;
+                }
+                None => break,
+            }
+        }
+        match got {
+            0 => break,
+            4 => {}
+            _ => return None, // not a whole quad
+        }
         let pad = q.iter().rev().take_while(|&&c| c == b'=').count();
         if pad > 2 || q[..4 - pad].contains(&b'=') {
             return None;
@@ -286,6 +338,7 @@ fn base64(text: &str) -> Option<Vec<u8>> {
         let b = n.to_be_bytes();
         out.extend_from_slice(&b[1..4 - pad]);
     }
+    out.truncate(max);
     Some(out)
 }
 
@@ -295,11 +348,12 @@ mod tests {
 
     #[test]
     fn base64_chunks_and_attributes() {
-        assert_eq!(base64("TWFu").unwrap(), b"Man");
-        assert_eq!(base64("TWE=TWFu").unwrap(), b"MaMan");
-        assert_eq!(base64("TQ==").unwrap(), b"M");
-        assert!(base64("TQ=").is_none());
-        assert!(base64("T=Q=").is_none());
+        assert_eq!(base64("TWFu", usize::MAX).unwrap(), b"Man");
+        assert_eq!(base64("TWE=TWFu", usize::MAX).unwrap(), b"MaMan");
+        assert_eq!(base64("TWE=TWFu", 2).unwrap(), b"Ma");
+        assert_eq!(base64("TQ==", usize::MAX).unwrap(), b"M");
+        assert!(base64("TQ=", usize::MAX).is_none());
+        assert!(base64("T=Q=", usize::MAX).is_none());
         let t = r#"<DataArray type="Float32" Name="v" format="appended" offset="0" >"#;
         assert_eq!(attr(t, "type").as_deref(), Some("Float32"));
         assert_eq!(attr(t, "offset").as_deref(), Some("0"));

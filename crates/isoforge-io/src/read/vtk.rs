@@ -22,13 +22,7 @@ const MAX_HEADER: usize = 64 << 10;
 /// components, [`Error::Limit`](crate::Error::Limit) when the volume exceeds `limits`.
 pub fn open_vtk(path: &Path, limits: &Limits) -> Result<VolumeReader> {
     let ctx = Ctx::new(path, "VTK");
-    let head = {
-        use std::io::Read;
-        let mut f = std::fs::File::open(path).map_err(|e| ctx.io(e))?;
-        let mut buf = Vec::new();
-        f.by_ref().take(MAX_HEADER as u64).read_to_end(&mut buf).map_err(|e| ctx.io(e))?;
-        buf
-    };
+    let head = crate::file::read_prefix(ctx, path, MAX_HEADER as u64)?;
     // Lines up to and including LOOKUP_TABLE; the data starts after that line.
     let mut pos = 0usize;
     let mut line_no = 0usize;
@@ -138,13 +132,13 @@ pub fn open_vtk(path: &Path, limits: &Limits) -> Result<VolumeReader> {
         }
     }
     let need = decode::sample_bytes(ctx, dims, dtype, limits)? as u64;
-    let lattice = decode::lattice(ctx, dims, spacing, origin, None)?;
+    let lattice = decode::lattice(ctx, "SPACING, ORIGIN", dims, spacing, origin, None)?;
     if binary {
         let data = open_data(ctx, path, pos as u64, Compression::None, need, "binary data")?;
         return Ok(VolumeReader::stream(ctx, lattice, dtype, true, data));
     }
-    let bytes = decode::read_file(ctx, path, limits.max_bytes.saturating_mul(8).saturating_add(MAX_HEADER as u64))?;
-    let raw = decode::ascii_to_bytes(ctx, &bytes[pos..], dims, dtype)?;
-    let grid = decode::decode(ctx, lattice, dtype, false, &raw)?;
-    Ok(VolumeReader::decoded(ctx, grid))
+    let crate::file::Input { mut file, len } = crate::file::open(ctx, path)?;
+    std::io::Seek::seek(&mut file, std::io::SeekFrom::Start(pos as u64)).map_err(|e| ctx.io(e))?;
+    let text = std::io::Read::take(file, len.saturating_sub(pos as u64));
+    Ok(VolumeReader::decoded(ctx, decode::ascii_grid(ctx, text, lattice, dtype)?))
 }

@@ -1,10 +1,14 @@
 //! PLY writer: binary little-endian (default) or ASCII; normals as nx, ny, nz when present.
 
 use std::io::{self, Write};
+use std::path::{Path, PathBuf};
 
 use isoforge::mesh::Mesh;
 
+use crate::atomic::TempFile;
 use crate::attributes::MeshData;
+use crate::error::{Error, Result};
+use crate::Batch;
 
 /// Writes `mesh` as PLY.
 pub fn write_ply(w: &mut dyn Write, mesh: &Mesh, ascii: bool) -> io::Result<()> {
@@ -100,20 +104,33 @@ pub fn write_ply_with(w: &mut dyn Write, mesh: &Mesh, data: &MeshData, ascii: bo
 /// Width the streamed header reserves for each count, so the counts can be written at the end.
 const COUNT_WIDTH: usize = 20;
 
-/// A binary PLY written as the mesh is produced ([`isoforge::walk::MeshSink`]): vertices go to the
-/// file, triangles to a side file; [`PlyStream::finish`] appends the triangles, writes the counts
-/// into the header's reserved space and renames into place. Until then `path` is untouched, and a
-/// stream dropped unfinished removes its temporary files.
-pub struct PlyStream {
-    path: std::path::PathBuf,
-    main_tmp: std::path::PathBuf,
-    tris_tmp: std::path::PathBuf,
-    main: io::BufWriter<std::fs::File>,
-    tris: io::BufWriter<std::fs::File>,
+/// A binary PLY written as the mesh is produced ([`isoforge::mesh::MeshSink`]): vertices go to the
+/// output's temporary file, triangles to an anonymous scratch file beside it;
+/// [`PlyStream::finish`] appends the triangles and writes the counts into the header's reserved
+/// space. Nothing appears at the path before the batch commits (or, for
+/// [`PlyStream::create`], before `finish`); a stream dropped unfinished leaves nothing.
+pub struct PlyStream<'a> {
+    batch: Owner<'a>,
+    path: PathBuf,
+    main: Option<io::BufWriter<TempFile>>,
+    tris: io::BufWriter<TempFile>,
     normals: bool,
     vertices: u64,
     triangles: u64,
-    finished: bool,
+}
+
+enum Owner<'a> {
+    Own(Batch),
+    Shared(&'a Batch),
+}
+
+impl Owner<'_> {
+    fn batch(&self) -> &Batch {
+        match self {
+            Owner::Own(b) => b,
+            Owner::Shared(b) => b,
+        }
+    }
 }
 
 fn stream_header(vertices: u64, triangles: u64, normals: bool) -> String {
@@ -134,36 +151,48 @@ fn stream_header(vertices: u64, triangles: u64, normals: bool) -> String {
     h
 }
 
-impl PlyStream {
-    /// Starts writing `path` (through temporary files beside it).
+impl PlyStream<'static> {
+    /// Starts writing `path` on its own (committed by [`PlyStream::finish`]).
     ///
     /// # Errors
-    /// The files cannot be created.
-    pub fn create(path: &std::path::Path, normals: bool) -> io::Result<Self> {
-        let name = path.file_name().map(|n| n.to_string_lossy().into_owned()).unwrap_or_default();
-        let main_tmp = path.with_file_name(format!(".{name}.tmp-{}", std::process::id()));
-        let tris_tmp = path.with_file_name(format!(".{name}.faces.tmp-{}", std::process::id()));
-        let main = std::fs::File::create(&main_tmp)?;
-        let tris = match std::fs::File::create(&tris_tmp) {
-            Ok(f) => f,
-            Err(e) => {
-                let _ = std::fs::remove_file(&main_tmp);
-                return Err(e);
-            }
-        };
+    /// As [`Batch::reserve`].
+    pub fn create(path: &Path, normals: bool) -> Result<Self> {
+        let batch = Batch::new();
+        batch.reserve(path, "the output")?;
+        Self::start(Owner::Own(batch), path, normals)
+    }
+}
+
+impl<'a> PlyStream<'a> {
+    /// Starts writing `path` as an output of `batch` (reserved there first if needed); the
+    /// batch's commit moves it into place.
+    ///
+    /// # Errors
+    /// As [`Batch::reserve`].
+    pub fn create_in(batch: &'a Batch, path: &Path, normals: bool) -> Result<Self> {
+        Self::start(Owner::Shared(batch), path, normals)
+    }
+
+    fn start(batch: Owner<'a>, path: &Path, normals: bool) -> Result<Self> {
+        let io_err = |source| Error::Io { path: path.to_path_buf(), source };
+        let mut main = batch.batch().take(path)?;
+        main.reset().map_err(io_err)?;
+        let tris = TempFile::create(path).map_err(io_err)?;
         let mut s = PlyStream {
+            batch,
             path: path.to_path_buf(),
-            main_tmp,
-            tris_tmp,
-            main: io::BufWriter::with_capacity(1 << 20, main),
+            main: Some(io::BufWriter::with_capacity(1 << 20, main)),
             tris: io::BufWriter::with_capacity(1 << 20, tris),
             normals,
             vertices: 0,
             triangles: 0,
-            finished: false,
         };
-        s.main.write_all(stream_header(0, 0, normals).as_bytes())?;
+        s.main_mut().and_then(|m| m.write_all(stream_header(0, 0, normals).as_bytes())).map_err(io_err)?;
         Ok(s)
+    }
+
+    fn main_mut(&mut self) -> io::Result<&mut io::BufWriter<TempFile>> {
+        self.main.as_mut().ok_or_else(|| io::Error::other("the stream is finished"))
     }
 
     /// Appends vertices and polygons.
@@ -186,7 +215,7 @@ impl PlyStream {
                 }
             }
         }
-        self.main.write_all(&buf)?;
+        self.main_mut()?.write_all(&buf)?;
         buf.clear();
         for t in triangles {
             buf.push(3);
@@ -206,42 +235,41 @@ impl PlyStream {
         Ok(())
     }
 
-    /// Appends the triangles, writes the counts and renames the file into place.
+    /// Appends the triangles and writes the counts; then commits the file (a stream of its own)
+    /// or hands it back to its batch. Returns the vertex and triangle counts.
     ///
     /// # Errors
-    /// Writing or renaming fails (the temporary files are removed).
-    pub fn finish(mut self) -> io::Result<(u64, u64)> {
+    /// [`Error::Io`] naming the path when writing or committing fails (nothing is left behind).
+    pub fn finish(mut self) -> Result<(u64, u64)> {
         use std::io::{Seek, SeekFrom};
-        let result = (|| {
+        let path = self.path.clone();
+        let io_err = |source| Error::Io { path: path.clone(), source };
+        let mut main = self.main.take().ok_or_else(|| io_err(io::Error::other("the stream is finished")))?;
+        let mut file = (|| {
             self.tris.flush()?;
-            let mut tris = std::fs::File::open(&self.tris_tmp)?;
-            io::copy(&mut tris, &mut self.main)?;
-            self.main.flush()?;
-            let file = self.main.get_mut();
+            let tris = self.tris.get_mut();
+            tris.seek(SeekFrom::Start(0))?;
+            io::copy(tris, &mut main)?;
+            let mut file = main.into_inner().map_err(|e| e.into_error())?;
             file.seek(SeekFrom::Start(0))?;
             file.write_all(stream_header(self.vertices, self.triangles, self.normals).as_bytes())?;
-            file.sync_all()?;
-            std::fs::rename(&self.main_tmp, &self.path)
-        })();
-        self.finished = result.is_ok();
-        let _ = std::fs::remove_file(&self.tris_tmp);
-        result.map(|()| (self.vertices, self.triangles))
-    }
-}
-
-impl Drop for PlyStream {
-    fn drop(&mut self) {
-        if !self.finished {
-            let _ = std::fs::remove_file(&self.main_tmp);
-            let _ = std::fs::remove_file(&self.tris_tmp);
+            Ok(file)
+        })()
+        .map_err(io_err)?;
+        file.seek(SeekFrom::End(0)).map_err(io_err)?;
+        let batch = self.batch.batch();
+        batch.put(&path, file);
+        if let Owner::Own(b) = std::mem::replace(&mut self.batch, Owner::Own(Batch::new())) {
+            b.commit()?;
         }
+        Ok((self.vertices, self.triangles))
     }
 }
 
-impl isoforge::mesh::MeshSink for PlyStream {
+impl isoforge::mesh::MeshSink for PlyStream<'_> {
     fn push(&mut self, batch: isoforge::mesh::MeshBatch<'_>) -> Result<(), isoforge::mesh::ExternalError> {
         PlyStream::push(self, batch).map_err(|e| {
-            let msg = format!("{}: {e}", self.path.display());
+            let msg = format!("{}: {}", self.path.display(), crate::error::os_reason(&e));
             msg.into()
         })
     }

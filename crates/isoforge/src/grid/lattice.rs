@@ -44,6 +44,12 @@ pub const IDENTITY: [[f64; 3]; 3] = [[1.0, 0.0, 0.0], [0.0, 1.0, 0.0], [0.0, 0.0
 /// How far from orthonormal a direction matrix may be (dot products and lengths).
 const ORTHONORMAL_TOLERANCE: f64 = 1e-4;
 
+/// The largest world coordinate a lattice may reach: mesh vertices are `f32`.
+const MAX_COORDINATE: f64 = f32::MAX as f64;
+
+/// The smallest spacing: below it `f32` vertices collapse and gradients overflow.
+const MIN_SPACING: f64 = f32::MIN_POSITIVE as f64;
+
 impl Lattice {
     /// Largest number of points a lattice may have: linear indices must fit `usize` and `u64`.
     pub const MAX_POINTS: u64 = 1 << 40;
@@ -61,7 +67,9 @@ impl Lattice {
     ///
     /// # Errors
     /// As [`Lattice::new`], and [`Error::InvalidInput`] when a spacing is not finite and positive
-    /// or an origin is not finite.
+    /// (at least `f32::MIN_POSITIVE`), an origin is not finite, or the lattice reaches world
+    /// coordinates beyond `f32::MAX` (mesh vertices are `f32`): no lattice, whichever reader
+    /// made it, yields non-finite vertices.
     pub fn with_geometry(dims: [u32; 3], spacing: [f64; 3], origin: [f64; 3]) -> Result<Self> {
         if dims.contains(&0) {
             return Err(Error::InvalidInput(format!(
@@ -81,8 +89,22 @@ impl Lattice {
         if let Some(s) = spacing.iter().find(|s| !(s.is_finite() && **s > 0.0)) {
             return Err(Error::InvalidInput(format!("lattice spacing {s}: must be finite and positive")));
         }
+        if let Some(s) = spacing.iter().find(|s| **s < MIN_SPACING) {
+            return Err(Error::InvalidInput(format!(
+                "lattice spacing {s:e}: below {MIN_SPACING:.2e}, the smallest a mesh vertex (f32) resolves"
+            )));
+        }
         if let Some(o) = origin.iter().find(|o| !o.is_finite()) {
             return Err(Error::InvalidInput(format!("lattice origin {o}: must be finite")));
+        }
+        // Directions are orthonormal, so no coordinate of a point exceeds this in magnitude.
+        let extent: f64 = (0..3).map(|a| spacing[a] * (dims[a] as f64 - 1.0)).sum();
+        let reach = origin.iter().fold(0.0f64, |m, o| m.max(o.abs())) + extent;
+        if !(reach <= MAX_COORDINATE) {
+            return Err(Error::InvalidInput(format!(
+                "lattice of {}x{}x{} points, spacing {spacing:?}, origin {origin:?}: world coordinates reach {reach:.2e}, beyond the {MAX_COORDINATE:.1e} a mesh vertex (f32) holds",
+                dims[0], dims[1], dims[2]
+            )));
         }
         Ok(Lattice { dims, spacing, origin, direction: IDENTITY, axis_aligned: true, space: None })
     }
@@ -304,6 +326,28 @@ mod tests {
         assert!(matches!(Lattice::new([1 << 20, 1 << 20, 2]), Err(Error::Limit { .. })));
         assert!(Lattice::with_geometry([2, 2, 2], [1.0, 0.0, 1.0], [0.0; 3]).is_err());
         assert!(Lattice::with_geometry([2, 2, 2], [1.0; 3], [f64::NAN, 0.0, 0.0]).is_err());
+    }
+
+    /// Issue 10: spacing 1e308 gave inf vertices and exit 0.
+    #[test]
+    fn issue_10_world_bounds_must_fit_mesh_vertices() {
+        let e = Lattice::with_geometry([12, 12, 12], [1e308, 1.0, 1.0], [0.0; 3]).unwrap_err().to_string();
+        assert!(e.contains("world coordinates reach inf, beyond the 3.4e38 a mesh vertex (f32) holds"), "{e}");
+        let e = Lattice::with_geometry([12, 12, 12], [1e38, 1.0, 1.0], [0.0; 3]).unwrap_err().to_string();
+        assert!(e.contains("reach 1.10e39"), "{e}");
+        assert!(Lattice::with_geometry([2, 2, 2], [1e38, 1e38, 1e38], [0.0; 3]).is_ok());
+        assert!(Lattice::with_geometry([2, 2, 2], [2e38; 3], [0.0; 3]).is_err());
+        assert!(Lattice::with_geometry([2, 2, 2], [1.0; 3], [-3.3e38, 0.0, 0.0]).is_ok());
+        assert!(Lattice::with_geometry([3, 2, 2], [1e38, 1.0, 1.0], [-3.3e38, 0.0, 0.0]).is_err());
+        // One point along an axis: its spacing moves nothing.
+        assert!(Lattice::with_geometry([1, 2, 2], [1e300, 1.0, 1.0], [0.0; 3]).is_ok());
+        assert!(Lattice::with_geometry([2, 2, 2], [1e-300, 1.0, 1.0], [0.0; 3])
+            .unwrap_err()
+            .to_string()
+            .contains("1e-300"));
+        // Crops and pads go through the same check: a pad cannot push a lattice past the bound.
+        let l = Lattice::with_geometry([2, 2, 2], [1e37; 3], [3.0e38, 0.0, 0.0]).unwrap();
+        assert!(l.with_dims([4, 4, 4]).is_err());
     }
 
     #[test]
