@@ -239,6 +239,64 @@ pub const EDGE_FACES: [[u8; 2]; 12] = {
 mod range;
 mod segment;
 
+/// How cells' faces are split by diagonals (tetrahedral methods): each lattice face gets one
+/// diagonal, the same seen from both cells that share it.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash)]
+pub enum Diagonals {
+    /// From the face's lowest corner to its highest (six tetrahedra around the main diagonal).
+    MinToMax,
+    /// Between the two face corners whose lattice coordinates sum to an odd number (five
+    /// tetrahedra, mirrored from cell to cell).
+    OddCorners,
+}
+
+impl Diagonals {
+    /// The corners of the diagonal of face `f` in a cell whose corner 0 has an `odd` coordinate
+    /// sum, as in [`FACE_CORNERS`]: either its corners 0 and 2 (lowest and highest) or 1 and 3.
+    #[inline]
+    pub const fn of_face(self, f: u8, odd: bool) -> [u8; 2] {
+        let c = FACE_CORNERS[f as usize];
+        let low_high = match self {
+            Diagonals::MinToMax => true,
+            // Corners 0 and 2 of the face have `side + 0` and `side + 2` bits set: their
+            // coordinate sums have the parity of `odd + side`.
+            Diagonals::OddCorners => odd ^ (f % 2 == 1),
+        };
+        if low_high {
+            [c[0], c[2]]
+        } else {
+            [c[1], c[3]]
+        }
+    }
+}
+
+/// Segments a cell can name besides its edges, numbered after them: `12 + f` is the diagonal
+/// of face `f` (the one [`Diagonals`] picks), [`MAIN_DIAGONAL`] the diagonal from corner 0 to 7.
+pub const CELL_SEGMENTS: usize = 19;
+/// The cell segment joining corners 0 and 7.
+pub const MAIN_DIAGONAL: u8 = 18;
+
+/// The cell segment joining corners `a` and `b` under `diagonals` in a cell of parity `odd`: an
+/// edge, the split diagonal of a face, or the main diagonal; `None` for any other pair.
+pub const fn cell_segment(a: u8, b: u8, diagonals: Option<Diagonals>, odd: bool) -> Option<u8> {
+    if let Some(e) = edge_between(a, b) {
+        return Some(e.0);
+    }
+    if (a == 0 && b == 7) || (a == 7 && b == 0) {
+        return Some(MAIN_DIAGONAL);
+    }
+    let Some(d) = diagonals else { return None };
+    let mut f = 0;
+    while f < 6 {
+        let [p, q] = d.of_face(f, odd);
+        if (p == a && q == b) || (p == b && q == a) {
+            return Some(12 + f);
+        }
+        f += 1;
+    }
+    None
+}
+
 pub use range::CellRange;
 pub use segment::{CellPoint, SegmentKey, VertexKey};
 
@@ -335,6 +393,35 @@ mod tests {
             assert_eq!(EdgeKey::of_cell(other, seen), key);
         }
         assert_eq!(EdgeKey { origin: [0, 0, 0], axis: Axis::X }.in_cell([0, 2, 0]), None);
+    }
+
+    #[test]
+    fn face_diagonals_agree_between_the_two_cells_of_a_face() {
+        for d in [Diagonals::MinToMax, Diagonals::OddCorners] {
+            for odd in [false, true] {
+                for axis in 0..3u8 {
+                    // Face `2a + 1` of a cell is face `2a` of its neighbour along a (parity flips).
+                    let [p, q] = d.of_face(2 * axis + 1, odd);
+                    let [r, s] = d.of_face(2 * axis, !odd);
+                    let shift = |c: u8| c & !(1 << axis);
+                    let mut mine = [shift(p), shift(q)];
+                    let mut theirs = [r, s];
+                    mine.sort();
+                    theirs.sort();
+                    assert_eq!(mine, theirs, "{d:?} odd {odd} axis {axis}");
+                    assert_eq!(cell_segment(p, q, Some(d), odd), Some(12 + 2 * axis + 1));
+                }
+            }
+        }
+        // Five tetrahedra: the diagonals join the corners of odd coordinate sum.
+        for f in 0..6 {
+            for odd in [false, true] {
+                let [p, q] = Diagonals::OddCorners.of_face(f, odd);
+                assert!(((p.count_ones() + u32::from(odd)) % 2 == 1) && ((q.count_ones() + u32::from(odd)) % 2 == 1));
+            }
+        }
+        assert_eq!(cell_segment(0, 7, None, false), Some(MAIN_DIAGONAL));
+        assert_eq!(cell_segment(1, 6, None, false), None);
     }
 
     #[test]

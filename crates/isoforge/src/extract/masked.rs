@@ -58,10 +58,13 @@ impl<X> Masked<'_, X> {
 }
 
 impl<X: Extractor> Extractor for Masked<'_, X> {
+    const PLACES_VERTICES: bool = X::PLACES_VERTICES;
+
     // Not counted: a counted walk makes every crossed edge's vertex up front, and masked-out
     // cells would leave theirs unused (walkers that create vertices on request make none).
-    const COUNTING: Counting = Counting::Unknown;
-    const PLACES_VERTICES: bool = X::PLACES_VERTICES;
+    fn counting(&self) -> Counting {
+        Counting::Unknown
+    }
 
     #[inline]
     fn place<C: Cell>(&self, cell: &mut C) {

@@ -47,15 +47,17 @@ use crate::walk::Cell;
 pub struct MarchingCubes33;
 
 impl Extractor for MarchingCubes33 {
-    const COUNTING: Counting = Counting::Known;
+    fn counting(&self) -> Counting {
+        Counting::Known
+    }
 
     #[inline]
-    fn case_triangles(&self, case: u8) -> Option<&[[u8; 3]]> {
+    fn case_triangles(&self, case: u8, _odd: bool) -> Option<&[[u8; 3]]> {
         easy_cases()[case as usize].as_deref()
     }
 
     fn counts(&self, case: u8, ijk: [u32; 3], values: impl FnOnce() -> [f32; 8]) -> CellCounts {
-        if let Some(t) = self.case_triangles(case) {
+        if let Some(t) = self.case_triangles(case, false) {
             return CellCounts { triangles: t.len() as u16, ..Default::default() };
         }
         // The values decide: run the cell once to count what it makes.
@@ -65,7 +67,7 @@ impl Extractor for MarchingCubes33 {
     }
 
     fn process<C: Cell>(&self, cell: &mut C) {
-        match self.case_triangles(cell.case()) {
+        match self.case_triangles(cell.case(), false) {
             Some(t) => {
                 for &[a, b, c] in t {
                     let v = [a, b, c].map(|e| cell.edge_vertex(CubeEdge(e)));
@@ -751,12 +753,12 @@ mod tests {
                 MarchingCubes33.process(&mut processed);
                 assert_eq!(processed.counts, general.counts, "case {case} {d:?}");
                 assert_eq!(MarchingCubes33.counts(case, [3, 4, 5], || d), general.counts, "case {case}");
-                if let Some(t) = MarchingCubes33.case_triangles(case) {
+                if let Some(t) = MarchingCubes33.case_triangles(case, false) {
                     assert_eq!(t, &general.triangles[..], "case {case} {d:?}");
                     assert_eq!(general.counts.placed, 0);
                 }
             }
-            easy += usize::from(MarchingCubes33.case_triangles(case).is_some());
+            easy += usize::from(MarchingCubes33.case_triangles(case, false).is_some());
         }
         // 0 and 255 have nothing to tabulate; the ambiguous and two-patch cases go by values.
         assert_eq!(easy, 126, "easy cases");

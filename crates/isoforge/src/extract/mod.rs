@@ -32,7 +32,7 @@ pub use squares::{marching_squares, Polyline, Saddle};
 pub use surface_nets::SurfaceNets;
 pub use tetrahedra::{Decomposition, MarchingTetrahedra};
 
-use crate::cube::{CellPoint, CubeEdge};
+use crate::cube::{cell_segment, CellPoint, CubeEdge, Diagonals};
 use crate::mesh::VertexId;
 use crate::walk::{Cell, Hermite};
 
@@ -60,10 +60,19 @@ pub enum Counting {
     Known,
 }
 
+/// The segments off the lattice edges an extractor names, for walkers that number vertices by
+/// segment family (the Flying Edges walker's fast path): the split diagonal of every face, and
+/// the main diagonal 0–7 of every cell ([`cell_segment`](crate::cube::cell_segment) numbers them).
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
+pub struct Segments {
+    /// How faces are split (`None`: no face diagonal).
+    pub diagonals: Option<Diagonals>,
+    /// Whether cells' main diagonals are named.
+    pub main_diagonal: bool,
+}
+
 /// Processes one cell at a time; walkers call it for every cell with a crossing.
 pub trait Extractor {
-    /// Whether and how the output of a cell is known in advance (see [`counts`](Extractor::counts)).
-    const COUNTING: Counting = Counting::Unknown;
     /// Whether [`place`](Extractor::place) does anything (dual methods): walkers then also
     /// place the vertices of the cells just before their range (its halo), so polygons can refer
     /// to them.
@@ -78,13 +87,26 @@ pub trait Extractor {
     /// Emits the cell's polygons through `cell`.
     fn process<C: Cell>(&self, cell: &mut C);
 
-    /// The triangles `process` emits for every cell of `case`, as cube-edge triples wound
-    /// outward, when the case alone decides them and the cell places no vertex: a table walkers
-    /// may apply themselves (the Flying Edges walker's bit-row fast path). `None`: the cell goes
-    /// through [`process`](Extractor::process).
+    /// Whether and how the output of a cell is known in advance (see [`counts`](Extractor::counts)).
+    fn counting(&self) -> Counting {
+        Counting::Unknown
+    }
+
+    /// The segments besides lattice edges that [`case_triangles`](Extractor::case_triangles)
+    /// and counted cells name (none by default).
+    fn segments(&self) -> Segments {
+        Segments::default()
+    }
+
+    /// The triangles `process` emits for every cell of `case` and parity (`odd`: the cell's
+    /// corner 0 has an odd coordinate sum), as triples of cell segments (its 12 edges, then the
+    /// [`segments`](Extractor::segments) it names, numbered by
+    /// [`cell_segment`](crate::cube::cell_segment)) wound outward, when the case alone decides
+    /// them and the cell places no vertex: a table walkers may apply themselves (the Flying Edges
+    /// walker's bit-row fast path). `None`: the cell goes through [`process`](Extractor::process).
     #[inline]
-    fn case_triangles(&self, case: u8) -> Option<&[[u8; 3]]> {
-        let _ = case;
+    fn case_triangles(&self, case: u8, odd: bool) -> Option<&[[u8; 3]]> {
+        let _ = (case, odd);
         None
     }
 
@@ -93,8 +115,9 @@ pub trait Extractor {
     /// [`Counting::Known`]; `values` gives the cell's offset values and `ijk` its position. The
     /// default says nothing (never called for [`Counting::Unknown`]).
     fn counts(&self, case: u8, ijk: [u32; 3], values: impl FnOnce() -> [f32; 8]) -> CellCounts {
-        let _ = (ijk, values);
-        let triangles = self.case_triangles(case).map_or(0, |t| t.len() as u16);
+        let _ = values;
+        let odd = (ijk[0] + ijk[1] + ijk[2]) % 2 == 1;
+        let triangles = self.case_triangles(case, odd).map_or(0, |t| t.len() as u16);
         CellCounts { triangles, ..Default::default() }
     }
 
@@ -106,11 +129,13 @@ pub trait Extractor {
     }
 }
 
-/// A cell that only records what an extractor does with it: triangles as cube-edge triples (its
-/// edge vertices are numbered by their cube edge), and counts of quads and placed vertices. Lets
+/// A cell that only records what an extractor does with it: triangles as cell-segment triples
+/// (its edge vertices are numbered by their cube edge, the segments it is told to name by their
+/// cell segment), and counts of quads and placed vertices. Lets
 /// an extractor tabulate its cases, or count a cell's output by running `process` itself.
 pub(crate) struct ProbeCell {
     ijk: [u32; 3],
+    segments: Segments,
     values: [f32; 8],
     case: u8,
     /// Triangles on edge vertices, as cube-edge triples.
@@ -128,12 +153,19 @@ impl ProbeCell {
     pub(crate) fn new(ijk: [u32; 3], values: [f32; 8]) -> Self {
         ProbeCell {
             ijk,
+            segments: Segments::default(),
             values,
             case: crate::cube::case_of(&values),
             triangles: Vec::new(),
             other_vertices: false,
             counts: CellCounts::default(),
         }
+    }
+
+    /// Numbers the `segments` as cell segments (see [`Extractor::case_triangles`]).
+    pub(crate) fn naming(mut self, segments: Segments) -> Self {
+        self.segments = segments;
+        self
     }
 }
 
@@ -162,9 +194,23 @@ impl Cell for ProbeCell {
             _ => f32::NAN,
         }
     }
-    fn segment_vertex(&mut self, _a: CellPoint, _b: CellPoint) -> VertexId {
-        self.other_vertices = true;
-        VertexId(PROBE_PLACED - 1)
+    fn segment_vertex(&mut self, a: CellPoint, b: CellPoint) -> VertexId {
+        let odd = (self.ijk[0] + self.ijk[1] + self.ijk[2]) % 2 == 1;
+        let named = match (a, b) {
+            (CellPoint::Corner(a), CellPoint::Corner(b)) => {
+                cell_segment(a, b, self.segments.diagonals, odd).filter(|&s| {
+                    s < 12 || s >= 18 && self.segments.main_diagonal || s < 18 && self.segments.diagonals.is_some()
+                })
+            }
+            _ => None,
+        };
+        match named {
+            Some(s) => VertexId(s as u32),
+            None => {
+                self.other_vertices = true;
+                VertexId(PROBE_PLACED - 1)
+            }
+        }
     }
     fn place_vertex(&mut self, _local: [f32; 3], _edges: u16) -> VertexId {
         self.counts.placed += 1;
@@ -176,7 +222,7 @@ impl Cell for ProbeCell {
     }
     fn push_triangle(&mut self, t: [VertexId; 3]) {
         self.counts.triangles += 1;
-        if t.iter().all(|v| v.0 < 12) {
+        if t.iter().all(|v| (v.0 as usize) < crate::cube::CELL_SEGMENTS) {
             self.triangles.push(t.map(|v| v.0 as u8));
         } else {
             self.other_vertices = true;

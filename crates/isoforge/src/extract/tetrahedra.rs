@@ -13,8 +13,9 @@
 //! Every crossing, on an axis edge, a diagonal or a centre segment, is a walker-cached vertex
 //! ([`Cell::segment_vertex`]), so each is created once and the mesh is closed and manifold.
 
-use super::Extractor;
+use super::{Counting, Extractor, ProbeCell, Segments};
 use crate::cube::CellPoint;
+use crate::cube::Diagonals;
 use crate::cube::FACE_CORNERS;
 use crate::walk::Cell;
 
@@ -53,7 +54,62 @@ const FIVE: [[[u8; 4]; 5]; 2] = [
 /// Six tetrahedra 0 → a → b → 7 along the monotone paths of the cube's edges.
 const SIX: [[u8; 4]; 6] = [[0, 1, 3, 7], [0, 1, 5, 7], [0, 2, 3, 7], [0, 2, 6, 7], [0, 4, 5, 7], [0, 4, 6, 7]];
 
+impl MarchingTetrahedra {
+    /// The face diagonals and main diagonal this split names.
+    fn named(&self) -> Segments {
+        match self.decomposition {
+            Decomposition::Five => Segments { diagonals: Some(Diagonals::OddCorners), main_diagonal: false },
+            Decomposition::Six => Segments { diagonals: Some(Diagonals::MinToMax), main_diagonal: true },
+            Decomposition::BodyCentred => Segments::default(),
+        }
+    }
+}
+
+/// The triangles of every case and parity of a split on the cell's corners alone (five and six
+/// tetrahedra: the signs decide everything), as cell segments: what `process` makes, tabulated
+/// once by running it on a probe.
+fn corner_tables(d: Decomposition) -> &'static [[Vec<[u8; 3]>; 2]; 256] {
+    type Table = [[Vec<[u8; 3]>; 2]; 256];
+    static FIVE_TABLE: std::sync::OnceLock<Table> = std::sync::OnceLock::new();
+    static SIX_TABLE: std::sync::OnceLock<Table> = std::sync::OnceLock::new();
+    let x = MarchingTetrahedra { decomposition: d };
+    let build = || -> Table {
+        std::array::from_fn(|case| {
+            [false, true].map(|odd| {
+                let v: [f32; 8] = std::array::from_fn(|c| if case >> c & 1 == 1 { -1.0 } else { 1.0 });
+                let mut probe = ProbeCell::new([u32::from(odd), 0, 0], v).naming(x.named());
+                x.process(&mut probe);
+                debug_assert!(!probe.other_vertices, "{d:?}: the split names a segment it does not declare");
+                probe.triangles
+            })
+        })
+    };
+    match d {
+        Decomposition::Five => FIVE_TABLE.get_or_init(build),
+        _ => SIX_TABLE.get_or_init(build),
+    }
+}
+
 impl Extractor for MarchingTetrahedra {
+    fn counting(&self) -> Counting {
+        match self.decomposition {
+            Decomposition::BodyCentred => Counting::Unknown,
+            Decomposition::Five | Decomposition::Six => Counting::Known,
+        }
+    }
+
+    fn segments(&self) -> Segments {
+        self.named()
+    }
+
+    #[inline]
+    fn case_triangles(&self, case: u8, odd: bool) -> Option<&[[u8; 3]]> {
+        match self.decomposition {
+            Decomposition::BodyCentred => None,
+            d => Some(&corner_tables(d)[case as usize][odd as usize]),
+        }
+    }
+
     fn process<C: Cell>(&self, cell: &mut C) {
         match self.decomposition {
             Decomposition::Five => {

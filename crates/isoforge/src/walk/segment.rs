@@ -12,7 +12,7 @@ use crate::volume::{Iso, Volume};
 
 /// The world point at index-space `p`, as stored in a mesh.
 #[inline]
-fn world_point<V: Volume + ?Sized>(vol: &V, p: [f64; 3]) -> [f32; 3] {
+pub(crate) fn world_point<V: Volume + ?Sized>(vol: &V, p: [f64; 3]) -> [f32; 3] {
     let w = vol.lattice().to_world(p);
     [w[0] as f32, w[1] as f32, w[2] as f32]
 }
@@ -28,19 +28,32 @@ fn point_normal<V: Volume + ?Sized>(vol: &V, p: [f64; 3], iso: Iso, flat: impl F
     }
 }
 
-/// Hermite data of segment `key` given the offset values at its ends `a` (`d0`) and `b` (`d1`):
-/// the crossing and the outward normal (the segment's direction where the gradient vanishes).
-pub fn segment_hermite<V: Volume + ?Sized>(vol: &V, key: SegmentKey, d0: f32, d1: f32, iso: Iso) -> Hermite {
+/// The index-space point where segment `key` crosses, given the offset values at its ends `a`
+/// (`d0`) and `b` (`d1`). Shared by every walker.
+#[inline]
+pub(crate) fn segment_point<V: Volume + ?Sized>(vol: &V, key: SegmentKey, d0: f32, d1: f32, iso: Iso) -> [f64; 3] {
     let (p0, p1) = key.ends();
     let t = vol.segment_crossing(p0, p1, d0, d1, iso) as f64;
-    let p = [0, 1, 2].map(|a| p0[a] + (p1[a] - p0[a]) * t);
-    let normal = point_normal(vol, p, iso, || {
-        // Flat field: the segment's world direction, pointing to its outside end.
+    [0, 1, 2].map(|a| p0[a] + (p1[a] - p0[a]) * t)
+}
+
+/// The outward unit normal at `p` on segment `key` (its end `a` has offset value `d0`): the
+/// gradient's, or the segment's direction towards its outside end where the gradient vanishes.
+#[inline]
+pub(crate) fn segment_normal<V: Volume + ?Sized>(vol: &V, key: SegmentKey, p: [f64; 3], d0: f32, iso: Iso) -> [f32; 3] {
+    point_normal(vol, p, iso, || {
+        let (p0, p1) = key.ends();
         let (w0, w1) = (vol.lattice().to_world(p0), vol.lattice().to_world(p1));
         let s = if d0 < 0.0 { 1.0 } else { -1.0 };
         [0, 1, 2].map(|a| ((w1[a] - w0[a]) * s) as f32)
-    });
-    Hermite { point: world_point(vol, p), normal }
+    })
+}
+
+/// Hermite data of segment `key` given the offset values at its ends `a` (`d0`) and `b` (`d1`):
+/// the crossing and the outward normal.
+pub fn segment_hermite<V: Volume + ?Sized>(vol: &V, key: SegmentKey, d0: f32, d1: f32, iso: Iso) -> Hermite {
+    let p = segment_point(vol, key, d0, d1, iso);
+    Hermite { point: world_point(vol, p), normal: segment_normal(vol, key, p, d0, iso) }
 }
 
 /// Creates the vertex at the crossing on segment `key` in `out` (with its normal when `out`
@@ -53,15 +66,9 @@ pub(crate) fn push_segment_vertex<V: Volume + ?Sized>(
     iso: Iso,
     out: &mut MeshBuilder,
 ) -> VertexId {
-    let (p, n) = if out.wants_normals() {
-        let h = segment_hermite(vol, key, d0, d1, iso);
-        (h.point, h.normal)
-    } else {
-        let (p0, p1) = key.ends();
-        let t = vol.segment_crossing(p0, p1, d0, d1, iso) as f64;
-        (world_point(vol, [0, 1, 2].map(|a| p0[a] + (p1[a] - p0[a]) * t)), [0.0; 3])
-    };
-    out.push_vertex(VertexKey::Segment(key), p, n)
+    let p = segment_point(vol, key, d0, d1, iso);
+    let n = if out.wants_normals() { segment_normal(vol, key, p, d0, iso) } else { [0.0; 3] };
+    out.push_vertex(VertexKey::Segment(key), world_point(vol, p), n)
 }
 
 /// Creates the `n`-th vertex cell `ijk` places, at cell coordinates `local` (normal from the

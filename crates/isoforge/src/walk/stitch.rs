@@ -1,6 +1,9 @@
 //! Joining the meshes of cell ranges by vertex key (never by comparing coordinates).
 
 use std::collections::HashMap;
+use std::hash::BuildHasherDefault;
+
+use super::segment::KeyHasher;
 
 use crate::cube::VertexKey;
 use crate::error::{Error, Result};
@@ -46,7 +49,7 @@ pub fn stitch(parts: &[KeyedMesh]) -> Result<Mesh> {
 /// As [`stitch`].
 pub fn stitch_keyed(parts: &[KeyedMesh]) -> Result<KeyedMesh> {
     // PASS 1: each part's vertex → global vertex; duplicates resolve through the key map.
-    let mut first: HashMap<VertexKey, u32> = HashMap::new();
+    let mut first: HashMap<VertexKey, u32, BuildHasherDefault<KeyHasher>> = HashMap::default();
     let mut keys_out: Vec<(u32, VertexKey)> = Vec::new();
     let mut remap: Vec<Vec<u32>> = Vec::with_capacity(parts.len());
     let mut kept: Vec<Vec<u32>> = Vec::with_capacity(parts.len());

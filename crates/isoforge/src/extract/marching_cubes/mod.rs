@@ -27,8 +27,6 @@ use crate::walk::Cell;
 pub struct MarchingCubes;
 
 impl Extractor for MarchingCubes {
-    const COUNTING: Counting = Counting::Known;
-
     #[inline]
     fn process<C: Cell>(&self, cell: &mut C) {
         for [a, b, c] in TRI_TABLE[cell.case() as usize].iter() {
@@ -37,8 +35,12 @@ impl Extractor for MarchingCubes {
         }
     }
 
+    fn counting(&self) -> Counting {
+        Counting::Known
+    }
+
     #[inline(always)]
-    fn case_triangles(&self, case: u8) -> Option<&[[u8; 3]]> {
+    fn case_triangles(&self, case: u8, _odd: bool) -> Option<&[[u8; 3]]> {
         Some(TRI_TABLE[case as usize].triangles())
     }
 }

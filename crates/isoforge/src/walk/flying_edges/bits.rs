@@ -2,6 +2,9 @@
 //! crossings along a row, active cells of a cell row, and a crossing's rank in its row (its
 //! vertex id's offset).
 
+use super::families::{Walked, FX, FY, FZ, MAIN, X, Y, Z};
+use crate::cube::{CELL_SEGMENTS, MAIN_DIAGONAL};
+
 /// Bit rows of a box of points, `words` u64 per row, for rows `row0 ..` (row index
 /// `k · ny + j`, box-local). The whole box in memory, a 3-slab window when streaming.
 pub(super) struct Bits {
@@ -16,16 +19,6 @@ impl Bits {
         let r = r - self.row0;
         &self.data[r * self.words..(r + 1) * self.words]
     }
-}
-
-/// `a ^ (a >> 1)` across word boundaries: bit i set ⇔ points i and i + 1 differ (for i < `cells`).
-#[inline]
-pub(super) fn x_crossings(row: &[u64], out: &mut [u64], cells: usize) {
-    for w in 0..row.len() {
-        let next = if w + 1 < row.len() { row[w + 1] << 63 } else { 0 };
-        out[w] = row[w] ^ ((row[w] >> 1) | next);
-    }
-    mask_tail(out, cells);
 }
 
 /// Clears bits at and past `len`.
@@ -44,18 +37,6 @@ pub(super) fn mask_tail(words: &mut [u64], len: usize) {
 #[inline]
 pub(super) fn popcount(words: &[u64]) -> u32 {
     words.iter().map(|w| w.count_ones()).sum()
-}
-
-#[inline]
-pub(super) fn xor_count(a: &[u64], b: &[u64]) -> u32 {
-    a.iter().zip(b).map(|(x, y)| (x ^ y).count_ones()).sum()
-}
-
-#[inline]
-pub(super) fn xor_into(a: &[u64], b: &[u64], out: &mut [u64]) {
-    for ((o, x), y) in out.iter_mut().zip(a).zip(b) {
-        *o = x ^ y;
-    }
 }
 
 /// Mask of the valid cells (bits < `cells`) in word `w`.
@@ -178,10 +159,11 @@ pub(super) fn mark_active(rows: [&[u64]; 4], cells: usize, active: &mut [u64]) -
     (outside, inside)
 }
 
-/// For each cube edge: the mask slot holding its row's crossings (see [`RowMasks`]) and the offset
-/// of its lower point from the cell's i.
-pub(super) const EDGE_SLOT: [(u8, u8); 12] = {
-    let mut t = [(0u8, 0u8); 12];
+/// For each cell segment (edges 0–11, face diagonals 12–17, the main diagonal 18): the mask
+/// slot holding its row's crossings (see [`RowMasks`]) and the offset of its row point from the
+/// cell's i.
+pub(super) const SEGMENT_SLOT: [(u8, u8); CELL_SEGMENTS] = {
+    let mut t = [(0u8, 0u8); CELL_SEGMENTS];
     let mut e = 0;
     while e < 12 {
         let (lo, hi) = ((e & 1) as u8, ((e >> 1) & 1) as u8);
@@ -192,56 +174,81 @@ pub(super) const EDGE_SLOT: [(u8, u8); 12] = {
         };
         e += 1;
     }
+    // Face f = 2 · axis + side: its diagonal belongs to the face's first point.
+    t[12] = (12, 0); // x-min: FX of row A at i
+    t[13] = (12, 1); // x-max: FX of row A at i + 1
+    t[14] = (10, 0); // y-min: FY of row A
+    t[15] = (11, 0); // y-max: FY of row B
+    t[16] = (8, 0); // z-min: FZ of row A
+    t[17] = (9, 0); // z-max: FZ of row C
+    t[MAIN_DIAGONAL as usize] = (13, 0);
     t
 };
 
+/// The family and the row (0 = A, 1 = B, 2 = C, 3 = E) of each mask slot.
+const SLOT_SOURCE: [(usize, usize); SLOTS] = [
+    (X, 0),
+    (X, 1),
+    (X, 2),
+    (X, 3),
+    (Y, 0),
+    (Y, 2),
+    (Z, 0),
+    (Z, 1),
+    (FZ, 0),
+    (FZ, 2),
+    (FY, 0),
+    (FY, 1),
+    (FX, 0),
+    (MAIN, 0),
+];
+const SLOTS: usize = 14;
+
 /// Ranked crossing masks of a cell row and the id of each mask's first vertex, by slot:
-/// 0–3 x-edges of rows A, B, C, E; 4–5 y-edges of rows A, C; 6–7 z-edges of rows A, B.
+/// 0–3 x-edges of rows A, B, C, E; 4–5 y-edges of rows A, C; 6–7 z-edges of rows A, B; then the
+/// face diagonals FZ of A and C, FY of A and B, FX of A, and the main diagonals of A.
 pub(super) struct RowMasks {
-    pub(super) masks: [RankedMask; 8],
-    pub(super) base: [u32; 8],
+    pub(super) masks: [RankedMask; SLOTS],
+    pub(super) base: [u32; SLOTS],
 }
 
 impl RowMasks {
     pub(super) fn new(words: usize) -> Self {
-        RowMasks { masks: std::array::from_fn(|_| RankedMask::new(words)), base: [0; 8] }
+        RowMasks { masks: std::array::from_fn(|_| RankedMask::new(words)), base: [0; SLOTS] }
     }
 
-    /// Loads cell row `r` = (j, k): `first(row)` is a row's first vertex id and `xy(row)` its
-    /// x- and y-edge counts (its y- and z-edges follow its x-edges, in that order).
+    /// Loads cell row `r` = (j, k) of a box of `dims` points, for the families `walked` numbers:
+    /// `first(row)` is a row's first vertex id, `before(row, f)` how many of its crossings are
+    /// numbered before family `f`'s.
     pub(super) fn load(
         &mut self,
         bits: &Bits,
         r: usize,
-        [nx, ny]: [usize; 2],
+        [j, k]: [usize; 2],
+        dims: [usize; 3],
+        walked: &Walked,
         first: impl Fn(usize) -> u32,
-        xy: impl Fn(usize) -> (u32, u32),
+        before: impl Fn(usize, usize) -> u32,
     ) {
-        let row_of = [r, r + 1, r + ny, r + ny + 1];
-        for q in 0..4 {
-            x_crossings(bits.row(row_of[q]), &mut self.masks[q].mask, nx - 1);
-            self.base[q] = first(row_of[q]);
-        }
-        // y-edges of A = (j, k) and C = (j, k + 1), after their rows' x-edges.
-        for (h, row) in [r, r + ny].into_iter().enumerate() {
-            xor_into(bits.row(row), bits.row(row + 1), &mut self.masks[4 + h].mask);
-            self.base[4 + h] = first(row) + xy(row).0;
-        }
-        // z-edges of A = (j, k) and B = (j + 1, k), after their rows' x- and y-edges.
-        for (h, row) in [r, r + 1].into_iter().enumerate() {
-            xor_into(bits.row(row), bits.row(row + ny), &mut self.masks[6 + h].mask);
-            let (x, y) = xy(row);
-            self.base[6 + h] = first(row) + x + y;
-        }
-        for m in &mut self.masks {
-            m.rank_prefix();
+        let ny = dims[1];
+        let rows = [(r, [j, k]), (r + 1, [j + 1, k]), (r + ny, [j, k + 1]), (r + ny + 1, [j + 1, k + 1])];
+        for (slot, &(f, q)) in SLOT_SOURCE.iter().enumerate() {
+            if !walked.has(f) {
+                continue;
+            }
+            let (row, jk) = rows[q];
+            if !walked.mask(f, bits, row, jk, dims, &mut self.masks[slot].mask) {
+                self.masks[slot].mask.fill(0);
+            }
+            self.base[slot] = first(row) + before(row, f);
+            self.masks[slot].rank_prefix();
         }
     }
 
-    /// The vertex id of cube edge `e` of the cell at box-local `i`.
+    /// The vertex id of cell segment `s` of the cell at box-local `i`.
     #[inline(always)]
-    pub(super) fn id(&self, e: u8, i: usize) -> u32 {
-        let (slot, off) = EDGE_SLOT[e as usize];
+    pub(super) fn id(&self, s: u8, i: usize) -> u32 {
+        let (slot, off) = SEGMENT_SLOT[s as usize];
         self.base[slot as usize] + self.masks[slot as usize].rank(i + off as usize)
     }
 }

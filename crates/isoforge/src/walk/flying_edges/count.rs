@@ -1,19 +1,18 @@
-//! PASS 2: every row → its crossed x-, y-, z-edges (popcounts of XORed bit rows); every cell row
-//! → the polygons and placed vertices of its active cells (the extractor's counts).
+//! PASS 2: every row → its crossed segments of each family (popcounts of XORed bit rows); every
+//! cell row → the polygons and placed vertices of its active cells (the extractor's counts).
 
-use super::bits::{
-    case_at, cell_rows, for_each_bit, mark_active, popcount, uniform_block, x_crossings, xor_count, Bits, RankedMask,
-};
+use super::bits::{case_at, cell_rows, for_each_bit, mark_active, popcount, uniform_block, Bits};
+use super::families::FAMILIES;
 use super::{cell_values, Passes};
 use crate::extract::{CellCounts, Extractor};
 use crate::volume::SampleSlabs;
 
-/// Counts of one row (its edges) and of the cell row starting at it (its cells' output).
+/// Counts of one row (its segments' crossings, by family) and of the cell row starting at it
+/// (its cells' output).
 #[derive(Clone, Copy, Default, Debug)]
 pub(super) struct RowCount {
-    pub(super) x: u32,
-    pub(super) y: u32,
-    pub(super) z: u32,
+    /// Crossings per family (see `families.rs`), numbered in this order.
+    pub(super) v: [u32; FAMILIES],
     /// Vertices the cells of this cell row place.
     pub(super) placed: u32,
     pub(super) tris: u32,
@@ -21,21 +20,29 @@ pub(super) struct RowCount {
 }
 
 impl RowCount {
-    /// Vertices numbered in this row: its edges', then its cells' placed ones.
+    /// Vertices numbered in this row: its crossings', then its cells' placed ones.
     #[inline]
     pub(super) fn vertices(&self) -> u32 {
-        self.x + self.y + self.z + self.placed
+        self.v.iter().sum::<u32>() + self.placed
+    }
+
+    /// Crossings numbered before family `f`'s in this row.
+    #[inline(always)]
+    pub(super) fn before(&self, f: usize) -> u32 {
+        self.v[..f].iter().sum()
     }
 }
 
-/// The extractor's counts per case, `None` where the values decide.
-pub(super) struct CaseCounts([Option<CellCounts>; 256]);
+/// The extractor's counts per case and parity, `None` where the values decide.
+pub(super) struct CaseCounts([[Option<CellCounts>; 2]; 256]);
 
 impl CaseCounts {
     /// The counts of the cases the extractor tabulates.
     pub(super) fn of<X: Extractor>(x: &X) -> Self {
         CaseCounts(std::array::from_fn(|c| {
-            x.case_triangles(c as u8).map(|t| CellCounts { triangles: t.len() as u16, ..Default::default() })
+            [false, true].map(|odd| {
+                x.case_triangles(c as u8, odd).map(|t| CellCounts { triangles: t.len() as u16, ..Default::default() })
+            })
         }))
     }
 }
@@ -47,7 +54,7 @@ impl<V: SampleSlabs, X: Extractor> Passes<'_, V, X> {
         let bx = &self.bx;
         let [nx, ny, nz] = bx.dims;
         let mut cs = [0u64; 2];
-        let mut xs = RankedMask::new(bits.words);
+        let mut mask = vec![0u64; bits.words];
         let mut active = vec![0u64; bits.words];
         for (j, c) in out.iter_mut().enumerate() {
             let r = k * ny + j;
@@ -60,10 +67,11 @@ impl<V: SampleSlabs, X: Extractor> Passes<'_, V, X> {
                 }
                 continue;
             }
-            x_crossings(bits.row(r), &mut xs.mask, nx - 1);
-            c.x = popcount(&xs.mask);
-            c.y = if j + 1 < ny { xor_count(bits.row(r), bits.row(r + 1)) } else { 0 };
-            c.z = if k + 1 < nz { xor_count(bits.row(r), bits.row(r + ny)) } else { 0 };
+            for f in 0..FAMILIES {
+                if self.walked.has(f) && self.walked.mask(f, bits, r, [j, k], bx.dims, &mut mask) {
+                    c.v[f] = popcount(&mask);
+                }
+            }
             if !cells_here {
                 continue;
             }
@@ -71,9 +79,10 @@ impl<V: SampleSlabs, X: Extractor> Passes<'_, V, X> {
             let (outside, inside) = mark_active(rows, nx - 1, &mut active);
             cs[0] += outside;
             cs[1] += inside;
+            let parity = self.walked.parity0 + j + k;
             for_each_bit(&active, |i| {
                 let case = case_at(&rows, i);
-                let n = match self.table.0[case as usize] {
+                let n = match self.table.0[case as usize][(parity + i) % 2] {
                     Some(n) => n,
                     None => {
                         let l = [i, j, k];

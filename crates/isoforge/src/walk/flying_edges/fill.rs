@@ -3,10 +3,11 @@
 
 use std::cell::OnceCell;
 
-use super::bits::{case_at, cell_rows, for_each_bit, mark_active, x_crossings, xor_into, Bits, RankedMask, RowMasks};
+use super::bits::{case_at, cell_rows, for_each_bit, mark_active, Bits, RowMasks};
 use super::count::RowCount;
+use super::families::FAMILIES;
 use super::{cell_values, Passes};
-use crate::cube::{Axis, CellPoint, CubeEdge, EdgeKey, VertexKey, CASE_EDGES};
+use crate::cube::{cell_segment, CellPoint, CubeEdge, EdgeKey, VertexKey, CELL_SEGMENTS};
 use crate::error::{Error, Result};
 use crate::extract::Extractor;
 use crate::grid::Sample;
@@ -121,25 +122,14 @@ impl<V: SampleSlabs, X: Extractor> Passes<'_, V, X> {
         let plane = table.base(k * ny);
         let stride = bx.row_stride();
         let mut out_v = 0usize;
-        let mut mask = RankedMask::new(words);
+        let mut mask = vec![0u64; words];
         let mut ymask = vec![0u64; words];
         let recording = self.record != crate::mesh::KeyRecord::None;
-        let mut emit = |key: EdgeKey, a: V::Sample, b: V::Sample, out_v: &mut usize| {
-            let (d0, d1) = (self.iso.offset(a.to_f64()), self.iso.offset(b.to_f64()));
-            let (p, t) = edge_crossing(self.vol, key, d0, d1, self.iso);
-            out.positions[*out_v] = p;
-            if self.normals {
-                out.normals[*out_v] = edge_normal(self.vol, key, t, d0, self.iso);
-            }
-            if recording && self.records(&VertexKey::Edge(key)) {
-                out.keys.push(((plane[0] + *out_v as u64) as u32, VertexKey::Edge(key)));
-            }
-            *out_v += 1;
-        };
-        // Vertices of the slab's rows: x-edges, then y-edges, then z-edges of each row, then
-        // room for the vertices its cells place. The samples a row needs are scattered (sparse
-        // surfaces) and the hardware cannot guess them; their positions are known from the bits,
-        // so they are prefetched PREFETCH_ROWS rows ahead.
+        let offset = |a: V::Sample| self.iso.offset(a.to_f64());
+        // Vertices of the slab's rows: each family's crossings in turn (x-, y-, z-edges, then
+        // the diagonals the extractor names), then room for the vertices its cells place. The
+        // samples a row needs are scattered (sparse surfaces) and the hardware cannot guess them;
+        // their positions are known from the bits, so they are prefetched PREFETCH_ROWS rows ahead.
         for j in 0..PREFETCH_ROWS.min(ny) {
             self.prefetch_row(bits, k, j, s0, s1, &mut ymask);
         }
@@ -149,23 +139,38 @@ impl<V: SampleSlabs, X: Extractor> Passes<'_, V, X> {
             }
             let r = k * ny + j;
             let at = bx.in_slab(0, j);
-            x_crossings(bits.row(r), &mut mask.mask, nx - 1);
-            for_each_bit(&mask.mask, |i| {
-                let key = EdgeKey { origin: bx.global([i, j, k]), axis: Axis::X };
-                emit(key, s0[at + i], s0[at + i + 1], &mut out_v)
-            });
-            if j + 1 < ny {
-                xor_into(bits.row(r), bits.row(r + 1), &mut ymask);
-                for_each_bit(&ymask, |i| {
-                    let key = EdgeKey { origin: bx.global([i, j, k]), axis: Axis::Y };
-                    emit(key, s0[at + i], s0[at + i + stride], &mut out_v)
-                });
-            }
-            if k + 1 < nz {
-                xor_into(bits.row(r), bits.row(r + ny), &mut ymask);
-                for_each_bit(&ymask, |i| {
-                    let key = EdgeKey { origin: bx.global([i, j, k]), axis: Axis::Z };
-                    emit(key, s0[at + i], s1[at + i], &mut out_v)
+            for f in 0..FAMILIES {
+                if !self.walked.has(f) || !self.walked.mask(f, bits, r, [j, k], bx.dims, &mut mask) {
+                    continue;
+                }
+                for_each_bit(&mask, |i| {
+                    let g = bx.global([i, j, k]);
+                    let sample = |o: [usize; 3]| {
+                        let s = if o[2] == 0 { s0 } else { s1 };
+                        s[at + o[1] * stride + i + o[0]]
+                    };
+                    let (ends, key) = self.walked.segment(f, g);
+                    let (d0, d1) = (offset(sample(ends[0])), offset(sample(ends[1])));
+                    let (p, n) = match key {
+                        VertexKey::Edge(e) => {
+                            let (p, t) = edge_crossing(self.vol, e, d0, d1, self.iso);
+                            (p, self.normals.then(|| edge_normal(self.vol, e, t, d0, self.iso)))
+                        }
+                        VertexKey::Segment(sk) => {
+                            let p = segment::segment_point(self.vol, sk, d0, d1, self.iso);
+                            let n = self.normals.then(|| segment::segment_normal(self.vol, sk, p, d0, self.iso));
+                            (segment::world_point(self.vol, p), n)
+                        }
+                        VertexKey::Cell { .. } => unreachable!("families name edges and segments"),
+                    };
+                    out.positions[out_v] = p;
+                    if let Some(n) = n {
+                        out.normals[out_v] = n;
+                    }
+                    if recording && self.records(&key) {
+                        out.keys.push(((plane[0] + out_v as u64) as u32, key));
+                    }
+                    out_v += 1;
                 });
             }
             out_v += table.count(r).placed as usize;
@@ -179,7 +184,7 @@ impl<V: SampleSlabs, X: Extractor> Passes<'_, V, X> {
         let mut active = vec![0u64; words];
         let mut state = FillState { t: 0, q: 0, plane_v: plane[0], next_placed: 0 };
         let first = |row: usize| table.base(row)[0] as u32;
-        let xy = |row: usize| (table.count(row).x, table.count(row).y);
+        let before = |row: usize, f: usize| table.count(row).before(f);
         for j in 0..ny - 1 {
             let r = k * ny + j;
             let c = table.count(r);
@@ -188,20 +193,22 @@ impl<V: SampleSlabs, X: Extractor> Passes<'_, V, X> {
             }
             let rows = cell_rows(bits, r, ny);
             mark_active(rows, nx - 1, &mut active);
-            ranked.load(bits, r, [nx, ny], first, xy);
-            state.next_placed = table.base(r)[0] + (c.x + c.y + c.z) as u64;
+            ranked.load(bits, r, [j, k], bx.dims, &self.walked, first, before);
+            state.next_placed = table.base(r)[0] + c.before(FAMILIES) as u64;
+            let parity = self.walked.parity0 + j + k;
             for_each_bit(&active, |i| {
                 let l = [i, j, k];
                 let case = case_at(&rows, i);
-                // Each crossed edge's id once per cell; triangles then only look them up.
-                let mut ids = [0u32; 12];
-                let mut crossed = CASE_EDGES[case as usize];
+                let odd = (parity + i) % 2 == 1;
+                // Each crossed segment's id once per cell; triangles then only look them up.
+                let mut ids = [0u32; CELL_SEGMENTS];
+                let mut crossed = self.crossed[case as usize][odd as usize];
                 while crossed != 0 {
                     let e = crossed.trailing_zeros() as u8;
                     ids[e as usize] = ranked.id(e, i);
                     crossed &= crossed - 1;
                 }
-                if let Some(table) = self.x.case_triangles(case) {
+                if let Some(table) = self.x.case_triangles(case, odd) {
                     // The extractor's table: the cell's triangles without a `Cell`.
                     for t in table {
                         let (a, b, c) = (ids[t[0] as usize], ids[t[1] as usize], ids[t[2] as usize]);
@@ -215,6 +222,7 @@ impl<V: SampleSlabs, X: Extractor> Passes<'_, V, X> {
                     l,
                     ijk: bx.global(l),
                     case,
+                    odd,
                     values: OnceCell::new(),
                     ids,
                     placed: 0,
@@ -298,9 +306,10 @@ struct FillCell<'a, 'o, V, X> {
     l: [usize; 3],
     ijk: [u32; 3],
     case: u8,
+    odd: bool,
     values: OnceCell<[f32; 8]>,
-    /// Vertex ids of the crossed edges.
-    ids: [u32; 12],
+    /// Vertex ids of the crossed cell segments.
+    ids: [u32; CELL_SEGMENTS],
     placed: u8,
     out: &'a mut SlabOut<'o>,
     state: &'a mut FillState,
@@ -328,7 +337,11 @@ impl<V: SampleSlabs, X: Extractor> Cell for FillCell<'_, '_, V, X> {
 
     #[inline(always)]
     fn edge_vertex(&mut self, e: CubeEdge) -> VertexId {
-        debug_assert!(CASE_EDGES[self.case as usize] & (1 << e.0) != 0, "edge {} does not cross", e.0);
+        debug_assert!(
+            self.p.crossed[self.case as usize][self.odd as usize] & (1 << e.0) != 0,
+            "edge {} does not cross",
+            e.0
+        );
         VertexId(self.ids[e.0 as usize])
     }
 
@@ -343,9 +356,17 @@ impl<V: SampleSlabs, X: Extractor> Cell for FillCell<'_, '_, V, X> {
     }
 
     fn segment_vertex(&mut self, a: CellPoint, b: CellPoint) -> VertexId {
-        match CellPoint::axis_edge(a, b) {
-            Some(e) => self.edge_vertex(e),
-            None => unreachable!("an extractor with Counting::Known named a segment off the lattice edges"),
+        let s = match (a, b) {
+            (CellPoint::Corner(a), CellPoint::Corner(b)) => {
+                cell_segment(a, b, self.p.walked.segments.diagonals, self.odd)
+            }
+            _ => None,
+        };
+        match s {
+            Some(s) if self.p.crossed[self.case as usize][self.odd as usize] & (1 << s) != 0 => {
+                VertexId(self.ids[s as usize])
+            }
+            _ => unreachable!("an extractor with Counting::Known named a segment it does not declare"),
         }
     }
 

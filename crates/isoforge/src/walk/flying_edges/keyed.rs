@@ -3,7 +3,8 @@
 //!
 //! ```text
 //!   group g: cell layers k0 .. k1   (layers per group fixed by the lattice's size, never by the
-//!                                    thread count, so the output is the same for every count)
+//!                                    thread count, so the output is the same for every count:
+//!                                    about GROUPS groups, at least MIN_LAYERS layers each)
 //!   plane k0 is shared with group g − 1, plane k1 with group g + 1: vertices there are made by
 //!   both and kept once, where they first occur (walk::stitch)
 //! ```
@@ -21,8 +22,11 @@ use crate::walk::cached::{CachedCell, LayerCaches};
 use crate::walk::stitch::{stitch_keyed, KeyedMesh};
 use crate::walk::{wants_cell, Progress, WalkStats};
 
-/// Groups of cell layers: about this many, whatever the thread count.
-const GROUPS: u32 = 64;
+/// Groups of cell layers: about this many, whatever the thread count (enough to balance a few
+/// threads; each shared plane is walked twice and stitched, so not more).
+const GROUPS: u32 = 32;
+/// Fewest cell layers in a group.
+const MIN_LAYERS: u32 = 8;
 
 impl<V: SampleSlabs + Sync, X: Extractor + Sync> Passes<'_, V, X> {
     /// Walks the range in layer groups and stitches their meshes into `out`.
@@ -34,14 +38,16 @@ impl<V: SampleSlabs + Sync, X: Extractor + Sync> Passes<'_, V, X> {
     ) -> Result<WalkStats> {
         let r = self.range;
         let layers = r.hi[2] - r.lo[2];
-        let per = layers.div_ceil(GROUPS).max(1);
+        let per = layers.div_ceil(GROUPS).max(MIN_LAYERS);
         let groups: Vec<CellRange> =
             (r.lo[2]..r.hi[2]).step_by(per as usize).map(|k0| r.layers(k0, k0 + per)).collect();
         let done = AtomicU64::new(0);
         let total = groups.len() as u64;
         let normals = if self.normals { Normals::Gradient } else { Normals::None };
         let parts = map_tasks(groups, |g| {
-            let mut b = MeshBuilder::new(normals).with_keys(KeyRecord::Boundary(g));
+            // Parts keep the keys stitching needs, or all of them when the walk asks for all.
+            let record = if self.record == KeyRecord::All { KeyRecord::All } else { KeyRecord::Boundary(g) };
+            let mut b = MeshBuilder::new(normals).with_keys(record);
             b.set_reverse_winding(self.reverse);
             let mut caches = LayerCaches::default();
             let stats = self.walk_group(bits, &g, &mut caches, &mut b);

@@ -31,6 +31,7 @@
 mod bits;
 mod classify;
 mod count;
+mod families;
 mod fill;
 mod keyed;
 mod stream;
@@ -41,6 +42,7 @@ pub use stream::StreamStats;
 
 use self::bits::Bits;
 use self::count::{CaseCounts, RowCount};
+use self::families::Walked;
 use self::fill::{RowTable, SlabOut};
 use super::{range_of, Progress, WalkStats, Walker};
 use crate::cube::{CellRange, VertexKey};
@@ -154,6 +156,9 @@ struct Passes<'a, V, X> {
     iso: Iso,
     bx: PointBox,
     table: &'a CaseCounts,
+    /// The segment families rows number, and the crossed cell segments of each case and parity.
+    walked: Walked,
+    crossed: &'a [[u32; 2]; 256],
     /// The walked range (the box may start one cell earlier, for placing extractors).
     range: CellRange,
     /// Mirrored lattice: polygons are reversed so they stay counter-clockwise from outside.
@@ -183,12 +188,16 @@ fn walk_in_memory<V: SampleSlabs + Sync, X: Extractor + Sync>(
     let first = if X::PLACES_VERTICES { range.lo.map(|v| v.saturating_sub(1)) } else { range.lo };
     let bx = PointBox::of(vol, first, &range)?;
     let table = CaseCounts::of(x);
+    let walked = Walked::new(x.segments(), bx.lo);
+    let crossed = walked.crossed();
     let p = Passes {
         vol,
         x,
         iso,
         bx,
         table: &table,
+        walked,
+        crossed: &crossed,
         range,
         reverse: lattice.is_mirrored(),
         normals: out.wants_normals(),
@@ -201,7 +210,7 @@ fn walk_in_memory<V: SampleSlabs + Sync, X: Extractor + Sync>(
     for_each_chunk(&mut bits.data, ny * words, |k, plane| {
         classify::classify_plane(vol, &bx, bx.lo[2] + k as u32, iso, plane);
     });
-    match X::COUNTING {
+    match x.counting() {
         Counting::Known => p.counted(&bits, out, w.progress),
         Counting::Unknown => p.keyed(&bits, out, w.progress),
     }

@@ -12,6 +12,7 @@
 
 use super::bits::Bits;
 use super::count::CaseCounts;
+use super::families::Walked;
 use super::fill::{RowTable, SlabOut};
 use super::{classify, FlyingEdgesWalker, Passes, PointBox};
 use crate::cube::{CellRange, EdgeKey};
@@ -96,6 +97,8 @@ struct Ctx<'a, X> {
     iso: Iso,
     bx: PointBox,
     table: &'a CaseCounts,
+    walked: Walked,
+    crossed: &'a [[u32; 2]; 256],
     range: CellRange,
     normals: bool,
 }
@@ -108,6 +111,8 @@ impl<'a, X> Ctx<'a, X> {
             iso: self.iso,
             bx: self.bx,
             table: self.table,
+            walked: self.walked,
+            crossed: self.crossed,
             range: self.range,
             reverse: ring.lattice.is_mirrored(),
             normals: self.normals,
@@ -156,9 +161,12 @@ impl FlyingEdgesWalker<'_> {
         for k in 0..nz.min(3) {
             load(k, &mut ring, &mut bits, src)?;
         }
-        let ctx = Ctx { x, iso, bx, table: &table, range, normals: normals == Normals::Gradient };
+        let walked = Walked::new(x.segments(), bx.lo);
+        let crossed = walked.crossed();
+        let ctx =
+            Ctx { x, iso, bx, table: &table, walked, crossed: &crossed, range, normals: normals == Normals::Gradient };
         let progress = self.progress;
-        match X::COUNTING {
+        match x.counting() {
             Counting::Known => {
                 let mut rows = RowTable::window(2 * ny);
                 let mut start = [0u64; 3];
