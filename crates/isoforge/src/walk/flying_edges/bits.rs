@@ -3,6 +3,7 @@
 //! vertex id's offset).
 
 use super::families::{Walked, FX, FY, FZ, MAIN, X, Y, Z};
+use super::fill::RowTable;
 use crate::cube::{CELL_SEGMENTS, MAIN_DIAGONAL};
 
 /// Bit rows of a box of points, `words` u64 per row, for rows `row0 ..` (row index
@@ -217,9 +218,8 @@ impl RowMasks {
         RowMasks { masks: std::array::from_fn(|_| RankedMask::new(words)), base: [0; SLOTS] }
     }
 
-    /// Loads cell row `r` = (j, k) of a box of `dims` points, for the families `walked` numbers:
-    /// `first(row)` is a row's first vertex id, `before(row, f)` how many of its crossings are
-    /// numbered before family `f`'s.
+    /// Loads cell row `r` = (j, k) of a box of `dims` points, for the families `walked` numbers,
+    /// with each row's first vertex and family counts from `table`.
     pub(super) fn load(
         &mut self,
         bits: &Bits,
@@ -227,8 +227,7 @@ impl RowMasks {
         [j, k]: [usize; 2],
         dims: [usize; 3],
         walked: &Walked,
-        first: impl Fn(usize) -> u32,
-        before: impl Fn(usize, usize) -> u32,
+        table: &RowTable,
     ) {
         let ny = dims[1];
         let rows = [(r, [j, k]), (r + 1, [j + 1, k]), (r + ny, [j, k + 1]), (r + ny + 1, [j + 1, k + 1])];
@@ -240,7 +239,7 @@ impl RowMasks {
             if !walked.mask(f, bits, row, jk, dims, &mut self.masks[slot].mask) {
                 self.masks[slot].mask.fill(0);
             }
-            self.base[slot] = first(row) + before(row, f);
+            self.base[slot] = table.base(row)[0] as u32 + table.count(row).before(f);
             self.masks[slot].rank_prefix();
         }
     }

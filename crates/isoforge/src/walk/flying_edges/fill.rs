@@ -183,8 +183,6 @@ impl<V: SampleSlabs, X: Extractor> Passes<'_, V, X> {
         let mut ranked = RowMasks::new(words);
         let mut active = vec![0u64; words];
         let mut state = FillState { t: 0, q: 0, plane_v: plane[0], next_placed: 0 };
-        let first = |row: usize| table.base(row)[0] as u32;
-        let before = |row: usize, f: usize| table.count(row).before(f);
         for j in 0..ny - 1 {
             let r = k * ny + j;
             let c = table.count(r);
@@ -193,7 +191,7 @@ impl<V: SampleSlabs, X: Extractor> Passes<'_, V, X> {
             }
             let rows = cell_rows(bits, r, ny);
             mark_active(rows, nx - 1, &mut active);
-            ranked.load(bits, r, [j, k], bx.dims, &self.walked, first, before);
+            ranked.load(bits, r, [j, k], bx.dims, &self.walked, table);
             state.next_placed = table.base(r)[0] + c.before(FAMILIES) as u64;
             let parity = self.walked.parity0 + j + k;
             for_each_bit(&active, |i| {
