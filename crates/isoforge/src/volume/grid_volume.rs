@@ -169,6 +169,10 @@ impl<S: Sample> Volume for GridVolume<'_, S> {
         point_gradient_at(&self.lattice, p, &|q| self.at(q))
     }
 
+    fn bounded_by_corners(&self) -> bool {
+        true
+    }
+
     fn value_bounds(&self, lo: [u32; 3], hi: [u32; 3], iso: Iso) -> Option<(f32, f32)> {
         let b = self.bounds?;
         let local = |p: [u32; 3]| [0, 1, 2].map(|a| p[a].saturating_sub(self.offset[a]));

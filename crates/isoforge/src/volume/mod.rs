@@ -136,6 +136,15 @@ pub trait Volume {
         let _ = (lo, hi, iso);
         None
     }
+
+    /// Whether every value off the lattice points lies between the smallest and largest of its
+    /// cell's corners (the trilinear interpolant of a grid): then a cell whose corners agree has
+    /// no crossing anywhere inside, centres included, and walkers need not visit it even for
+    /// extractors that sample off the lattice. False for fields (a thin feature can pass between
+    /// samples).
+    fn bounded_by_corners(&self) -> bool {
+        false
+    }
 }
 
 /// A volume stored as samples of a native type, offered slab by slab: what the Flying Edges
@@ -182,6 +191,12 @@ impl<V: Volume + ?Sized> Volume for &V {
     #[inline]
     fn segment_crossing(&self, p0: [f64; 3], p1: [f64; 3], d0: f32, d1: f32, iso: Iso) -> f32 {
         (**self).segment_crossing(p0, p1, d0, d1, iso)
+    }
+    fn value_bounds(&self, lo: [u32; 3], hi: [u32; 3], iso: Iso) -> Option<(f32, f32)> {
+        (**self).value_bounds(lo, hi, iso)
+    }
+    fn bounded_by_corners(&self) -> bool {
+        (**self).bounded_by_corners()
     }
 }
 

@@ -76,6 +76,9 @@ impl<V: Volume> Volume for Tabulated<'_, V> {
     fn value_bounds(&self, lo: [u32; 3], hi: [u32; 3], _iso: Iso) -> Option<(f32, f32)> {
         self.inner.value_bounds(lo, hi, self.iso)
     }
+    fn bounded_by_corners(&self) -> bool {
+        self.inner.bounded_by_corners()
+    }
 }
 
 impl<V: Volume> SampleSlabs for Tabulated<'_, V> {

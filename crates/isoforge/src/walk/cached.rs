@@ -1,18 +1,22 @@
 //! The caches of a walker that advances one cell layer at a time, and the [`Cell`] they back.
 //!
 //! ```text
-//!   plane k+1:  x_ids[1], y_ids[1]          z_ids[(j, i)]: edge (i, j, k) → (i, j, k+1)
-//!   plane k:    x_ids[0], y_ids[0]          placed[1]: vertices placed by cells of layer k,
-//!                                           placed[0]: by cells of layer k − 1
-//!   after layer k: ids[1] → ids[0], placed[1] → placed[0], fresh slots above
+//!   plane k+1:  x[(k+1) % 2], y[(k+1) % 2], faces normal to z   z: edges (i, j, k) → (i, j, k+1)
+//!   plane k:    x[k % 2],     y[k % 2],     faces normal to z   faces normal to x and y, cells of
+//!                                                               layer k (and k − 1: centres)
 //! ```
-//! Slots are indexed by a point's (i, j) relative to the cached box, whose first point is
-//! `origin`: dense arrays, no hashing, except for segments off the axis edges (two generations
-//! of hash maps, [`SegmentCache`]). Every vertex is created once, by the first cell that asks.
+//! Slots are dense arrays indexed by a point's (i, j) relative to the cached box, whose first
+//! point is `origin`, and *stamped* with the plane or layer they belong to: a slot holds a vertex
+//! only when its stamp is the plane or layer asked for, so nothing is cleared between layers.
+//! Segments off the lattice edges get the same treatment: a face's split diagonals and the
+//! segment between the centres on both sides of it have slots per face, a centre's segments to
+//! its cell's corners per cell (for this layer and the one below), a cell's body diagonals per
+//! cell; anything else falls back to a small hash map ([`SegmentCache`]). Every vertex is created
+//! once, by the first cell that asks.
 
 use super::segment::{self, SegmentCache};
 use super::{edge_hermite, push_edge_vertex, Cell, Hermite};
-use crate::cube::{Axis, CellPoint, CubeEdge, EdgeKey};
+use crate::cube::{Axis, CellPoint, CubeEdge, EdgeKey, SegmentKey};
 use crate::mesh::{MeshBuilder, VertexId};
 use crate::volume::{Iso, Volume};
 
@@ -39,41 +43,118 @@ impl Placed {
     }
 }
 
-/// Per-layer caches over a box of `w × h` points starting at global `(origin[0], origin[1])`.
+/// A dense table of values stamped with the plane or layer they belong to.
+#[derive(Debug, Clone)]
+struct Stamped<T> {
+    slots: Vec<(u32, T)>,
+}
+
+impl<T> Default for Stamped<T> {
+    fn default() -> Self {
+        Stamped { slots: Vec::new() }
+    }
+}
+
+impl<T: Copy> Stamped<T> {
+    fn reset(&mut self, n: usize, empty: T) {
+        self.slots.clear();
+        self.slots.resize(n, (u32::MAX, empty));
+    }
+
+    #[inline(always)]
+    fn get(&self, at: usize, stamp: u32) -> Option<T> {
+        let (s, v) = self.slots[at];
+        (s == stamp).then_some(v)
+    }
+
+    #[inline(always)]
+    fn set(&mut self, at: usize, stamp: u32, v: T) {
+        self.slots[at] = (stamp, v);
+    }
+}
+
+/// Where a segment's vertex is kept: a table and an index in it, with the stamp to match.
+#[derive(Debug, Clone, Copy)]
+enum SegmentSlot {
+    /// Face slots: the face's normal axis and its kind (0: low–high diagonal, 1: the other
+    /// diagonal, 2: the segment between the centres on both sides), at plane or layer `stamp`.
+    Face { normal: usize, kind: usize, stamp: u32, at: usize },
+    /// A centre's segment to its cell's corner `corner`, for the cell at layer `stamp`.
+    CentreCorner { corner: usize, stamp: u32, at: usize },
+    /// A body diagonal of a cell of layer `stamp`, named by its end with z = 0 (corner 0–3).
+    Body { which: usize, stamp: u32, at: usize },
+}
+
+/// The segment tables (allocated on the first segment a walk names).
+#[derive(Debug, Default)]
+struct SegmentTables {
+    /// Faces normal to z, by plane parity, then kind.
+    z_faces: [[Stamped<VertexId>; 3]; 2],
+    /// Faces normal to x and y (inside a layer), by kind.
+    x_faces: [Stamped<VertexId>; 3],
+    y_faces: [Stamped<VertexId>; 3],
+    /// Centre-to-corner segments by layer parity, then corner.
+    centre_corner: [[Stamped<VertexId>; 8]; 2],
+    body: [Stamped<VertexId>; 4],
+}
+
+impl SegmentTables {
+    fn new(n: usize) -> Self {
+        let mut t = SegmentTables::default();
+        let all = t.z_faces.iter_mut().flatten().chain(t.x_faces.iter_mut()).chain(t.y_faces.iter_mut());
+        for s in all.chain(t.centre_corner.iter_mut().flatten()).chain(t.body.iter_mut()) {
+            s.reset(n, VertexId::NONE);
+        }
+        t
+    }
+
+    fn table(&mut self, slot: SegmentSlot) -> (&mut Stamped<VertexId>, u32, usize) {
+        match slot {
+            SegmentSlot::Face { normal: 2, kind, stamp, at } => {
+                (&mut self.z_faces[stamp as usize % 2][kind], stamp, at)
+            }
+            SegmentSlot::Face { normal: 0, kind, stamp, at } => (&mut self.x_faces[kind], stamp, at),
+            SegmentSlot::Face { kind, stamp, at, .. } => (&mut self.y_faces[kind], stamp, at),
+            SegmentSlot::CentreCorner { corner, stamp, at } => {
+                (&mut self.centre_corner[stamp as usize % 2][corner], stamp, at)
+            }
+            SegmentSlot::Body { which, stamp, at } => (&mut self.body[which], stamp, at),
+        }
+    }
+}
+
+/// Per-layer caches over a box of `w × h` points starting at global `(origin[0], origin[1])`,
+/// for the cell layer `k` being walked.
 #[derive(Debug, Default)]
 pub(crate) struct LayerCaches {
     origin: [u32; 2],
     w: usize,
-    x_ids: [Vec<VertexId>; 2],
-    y_ids: [Vec<VertexId>; 2],
-    z_ids: Vec<VertexId>,
-    segs: SegmentCache,
+    h: usize,
+    k: u32,
+    x: [Stamped<VertexId>; 2],
+    y: [Stamped<VertexId>; 2],
+    z: Stamped<VertexId>,
+    segments: Option<Box<SegmentTables>>,
+    /// Segments the tables do not cover.
+    other: SegmentCache,
     /// Only used by extractors that place vertices (sized on first use).
     placed: [Placed; 2],
     /// Hermite data per edge slot, like the ids (allocated on the first request).
-    hermite: Option<Box<HermiteSlots>>,
-}
-
-#[derive(Debug)]
-struct HermiteSlots {
-    x: [Vec<Hermite>; 2],
-    y: [Vec<Hermite>; 2],
-    z: Vec<Hermite>,
+    hermite: Option<Box<[Stamped<Hermite>; 5]>>,
 }
 
 const NO_HERMITE: Hermite = Hermite { point: [f32::NAN; 3], normal: [0.0; 3] };
 
 impl LayerCaches {
-    /// Empty caches for the box of `w × h` points from `origin`.
-    pub(crate) fn reset(&mut self, origin: [u32; 2], w: usize, h: usize, places: bool) {
+    /// Empty caches for the box of `w × h` points from `origin`, starting at cell layer `k`.
+    pub(crate) fn reset(&mut self, origin: [u32; 2], w: usize, h: usize, k: u32, places: bool) {
         let n = w * h;
-        self.origin = origin;
-        self.w = w;
-        for ids in self.x_ids.iter_mut().chain(self.y_ids.iter_mut()).chain(std::iter::once(&mut self.z_ids)) {
-            ids.clear();
-            ids.resize(n, VertexId::NONE);
+        (self.origin, self.w, self.h, self.k) = (origin, w, h, k);
+        for ids in self.x.iter_mut().chain(self.y.iter_mut()).chain(std::iter::once(&mut self.z)) {
+            ids.reset(n, VertexId::NONE);
         }
-        self.segs.clear();
+        self.segments = None;
+        self.other.clear();
         if places {
             self.placed[0].reset(n);
             self.placed[1].reset(n);
@@ -81,43 +162,103 @@ impl LayerCaches {
         self.hermite = None;
     }
 
-    /// After a layer of cells: the top plane becomes the bottom one, fresh slots above.
+    /// After a layer of cells: the next one (stamps make older slots stale, nothing is cleared).
     pub(crate) fn advance(&mut self, places: bool) {
-        self.x_ids.swap(0, 1);
-        self.y_ids.swap(0, 1);
-        self.x_ids[1].fill(VertexId::NONE);
-        self.y_ids[1].fill(VertexId::NONE);
-        self.z_ids.fill(VertexId::NONE);
-        self.segs.advance();
+        self.k += 1;
+        self.other.advance();
         if places {
             self.placed.swap(0, 1);
-            let n = self.z_ids.len();
-            self.placed[1].reset(n);
-        }
-        if let Some(h) = &mut self.hermite {
-            h.x.swap(0, 1);
-            h.y.swap(0, 1);
-            h.x[1].fill(NO_HERMITE);
-            h.y[1].fill(NO_HERMITE);
-            h.z.fill(NO_HERMITE);
+            self.placed[1].reset(self.w * self.h);
         }
     }
 
+    /// The table, stamp and index of edge `e` of cell `ijk` (of the current layer).
     #[inline]
-    fn slot(&self, ijk: [u32; 3], e: CubeEdge) -> (Axis, usize, usize) {
+    fn edge_slot(&self, ijk: [u32; 3], e: CubeEdge) -> (usize, u32, usize) {
         let (i, j) = ((ijk[0] - self.origin[0]) as usize, (ijk[1] - self.origin[1]) as usize);
         // r = e % 4 gives the edge's offsets on the two other axes (see cube/mod.rs).
         let (lo, hi) = ((e.0 & 1) as usize, ((e.0 >> 1) & 1) as usize);
+        let k = ijk[2];
         match e.axis() {
-            Axis::X => (Axis::X, hi, (j + lo) * self.w + i),
-            Axis::Y => (Axis::Y, hi, j * self.w + i + lo),
-            Axis::Z => (Axis::Z, 0, (j + hi) * self.w + i + lo),
+            Axis::X => (0, k + hi as u32, (j + lo) * self.w + i),
+            Axis::Y => (1, k + hi as u32, j * self.w + i + lo),
+            Axis::Z => (2, k, (j + hi) * self.w + i + lo),
+        }
+    }
+
+    #[inline(always)]
+    fn edge_table(&mut self, table: usize, stamp: u32) -> &mut Stamped<VertexId> {
+        match table {
+            0 => &mut self.x[stamp as usize % 2],
+            1 => &mut self.y[stamp as usize % 2],
+            _ => &mut self.z,
         }
     }
 
     #[inline]
     fn cell_index(&self, ijk: [u32; 3]) -> usize {
         (ijk[1] - self.origin[1]) as usize * self.w + (ijk[0] - self.origin[0]) as usize
+    }
+
+    /// Where segment `key` (named by a cell of the current layer) is kept, if the tables cover it.
+    fn segment_slot(&self, key: &SegmentKey) -> Option<SegmentSlot> {
+        let (a, b) = (key.a.map(i64::from), key.b.map(i64::from));
+        let d = [0, 1, 2].map(|x| (b[x] - a[x]).abs());
+        let lo = [0, 1, 2].map(|x| a[x].min(b[x]));
+        let even = |p: &[i64; 3]| p.iter().all(|c| c % 2 == 0);
+        let odd = |p: &[i64; 3]| p.iter().all(|c| c % 2 == 1);
+        let index = |i: i64, j: i64| -> Option<usize> {
+            let (i, j) = (i - self.origin[0] as i64, j - self.origin[1] as i64);
+            (i >= 0 && j >= 0 && (i as usize) < self.w && (j as usize) < self.h)
+                .then(|| j as usize * self.w + i as usize)
+        };
+        let k = self.k as i64;
+        let moved: Vec<usize> = (0..3).filter(|&x| d[x] != 0).collect();
+        if even(&a) && even(&b) && moved.len() == 2 && moved.iter().all(|&x| d[x] == 2) {
+            // A face diagonal: the face's normal is the axis that does not move.
+            let normal = (0..3).find(|x| d[*x] == 0)?;
+            let low_high = (0..3).all(|x| a[x] <= b[x]);
+            let o = lo.map(|c| c / 2);
+            let stamp = o[2];
+            if !(stamp == k || normal == 2 && stamp == k + 1) {
+                return None;
+            }
+            let at = index(o[0], o[1])?;
+            return Some(SegmentSlot::Face { normal, kind: usize::from(!low_high), stamp: stamp as u32, at });
+        }
+        if even(&a) && even(&b) && moved.len() == 3 && d.iter().all(|&x| x == 2) {
+            let cell = lo.map(|c| c / 2);
+            let bottom = if a[2] < b[2] { a } else { b };
+            let which = (((bottom[0] / 2 - cell[0]) as usize) | (((bottom[1] / 2 - cell[1]) as usize) << 1)) & 3;
+            if cell[2] != k {
+                return None;
+            }
+            return Some(SegmentSlot::Body { which, stamp: k as u32, at: index(cell[0], cell[1])? });
+        }
+        if odd(&a) && odd(&b) && moved.len() == 1 && d[moved[0]] == 2 {
+            // Between two centres: the face they share.
+            let normal = moved[0];
+            let mut o = lo.map(|c| (c - 1) / 2);
+            o[normal] += 1;
+            if !(o[2] == k || normal == 2 && o[2] == k + 1) {
+                return None;
+            }
+            return Some(SegmentSlot::Face { normal, kind: 2, stamp: o[2] as u32, at: index(o[0], o[1])? });
+        }
+        let (centre, corner) = if odd(&a) && even(&b) {
+            (a, b)
+        } else if odd(&b) && even(&a) {
+            (b, a)
+        } else {
+            return None;
+        };
+        let cell = centre.map(|c| (c - 1) / 2);
+        let rel = [0, 1, 2].map(|x| corner[x] / 2 - cell[x]);
+        if rel.iter().any(|&r| !(0..=1).contains(&r)) || !(cell[2] == k || cell[2] == k - 1) {
+            return None;
+        }
+        let c = (rel[0] | (rel[1] << 1) | (rel[2] << 2)) as usize;
+        Some(SegmentSlot::CentreCorner { corner: c, stamp: cell[2] as u32, at: index(cell[0], cell[1])? })
     }
 }
 
@@ -168,43 +309,41 @@ impl<V: Volume> Cell for CachedCell<'_, V> {
     }
 
     fn hermite(&mut self, e: CubeEdge) -> Hermite {
-        let (axis, layer, at) = self.caches.slot(self.ijk, e);
-        let n = self.caches.z_ids.len();
+        let (table, stamp, at) = self.caches.edge_slot(self.ijk, e);
+        let n = self.caches.w * self.caches.h;
         let slots = self.caches.hermite.get_or_insert_with(|| {
-            Box::new(HermiteSlots {
-                x: [vec![NO_HERMITE; n], vec![NO_HERMITE; n]],
-                y: [vec![NO_HERMITE; n], vec![NO_HERMITE; n]],
-                z: vec![NO_HERMITE; n],
-            })
+            let mut t: [Stamped<Hermite>; 5] = Default::default();
+            for s in &mut t {
+                s.reset(n, NO_HERMITE);
+            }
+            Box::new(t)
         });
-        let slot = match axis {
-            Axis::X => &mut slots.x[layer][at],
-            Axis::Y => &mut slots.y[layer][at],
-            Axis::Z => &mut slots.z[at],
+        // Tables 0–1: x by plane parity, 2–3: y, 4: z.
+        let slot = match table {
+            0 => &mut slots[stamp as usize % 2],
+            1 => &mut slots[2 + stamp as usize % 2],
+            _ => &mut slots[4],
         };
-        if slot.point[0].is_nan() {
-            let [c0, c1] = e.corners();
-            let key = EdgeKey::of_cell(self.ijk, e);
-            *slot = edge_hermite(self.vol, key, self.d[c0 as usize], self.d[c1 as usize], self.iso);
+        if let Some(h) = slot.get(at, stamp) {
+            return h;
         }
-        *slot
+        let [c0, c1] = e.corners();
+        let key = EdgeKey::of_cell(self.ijk, e);
+        let h = edge_hermite(self.vol, key, self.d[c0 as usize], self.d[c1 as usize], self.iso);
+        slot.set(at, stamp, h);
+        h
     }
 
     #[inline]
     fn edge_vertex(&mut self, e: CubeEdge) -> VertexId {
-        let (axis, layer, at) = self.caches.slot(self.ijk, e);
-        let slot = match axis {
-            Axis::X => &mut self.caches.x_ids[layer][at],
-            Axis::Y => &mut self.caches.y_ids[layer][at],
-            Axis::Z => &mut self.caches.z_ids[at],
-        };
-        if *slot != VertexId::NONE {
-            return *slot;
+        let (table, stamp, at) = self.caches.edge_slot(self.ijk, e);
+        if let Some(id) = self.caches.edge_table(table, stamp).get(at, stamp) {
+            return id;
         }
         let [c0, c1] = e.corners();
         let key = EdgeKey::of_cell(self.ijk, e);
         let id = push_edge_vertex(self.vol, key, self.d[c0 as usize], self.d[c1 as usize], self.iso, self.out);
-        *slot = id;
+        self.caches.edge_table(table, stamp).set(at, stamp, id);
         id
     }
 
@@ -224,12 +363,28 @@ impl<V: Volume> Cell for CachedCell<'_, V> {
         }
         let (vol, iso) = (self.vol, self.iso);
         let (key, d0, d1) = segment::cell_segment(vol, iso, self.ijk, &self.d, &mut self.memo, (a, b));
-        if let Some(id) = self.caches.segs.get(&key) {
-            return id;
+        let caches = &mut *self.caches;
+        match caches.segment_slot(&key) {
+            Some(slot) => {
+                let n = caches.w * caches.h;
+                let tables = caches.segments.get_or_insert_with(|| Box::new(SegmentTables::new(n)));
+                let (table, stamp, at) = tables.table(slot);
+                if let Some(id) = table.get(at, stamp) {
+                    return id;
+                }
+                let id = segment::push_segment_vertex(vol, key, d0, d1, iso, self.out);
+                table.set(at, stamp, id);
+                id
+            }
+            None => {
+                if let Some(id) = caches.other.get(&key) {
+                    return id;
+                }
+                let id = segment::push_segment_vertex(vol, key, d0, d1, iso, self.out);
+                caches.other.insert(key, id);
+                id
+            }
         }
-        let id = segment::push_segment_vertex(vol, key, d0, d1, iso, self.out);
-        self.caches.segs.insert(key, id);
-        id
     }
 
     fn place_vertex(&mut self, local: [f32; 3], edges: u16) -> VertexId {

@@ -60,7 +60,7 @@ impl<V: Volume> Walker<V> for SlabWalker<'_> {
         let first = if places { range.lo.map(|v| v.saturating_sub(1)) } else { range.lo };
         let [nx, ny, _] = dims.map(|d| d as usize);
         let (w, h) = ((range.hi[0] - first[0] + 1) as usize, (range.hi[1] - first[1] + 1) as usize);
-        self.caches.reset([first[0], first[1]], w, h, places);
+        self.caches.reset([first[0], first[1]], w, h, first[2], places);
         for buf in [&mut self.below, &mut self.above] {
             buf.clear();
             buf.resize(nx * ny, 0.0);

@@ -81,7 +81,7 @@ impl<V: SampleSlabs + Sync, X: Extractor + Sync> Passes<'_, V, X> {
         let bx = &self.bx;
         let places = X::PLACES_VERTICES;
         let first_k = if places { g.lo[2].saturating_sub(1).max(bx.lo[2]) } else { g.lo[2] };
-        caches.reset([bx.lo[0], bx.lo[1]], bx.dims[0], bx.dims[1], places);
+        caches.reset([bx.lo[0], bx.lo[1]], bx.dims[0], bx.dims[1], first_k, places);
         let mut stats = WalkStats::default();
         for gk in first_k..g.hi[2] {
             stats.add(self.walk_layer(bits, gk, gk >= g.lo[2], caches, out));
@@ -106,9 +106,19 @@ impl<V: SampleSlabs + Sync, X: Extractor + Sync> Passes<'_, V, X> {
         let uniform_too = self.x.visits_uniform_cells();
         let mut stats = WalkStats::default();
         let mut active = vec![0u64; bits.words];
+        let k = (gk - bx.lo[2]) as usize;
+        // Extractors that sample off the lattice need every cell whose octahedra (or the like)
+        // can hold a crossing. On a volume bounded by its corners that is a cell crossed by the
+        // surface or one just above such a cell on some axis. The cells below must be known: a
+        // layer below missing from the bits (streaming) or lying outside the box (a chunk's first
+        // layer, row or column) makes every cell there a candidate.
+        let below_known = if k == 0 { bx.lo[2] == 0 } else { bits.row0 <= (k - 1) * ny };
+        let neighbours = uniform_too && self.vol.bounded_by_corners() && below_known;
+        let mut visit = vec![0u64; bits.words];
+        let mut below = vec![0u64; bits.words];
+        let mut before = vec![0u64; bits.words];
         // Box-local first cell of the range (the box starts one cell early for placing extractors).
         let lo = [0, 1, 2].map(|a| (self.range.lo[a] - bx.lo[a]) as usize);
-        let k = (gk - bx.lo[2]) as usize;
         for j in 0..ny - 1 {
             let r = k * ny + j;
             let rows = cell_rows(bits, r, ny);
@@ -127,7 +137,7 @@ impl<V: SampleSlabs + Sync, X: Extractor + Sync> Passes<'_, V, X> {
                 }
                 stats.add(WalkStats { cells: (nx - 1 - lo[0]) as u64, cells_outside: outside, cells_inside: inside });
             }
-            let mut visit = |i: usize, case: u8| {
+            let mut visit_cell = |i: usize, case: u8| {
                 if !wants_cell(self.x, case) {
                     return;
                 }
@@ -141,12 +151,32 @@ impl<V: SampleSlabs + Sync, X: Extractor + Sync> Passes<'_, V, X> {
                     self.x.process(&mut cell);
                 }
             };
-            if uniform_too {
+            if neighbours {
+                // Active cells, and those above an active one along x, y or z.
+                let words = active.len();
+                for w in 0..words {
+                    let carry = if w > 0 { active[w - 1] >> 63 } else { 0 };
+                    visit[w] = active[w] | (active[w] << 1) | carry;
+                }
+                visit[0] |= u64::from(bx.lo[0] > 0);
+                if j == 0 && bx.lo[1] > 0 {
+                    visit.fill(!0);
+                } else if j > 0 {
+                    mark_active(cell_rows(bits, r - 1, ny), nx - 1, &mut before);
+                    visit.iter_mut().zip(&before).for_each(|(v, b)| *v |= b);
+                }
+                if k > 0 {
+                    mark_active(cell_rows(bits, r - ny, ny), nx - 1, &mut below);
+                    visit.iter_mut().zip(&below).for_each(|(v, b)| *v |= b);
+                }
+                super::bits::mask_tail(&mut visit, nx - 1);
+                for_each_bit(&visit, |i| visit_cell(i, case_at(&rows, i)));
+            } else if uniform_too {
                 for i in 0..nx - 1 {
-                    visit(i, case_at(&rows, i));
+                    visit_cell(i, case_at(&rows, i));
                 }
             } else {
-                for_each_bit(&active, |i| visit(i, case_at(&rows, i)));
+                for_each_bit(&active, |i| visit_cell(i, case_at(&rows, i)));
             }
         }
         stats

@@ -78,6 +78,9 @@ impl<S: Sample> Volume for SlabRing<S> {
     fn gradient_at(&self, p: [f64; 3]) -> glam::Vec3 {
         crate::volume::point_gradient_at(&self.lattice, p, &|q| self.get(q))
     }
+    fn bounded_by_corners(&self) -> bool {
+        true
+    }
 }
 
 impl<S: Sample> SampleSlabs for SlabRing<S> {
@@ -221,7 +224,7 @@ impl FlyingEdgesWalker<'_> {
             }
             Counting::Unknown => {
                 let mut caches = LayerCaches::default();
-                caches.reset([0, 0], nx, ny, X::PLACES_VERTICES);
+                caches.reset([0, 0], nx, ny, 0, X::PLACES_VERTICES);
                 let mut b = MeshBuilder::new(normals);
                 b.set_reverse_winding(ring.lattice.is_mirrored());
                 for k in 0..nz - 1 {
