@@ -31,8 +31,8 @@
 
 use super::{CellCounts, Counting, Extractor, ProbeCell};
 use crate::cube::{CubeEdge, CORNER_OFFSETS, EDGE_CORNERS, EDGE_FACES, FACE_CORNERS, FACE_EDGES};
+use crate::extract::Cell;
 use crate::mesh::VertexId;
-use crate::walk::Cell;
 
 /// Marching cubes 33: the isosurface of the trilinear interpolant, cell by cell.
 ///
