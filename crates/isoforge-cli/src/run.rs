@@ -97,16 +97,7 @@ fn streams(path: &Path) -> bool {
 
 /// `--spacing` / `--origin` for images: the same samples on a placed lattice.
 fn place(grid: AnyGrid, p: &Placement) -> Result<AnyGrid> {
-    if !p.is_set() {
-        return Ok(grid);
-    }
-    let l = grid.lattice();
-    let lattice = isoforge::grid::Lattice::with_geometry(
-        l.dims(),
-        p.spacing.unwrap_or(l.spacing()),
-        p.origin.unwrap_or(l.origin()),
-    )?;
-    Ok(grid.with_lattice(lattice)?)
+    Ok(grid.placed(p.spacing, p.origin)?)
 }
 
 /// Most vertices per lattice point and triangles per cell of any method: body-centred
@@ -604,7 +595,7 @@ pub fn info(input: &InputConfig, json_out: bool) -> Result<Outcome> {
         Loaded::Stream(_) => None,
         Loaded::Field(b) => {
             v["default_iso"] = json!(b.iso.value);
-            v["inside"] = json!(if b.iso.inside == Inside::Below { "below" } else { "above" });
+            v["inside"] = json!(b.iso.inside.name());
             None
         }
     };
@@ -641,11 +632,7 @@ pub fn info(input: &InputConfig, json_out: bool) -> Result<Outcome> {
     }
     println!("world:       ({:.4}, {:.4}, {:.4}) to ({:.4}, {:.4}, {:.4})", lo[0], lo[1], lo[2], hi[0], hi[1], hi[2]);
     if let Loaded::Field(b) = &loaded {
-        println!(
-            "default iso: {} (inside {})",
-            b.iso.value,
-            if b.iso.inside == Inside::Below { "below" } else { "above" }
-        );
+        println!("default iso: {} (inside {})", b.iso.value, b.iso.inside.name());
     }
     if let Some(h) = &hist {
         println!("values:      {} to {}, mean {:.4}", h.min, h.max, h.mean);

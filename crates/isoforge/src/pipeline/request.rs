@@ -585,7 +585,7 @@ mod tests {
         assert_eq!(b("-100:100,-1:1.5,2:99").unwrap(), ([0, 0, 2], [6, 2, 4]));
         // Between two points, or entirely outside: empty.
         assert!(b("10.6:10.9,0:3,0:3").unwrap_err().to_string().contains("axis 0"));
-        assert!(b("0:3,50:60,0:3").unwrap_err().to_string().contains("axis 1"));
+        assert!(b("10:12,50:60,0:3").unwrap_err().to_string().contains("axis 1"));
     }
 
     fn ramp() -> AnyGrid {
