@@ -99,7 +99,7 @@ pub enum Shown {
     /// A mesh file.
     Mesh(PathBuf),
     /// A volume file.
-    Volume(InputConfig),
+    Volume(Box<InputConfig>),
 }
 
 fn triplet<T: std::str::FromStr>(flag: &str, s: &str) -> Result<[T; 3]> {
@@ -547,7 +547,7 @@ impl ViewConfig {
                 if matches!(cfg.source, Source::Field(_)) {
                     bail!("{input}: view shows volume files, meshes, or (without INPUT) the demo fields");
                 }
-                Shown::Volume(cfg)
+                Shown::Volume(Box::new(cfg))
             }
         };
         let request =

@@ -9,7 +9,7 @@ use isoforge::mesh::{ExternalError, MeshBatch, MeshSink, Normals};
 use isoforge::pipeline::{self, Extraction, Method};
 use isoforge::topo::{self, CheckOptions, Guarantee, MeshReport, StreamCheck};
 use isoforge::volume::catalog::{self, Builtin};
-use isoforge::volume::{Inside, Iso};
+use isoforge::volume::Iso;
 use isoforge_io::write::contour::ContourFrame;
 use isoforge_io::write::ply::PlyStream;
 use isoforge_io::{Limits, MeshFormat, VolumeReader};
