@@ -472,9 +472,8 @@ pub struct RenderConfig {
     /// A mesh file, or a volume/field to extract first.
     pub mesh: Option<PathBuf>,
     pub input: Option<InputConfig>,
-    pub iso: Option<f64>,
-    pub inside: Option<Inside>,
-    pub options: Options,
+    /// Iso (at most one), inside rule, method, threads.
+    pub request: Request,
     pub render: isoforge_io::render::RenderOptions,
     pub output: PathBuf,
 }
@@ -513,9 +512,12 @@ impl RenderConfig {
         Ok(RenderConfig {
             mesh,
             input,
-            iso,
-            inside: a.inside.as_deref().map(parse_inside).transpose()?,
-            options: Options { method, threads, ..Options::default() },
+            request: Request {
+                isos: iso.into_iter().collect(),
+                inside: a.inside.as_deref().map(parse_inside).transpose()?,
+                options: Options { method, threads, ..Options::default() },
+                ..Request::default()
+            },
             render: isoforge_io::render::RenderOptions {
                 size: [w, h],
                 view,
@@ -611,7 +613,7 @@ mod tests {
         assert_eq!(c.request.options.threads, Some(3));
         let a = parse(&["isoforge", "render", "field:sphere", "-o", "s.png", "--threads", "2"]);
         let crate::args::Command::Render(r) = &a.command else { panic!("render") };
-        assert_eq!(RenderConfig::from_args(r, threads(a.threads).unwrap()).unwrap().options.threads, Some(2));
+        assert_eq!(RenderConfig::from_args(r, threads(a.threads).unwrap()).unwrap().request.options.threads, Some(2));
         let a = parse(&["isoforge", "demo", "--threads", "1"]);
         let crate::args::Command::Demo(d) = &a.command else { panic!("demo") };
         assert_eq!(DemoConfig::from_args(d, threads(a.threads).unwrap()).unwrap().request.options.threads, Some(1));

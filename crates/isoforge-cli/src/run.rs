@@ -825,11 +825,12 @@ pub fn render(c: &RenderConfig) -> Result<Outcome> {
                 Loaded::Field(b) => b.iso,
                 _ => Iso::below(0.0),
             };
-            let iso = Iso { value: c.iso.unwrap_or(default_iso.value), inside: c.inside.unwrap_or(default_iso.inside) };
-            let task = Task::start(format!("extracting iso {} ({})", iso.value, c.options.method.name()));
+            let iso = c.request.isos_or(default_iso)[0];
+            let options = &c.request.options;
+            let task = Task::start(format!("extracting iso {} ({})", iso.value, options.method.name()));
             let mesh = match &loaded {
-                Loaded::Grid(g) => pipeline::extract_grid(g, iso, &c.options, Some(&task))?.mesh,
-                Loaded::Field(b) => pipeline::extract_builtin(b, iso, &c.options, Some(&task))?.mesh,
+                Loaded::Grid(g) => pipeline::extract_grid(g, iso, options, Some(&task))?.mesh,
+                Loaded::Field(b) => pipeline::extract_builtin(b, iso, options, Some(&task))?.mesh,
                 Loaded::Stream(_) => bail!("{name}: too large to render in memory"),
             };
             task.finish();
