@@ -4,7 +4,7 @@ triangle quality (mean and minimum of each triangle's smallest angle). Writes a 
 
     cargo build --release -p isoforge-cli
     python3 bench/methods.py --isoforge target/release/isoforge [--repeat 3] \\
-        [VOLUME.raw:X,Y,Z:ISO ...]          # default: built-in sphere and gyroid fields at 128³
+        [VOLUME.raw:X,Y,Z:ISO | VOLUME.nrrd:ISO ...]   # default: built-in sphere and gyroid fields at 128³
 
 Times are the median of `--repeat` in-process runs (`extract --repeat`), extraction only.
 """
@@ -15,7 +15,7 @@ import subprocess
 import sys
 import tempfile
 
-METHODS = ["mc", "mc33", "mt5", "mt6", "mt-bcc"]
+METHODS = ["mc", "mc33", "mt5", "mt6", "mt-bcc", "surface-nets"]
 
 
 def run(cmd):
@@ -30,7 +30,7 @@ def main():
     ap.add_argument("--isoforge", default="target/release/isoforge")
     ap.add_argument("--repeat", type=int, default=3)
     ap.add_argument("--threads", type=int, default=1)
-    ap.add_argument("inputs", nargs="*", help="raw f32 volumes as PATH:X,Y,Z:ISO, or field specs")
+    ap.add_argument("inputs", nargs="*", help="raw f32 volumes as PATH:X,Y,Z:ISO, files with a header as PATH:ISO, or field specs")
     a = ap.parse_args()
     inputs = a.inputs or ["field:sphere?n=128", "field:gyroid?n=128"]
     print("| input | method | triangles | vertices | extraction ms | ÷ mc | watertight | components / χ | min angle mean / min (°) |")
@@ -39,6 +39,9 @@ def main():
         for spec in inputs:
             if spec.startswith("field:"):
                 src, name = ["--input", spec], spec
+            elif spec.count(":") == 1:
+                path, iso = spec.split(":")
+                src, name = ["--input", path, "--iso", iso], os.path.basename(path)
             else:
                 path, dims, iso = spec.split(":")
                 src = ["--input", path, "--dims", dims, "--dtype", "f32", "--iso", iso]

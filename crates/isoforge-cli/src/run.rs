@@ -4,7 +4,7 @@ use std::path::Path;
 use std::time::Instant;
 
 use anyhow::{anyhow, bail, Context, Result};
-use isoforge::grid::{AnyGrid, Histogram, IDENTITY};
+use isoforge::grid::{AnyGrid, Histogram, Sample, IDENTITY};
 use isoforge::mesh::{ExternalError, MeshBatch, MeshSink, Normals};
 use isoforge::pipeline::{self, Extraction, Method};
 use isoforge::topo::{self, CheckOptions, Guarantee, MeshReport, StreamCheck};
@@ -41,7 +41,7 @@ pub enum Loaded {
 }
 
 pub fn load(input: &InputConfig) -> Result<Loaded> {
-    open_input(input, None)
+    open_input(input, None, false)
 }
 
 /// `--max-memory` and what decides whether an extraction fits it in memory.
@@ -54,8 +54,9 @@ struct Budget {
 }
 
 /// Opens the input; with a memory budget, a volume whose in-memory extraction could exceed it
-/// stays a stream.
-fn open_input(input: &InputConfig, budget: Option<&Budget>) -> Result<Loaded> {
+/// stays a stream; with `prefer_stream` (see [`streams_by_default`]) every volume that can
+/// stream does.
+fn open_input(input: &InputConfig, budget: Option<&Budget>, prefer_stream: bool) -> Result<Loaded> {
     let (path, raw) = match &input.source {
         Source::Field(b) => return Ok(Loaded::Field(b.clone())),
         Source::File { path, raw } => (path, raw),
@@ -82,6 +83,9 @@ fn open_input(input: &InputConfig, budget: Option<&Budget>) -> Result<Loaded> {
             return Ok(Loaded::Stream(reader));
         }
     }
+    if prefer_stream && reader.streams() && streams(path) && !input.placement.is_set() {
+        return Ok(Loaded::Stream(reader));
+    }
     let task = Task::start(format!("reading {name}"));
     let grid = reader.read_grid_with_progress(&input.limits, Some(&task))?;
     task.finish();
@@ -93,6 +97,52 @@ fn open_input(input: &InputConfig, budget: Option<&Budget>) -> Result<Loaded> {
 fn streams(path: &Path) -> bool {
     use isoforge_io::VolumeFormat as F;
     !path.is_dir() && !matches!(F::from_path(path), Some(F::Png | F::Tiff | F::Vti))
+}
+
+/// Whether `extract` streams a volume file that can stream (decode, walk and write overlapping, in
+/// O(nx·ny) memory) without `--max-memory`: when the streamed PLY is byte for byte the
+/// in-memory one, i.e. one iso into binary PLY with nothing that needs the whole grid or mesh
+/// (ROI, labels, mask, attributes, colours, `--require`'s full report) and no benchmarking flags
+/// (`--repeat`, `--time-json`: their seconds are the extraction's alone), and a method without
+/// quads (the in-memory path splits quads by their shorter diagonal, which needs the next slab's
+/// vertices).
+fn streams_by_default(c: &ExtractConfig) -> bool {
+    let r = &c.request;
+    c.format == MeshFormat::Ply
+        && r.isos.len() == 1
+        && c.repeat == 1
+        && c.time_json.is_none()
+        && r.region.is_identity()
+        && r.labels.is_none()
+        && c.mask.is_none()
+        && r.attributes.is_empty()
+        && r.color.is_none()
+        && c.color_volume.is_none()
+        && c.require.is_empty()
+        && r.options.method != Method::SurfaceNets
+}
+
+/// The value range of the volume at `path`, read slab by slab (for the message when a streamed
+/// iso gives no surface).
+fn streamed_range(input: &InputConfig) -> Option<(f64, f64)> {
+    let Loaded::Stream(mut r) = open_input(input, None, true).ok()? else { return None };
+    let [nx, ny, nz] = r.lattice().dims();
+    let mut slab = vec![0f64; nx as usize * ny as usize];
+    let (mut lo, mut hi) = (f64::INFINITY, f64::NEG_INFINITY);
+    for _ in 0..nz {
+        isoforge::with_dtype!(r.dtype(), S => {
+            let mut typed = vec![S::from_f64(0.0); slab.len()];
+            r.read_slab(&mut typed).ok()?;
+            for (o, v) in slab.iter_mut().zip(&typed) {
+                *o = v.to_f64();
+            }
+        });
+        for &v in &slab {
+            lo = lo.min(v);
+            hi = hi.max(v);
+        }
+    }
+    Some((lo, hi))
 }
 
 /// `--spacing` / `--origin` for images: the same samples on a placed lattice.
@@ -200,6 +250,11 @@ fn extract_streaming(
     let seconds = start.elapsed().as_secs_f64();
     task.finish();
     if let Some(none) = NoSurface::of(&stats.walk, iso) {
+        // The in-memory path's message when the iso is outside the values (a second pass, on failure only).
+        if let Some((lo, hi)) = streamed_range(&c.input) {
+            request::check_isos_in_range(&[iso], lo, hi)
+                .map_err(|e| anyhow!("{name}: {e} (see `isoforge info {name}`)"))?;
+        }
         bail!("{name}: {none}");
     }
     ply.finish()?;
@@ -251,7 +306,7 @@ pub fn extract(c: &ExtractConfig) -> Result<Outcome> {
         check: !c.require.is_empty(),
     });
     let batch = crate::outputs::plan_extract(c)?;
-    let loaded = open_input(&c.input, budget.as_ref())?;
+    let loaded = open_input(&c.input, budget.as_ref(), streams_by_default(c))?;
     let name = input_name(&c.input);
     let default_iso = match &loaded {
         Loaded::Field(b) => b.iso,

@@ -393,6 +393,60 @@ fn streamed_mesh_equals_in_memory_mesh() {
     );
 }
 
+/// Issue 11: a volume file that streams (binary NRRD, raw, NIfTI, …) is meshed slab by slab by
+/// default, decoding ahead in a background thread, and the PLY is byte for byte the in-memory
+/// one (`--time-json` keeps the extraction in memory: its seconds are the extraction's alone).
+#[test]
+fn streaming_by_default_gives_the_in_memory_bytes() {
+    let dir = tempfile::tempdir().unwrap();
+    let raw = dir.path().join("ct.raw");
+    let [nx, ny, nz] = [61u32, 47, 29];
+    let mut bytes = Vec::new();
+    for k in 0..nz {
+        for j in 0..ny {
+            for i in 0..nx {
+                let (x, y, z) = (i as f32 - 30.0, j as f32 - 23.0, k as f32 - 14.0);
+                let v = 1000.0 + 500.0 * ((x * 0.23).sin() + (y * 0.19).cos() + (z * 0.37).sin())
+                    - 3.0 * (x * x + y * y + z * z).sqrt();
+                bytes.extend_from_slice(&(v.max(0.0) as i16).to_le_bytes());
+            }
+        }
+    }
+    std::fs::write(&raw, &bytes).unwrap();
+    let raw_args = ["-i", p(&raw), "--dims", "61,47,29", "--dtype", "i16"];
+    let gz = testdata().join("volumes/i16_gzip.nrrd");
+    let gz_args = ["-i", p(&gz)];
+    for (name, input, iso) in [("raw", &raw_args[..], "1000.5"), ("gzip", &gz_args[..], "0.5")] {
+        for (threads, normals) in [("1", "none"), ("2", "none"), ("2", "gradient")] {
+            let out = |tag: &str| dir.path().join(format!("{name}-{threads}-{normals}-{tag}.ply"));
+            let (streamed, mem, t) = (out("stream"), out("mem"), dir.path().join("t.json"));
+            let base = [&["extract"][..], input, &["--iso", iso, "--threads", threads, "--normals", normals]].concat();
+            let o = isoforge(&[&base[..], &["-o", p(&streamed)]].concat());
+            assert_eq!(o.status.code(), Some(0), "{}", stderr(&o));
+            assert!(stderr(&o).contains("streamed slab by slab"), "{name}: {}", stderr(&o));
+            let o = isoforge(&[&base[..], &["-o", p(&mem), "--time-json", p(&t)]].concat());
+            assert_eq!(o.status.code(), Some(0), "{}", stderr(&o));
+            assert!(!stderr(&o).contains("streamed"), "{}", stderr(&o));
+            let (a, b) = (std::fs::read(&streamed).unwrap(), std::fs::read(&mem).unwrap());
+            assert!(a.len() > 500, "{name}: a real mesh ({} bytes)", a.len());
+            assert!(a == b, "{name} threads {threads} normals {normals}: streamed and in-memory PLY differ");
+        }
+    }
+    // What needs the whole grid stays in memory; surface nets too (their quads are split by the
+    // shorter diagonal, which needs the next slab's vertices), and ASCII-encoded volumes.
+    let out = dir.path().join("sn.ply");
+    let o = isoforge(
+        &[&["extract"][..], &raw_args, &["--iso", "1000.5", "--method", "surface-nets", "-o", p(&out)]].concat(),
+    );
+    assert_eq!(o.status.code(), Some(0), "{}", stderr(&o));
+    assert!(!stderr(&o).contains("streamed"), "{}", stderr(&o));
+    let c = isoforge(&["check", p(&out), "--require", "watertight"]);
+    assert_eq!(c.status.code(), Some(0), "{}", stderr(&c));
+    let ascii = testdata().join("volumes/f64_ascii.nrrd");
+    let o = isoforge(&["extract", "-i", p(&ascii), "--iso", "0.5", "-o", p(&out)]);
+    assert!(!stderr(&o).contains("streamed"), "{}", stderr(&o));
+}
+
 /// Runs `contour --json` and returns its summary.
 fn contour_summary(args: &[&str]) -> serde_json::Value {
     let o = isoforge(args);

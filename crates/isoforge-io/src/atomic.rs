@@ -13,6 +13,12 @@
 //! [`Batch`] commits several outputs of one command together: each output is checked and its
 //! temporary file created before any work ([`Batch::reserve`]), written, and all are renamed
 //! into place only when all were written ([`Batch::commit`]); a dropped batch leaves nothing.
+//!
+//! **No fsync by default.** A reader, or a process killed at any point, sees the old file or the
+//! whole new one: that needs only the rename. Surviving a *power cut* with the new data needs the
+//! data on disk before the rename (`fsync`), which cost 27–112 ms on 70–155 MB meshes
+//! (bench/peers/results-2026-11-24-e2e.md §4c), as much as extracting them; VTK, gzip and cp do
+//! not pay it either. `ISOFORGE_SYNC=1` syncs each file before its rename and the folders after.
 
 use std::ffi::CString;
 use std::fs::File;
@@ -159,6 +165,11 @@ fn temp_names(target: &Path) -> impl Iterator<Item = PathBuf> + '_ {
     (0..64).map(move |_| dir.join(format!(".{name}.{:016x}.tmp", random_u64())))
 }
 
+/// Whether commits sync files and folders to disk (`ISOFORGE_SYNC=1`; see the module doc).
+fn durable() -> bool {
+    std::env::var_os("ISOFORGE_SYNC").is_some_and(|v| v == "1")
+}
+
 /// Whether temporary files should be named (no `O_TMPFILE`): forced by `ISOFORGE_TEMP=named`.
 fn force_named() -> bool {
     std::env::var_os("ISOFORGE_TEMP").is_some_and(|v| v == "named")
@@ -201,16 +212,23 @@ impl TempFile {
         Err(io::Error::new(io::ErrorKind::AlreadyExists, "no free temporary file name"))
     }
 
+    /// The file itself (for `std::io::copy` between files, which the kernel does for `File`s).
+    pub fn file_mut(&mut self) -> &mut File {
+        &mut self.file
+    }
+
     /// Empties the file and rewinds it.
     pub fn reset(&mut self) -> io::Result<()> {
         self.file.set_len(0)?;
         self.file.seek(SeekFrom::Start(0)).map(|_| ())
     }
 
-    /// Gives the (synced) file a name of its own in `target`'s folder, without replacing
-    /// anything: the first step of a commit, which can fail without touching the target.
+    /// Gives the file (synced if [`durable`]) a name of its own in `target`'s folder, without
+    /// replacing anything: the first step of a commit, which can fail without touching the target.
     fn prepare(mut self, target: &Path) -> io::Result<Prepared> {
-        self.file.sync_all()?;
+        if durable() {
+            self.file.sync_all()?;
+        }
         if let Some((path, reg)) = self.named.take() {
             return Ok(Prepared { path, _reg: reg, renamed: false });
         }
@@ -507,7 +525,7 @@ impl Batch {
         }
     }
 
-    /// Moves every output into place: first each is synced and given a temporary name in its
+    /// Moves every output into place: first each is synced (if [`durable`]) and given a temporary name in its
     /// folder (nothing replaced yet; any failure here leaves every target untouched), then all
     /// are renamed over their targets.
     ///
@@ -536,7 +554,7 @@ impl Batch {
             }
         }
         // The renames themselves reach the disk with the folders.
-        for dir in folders {
+        for dir in folders.into_iter().filter(|_| durable()) {
             if let Ok(d) = File::open(&dir) {
                 let _ = d.sync_all();
             }

@@ -3,7 +3,6 @@
 //! overlay (boundary and non-manifold edges in red where visible). No GPU, no browser:
 //! the same bytes on every machine, so pictures can be golden-tested.
 
-use std::collections::HashMap;
 use std::io::{self, Write};
 
 use isoforge::mesh::Mesh;
@@ -147,15 +146,7 @@ pub fn render(mesh: &Mesh, colors: Option<&[[u8; 3]]>, o: &RenderOptions) -> Vec
         }
     }
     if o.defects {
-        let mut uses: HashMap<(u32, u32), u32> = HashMap::new();
-        for t in &mesh.triangles {
-            for k in 0..3 {
-                let (p, q) = (t[k], t[(k + 1) % 3]);
-                *uses.entry((p.min(q), p.max(q))).or_insert(0) += 1;
-            }
-        }
-        let mut bad: Vec<(u32, u32)> = uses.into_iter().filter(|&(_, n)| n != 2).map(|(e, _)| e).collect();
-        bad.sort_unstable();
+        let bad = isoforge::topo::defect_edges(&mesh.triangles);
         for (p, q) in bad {
             canvas.line(sp[p as usize], sp[q as usize], [220, 20, 20], 2);
         }

@@ -1,4 +1,5 @@
-//! Small geometry types: `Vec3` for computation, `[f32; 3]` at API boundaries, and [`Aabb`].
+//! Small geometry types: `Vec3` for computation, `[f32; 3]` at API boundaries, [`Aabb`]; and the
+//! one [`UnionFind`] (cell corners in MC33, mesh vertices in `topo`).
 
 pub use glam::Vec3;
 
@@ -42,4 +43,117 @@ impl Aabb {
 #[inline]
 pub fn v3(p: [f32; 3]) -> Vec3 {
     Vec3::from_array(p)
+}
+
+/// Disjoint sets of `0..n` with path halving. The smallest element of a set is its root, so
+/// numbering sets by their roots is deterministic. `S` holds the parents: an array for small
+/// fixed sets kept on the stack (`UnionFind::<[u32; 8]>::fixed()`: a cell's corners), a `Vec` for
+/// sets that grow (`UnionFind::new(n)`: a mesh's vertices).
+#[derive(Debug, Clone, Copy)]
+pub struct UnionFind<S = Vec<u32>> {
+    parent: S,
+}
+
+impl<const N: usize> UnionFind<[u32; N]> {
+    /// `N` elements, each in a set of its own.
+    pub fn fixed() -> Self {
+        UnionFind { parent: std::array::from_fn(|i| i as u32) }
+    }
+}
+
+impl UnionFind<Vec<u32>> {
+    /// `n` elements, each in a set of its own.
+    pub fn new(n: usize) -> Self {
+        UnionFind { parent: (0..n as u32).collect() }
+    }
+    /// Adds elements up to `n` (exclusive), each in a set of its own.
+    pub fn grow(&mut self, n: usize) {
+        let from = self.parent.len() as u32;
+        self.parent.extend(from..n as u32);
+    }
+}
+
+impl<S: AsRef<[u32]> + AsMut<[u32]>> UnionFind<S> {
+    /// Elements held.
+    pub fn len(&self) -> usize {
+        self.parent.as_ref().len()
+    }
+    /// Whether no element is held.
+    pub fn is_empty(&self) -> bool {
+        self.len() == 0
+    }
+    /// The root (smallest element) of `x`'s set.
+    #[inline]
+    pub fn find<I: SetIndex>(&mut self, x: I) -> I {
+        let parent = self.parent.as_mut();
+        let mut x = x.index() as u32;
+        while parent[x as usize] != x {
+            let p = parent[parent[x as usize] as usize];
+            parent[x as usize] = p;
+            x = p;
+        }
+        I::from_index(x as usize)
+    }
+    /// Joins the sets of `a` and `b`; returns `(kept root, absorbed root)` when they differed.
+    #[inline]
+    pub fn union<I: SetIndex>(&mut self, a: I, b: I) -> Option<(I, I)> {
+        let (ra, rb) = (self.find(a), self.find(b));
+        if ra == rb {
+            return None;
+        }
+        let (lo, hi) = if ra < rb { (ra, rb) } else { (rb, ra) };
+        self.parent.as_mut()[hi.index()] = lo.index() as u32;
+        Some((lo, hi))
+    }
+}
+
+/// The element types [`UnionFind`] takes: vertex ids (`u32`) and small indices (`usize`).
+pub trait SetIndex: Copy + Ord {
+    /// As an index.
+    fn index(self) -> usize;
+    /// From an index known to fit.
+    fn from_index(i: usize) -> Self;
+}
+
+impl SetIndex for u32 {
+    #[inline]
+    fn index(self) -> usize {
+        self as usize
+    }
+    #[inline]
+    fn from_index(i: usize) -> Self {
+        i as u32
+    }
+}
+
+impl SetIndex for usize {
+    #[inline]
+    fn index(self) -> usize {
+        self
+    }
+    #[inline]
+    fn from_index(i: usize) -> Self {
+        i
+    }
+}
+
+#[cfg(test)]
+mod union_find_tests {
+    use super::UnionFind;
+
+    #[test]
+    fn roots_are_the_smallest_members_for_both_storages() {
+        let mut a = UnionFind::<[u32; 6]>::fixed();
+        let mut v = UnionFind::new(4);
+        v.grow(6);
+        for (x, y) in [(5u32, 3), (3, 4), (1, 2)] {
+            assert_eq!(a.union(x as usize, y as usize).map(|(p, q)| (p as u32, q as u32)), v.union(x, y));
+        }
+        assert_eq!(a.union(4usize, 5), None);
+        assert_eq!([0usize, 1, 2, 3, 4, 5].map(|x| a.find(x)), [0, 1, 1, 3, 3, 3]);
+        assert_eq!([0u32, 1, 2, 3, 4, 5].map(|x| v.find(x)), [0, 1, 1, 3, 3, 3]);
+        assert_eq!(v.union(2u32, 5), Some((1, 3)));
+        assert_eq!(v.find(4u32), 1);
+        assert_eq!((a.len(), v.len()), (6, 6));
+    }
 }

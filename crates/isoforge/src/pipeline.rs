@@ -24,7 +24,7 @@ use crate::extract::{
 use crate::grid::{AnyGrid, DType, DenseGrid, Sample};
 use crate::mesh::{KeyRecord, Mesh, MeshBuilder, MeshSink};
 use crate::volume::catalog::Builtin;
-use crate::volume::{Field, FieldVisitor, GridVolume, Iso, Sampled, SlabSource, Tabulated, Volume};
+use crate::volume::{Field, FieldVisitor, GridVolume, Iso, Prefetch, Sampled, SlabSource, Tabulated, Volume};
 use crate::walk::{FlyingEdgesWalker, Progress, SlabWalker, StreamStats, WalkStats, Walker};
 
 pub use crate::mesh::Normals;
@@ -264,12 +264,19 @@ pub trait AnySlabSource:
     fn dtype(&self) -> DType;
 }
 
+/// Slabs a streamed extraction reads ahead in a background thread ([`Prefetch`]).
+pub const PREFETCH_SLABS: usize = 4;
+
 /// Extracts a volume that arrives slab by slab (larger than memory), handing the mesh to `sink`
 /// as it is produced, in O(nx·ny) memory. Every method; no mask or range.
 ///
+/// Unless [`Options::threads`] is `Some(1)` (or the machine has one core), the slabs are read
+/// (decoded) [`PREFETCH_SLABS`] ahead by a background thread ([`Prefetch`]) while the walker
+/// works on the current ones; the mesh is the same either way.
+///
 /// # Errors
 /// As [`extract`]; [`Error::External`] from the source or the sink.
-pub fn extract_streamed<R: AnySlabSource>(
+pub fn extract_streamed<R: AnySlabSource + Send>(
     src: &mut R,
     iso: Iso,
     opts: &Options,
@@ -295,22 +302,30 @@ pub fn extract_streamed<R: AnySlabSource>(
             Ok(self.stats.walk)
         }
     }
-    fn go<S: Sample>(
-        src: &mut dyn SlabSource<S>,
+    fn go<S: Sample + Send>(
+        src: &mut (dyn SlabSource<S> + Send),
         iso: Iso,
         opts: &Options,
         sink: &mut dyn MeshSink,
         progress: Option<&dyn Progress>,
     ) -> Result<StreamStats> {
-        let mut w = Streamed {
-            src,
-            sink,
-            walker: walker(opts, progress),
-            stats: StreamStats::default(),
-            normals: opts.normals,
+        let walk = |src: &mut dyn SlabSource<S>, sink: &mut dyn MeshSink| {
+            let mut w = Streamed {
+                src,
+                sink,
+                walker: walker(opts, progress),
+                stats: StreamStats::default(),
+                normals: opts.normals,
+            };
+            run(&mut w, &(), iso, opts, &mut MeshBuilder::default())?;
+            Ok(w.stats)
         };
-        run(&mut w, &(), iso, opts, &mut MeshBuilder::default())?;
-        Ok(w.stats)
+        let cores = || std::thread::available_parallelism().map_or(1, |n| n.get());
+        if opts.threads.unwrap_or_else(cores) >= 2 {
+            std::thread::scope(|s| walk(&mut Prefetch::spawn(s, src, PREFETCH_SLABS), sink))
+        } else {
+            walk(src, sink)
+        }
     }
     crate::with_dtype!(src.dtype(), S => go::<S>(src, iso, opts, sink, progress))
 }

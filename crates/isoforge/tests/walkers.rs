@@ -133,11 +133,14 @@ proptest! {
         let normals = if normals { Normals::Gradient } else { Normals::None };
         for method in Method::ALL {
             let (a, sa) = walk_method(&mut FlyingEdgesWalker::new(), &GridVolume::new(&g), iso, method, normals);
-            let mut sink = Collect::default();
-            let opts = Options { method, normals, ..Default::default() };
-            let s = pipeline::extract_streamed(&mut Slabs { grid: &g, k: 0 }, iso, &opts, &mut sink, None).unwrap();
-            prop_assert_eq!(s.walk, sa, "{}", method.name());
-            prop_assert_eq!(&sink.0, &a, "{}", method.name());
+            // One thread reads inline; two read ahead in a background thread (`Prefetch`).
+            for threads in [1, 2] {
+                let mut sink = Collect::default();
+                let opts = Options { method, normals, threads: Some(threads), ..Default::default() };
+                let s = pipeline::extract_streamed(&mut Slabs { grid: &g, k: 0 }, iso, &opts, &mut sink, None).unwrap();
+                prop_assert_eq!(s.walk, sa, "{} threads {}", method.name(), threads);
+                prop_assert_eq!(&sink.0, &a, "{} threads {}", method.name(), threads);
+            }
         }
     }
 

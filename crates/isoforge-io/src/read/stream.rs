@@ -114,6 +114,12 @@ impl VolumeReader {
         self.lattice.num_points().saturating_mul(self.dtype().size() as u64)
     }
 
+    /// Whether [`VolumeReader::read_slab`] can deliver the slabs one by one (a binary sample
+    /// stream); text encodings are decoded whole when opened.
+    pub fn streams(&self) -> bool {
+        matches!(self.body, Body::Stream(_))
+    }
+
     /// Reads the whole volume into one grid (checked against `limits` first), rejecting non-finite
     /// samples.
     ///

@@ -1,4 +1,5 @@
-//! OBJ writer: `v`, `vn` when normals exist, and 1-based `f` (with `//n` references).
+//! OBJ writer: `v`, `vn` when normals exist, and 1-based `f` (with `//n` references): triangles,
+//! then quads.
 
 use std::io::{self, Write};
 
@@ -43,6 +44,15 @@ fn write_object(w: &mut dyn Write, mesh: &Mesh, data: &MeshData, base_v: usize, 
             writeln!(w, "f {a}//{na} {b}//{nb} {c}//{nc}")?;
         } else {
             writeln!(w, "f {a} {b} {c}")?;
+        }
+    }
+    for q in &mesh.quads {
+        let [a, b, c, d] = q.map(|v| v as usize + base_v + 1);
+        if with_n {
+            let [na, nb, nc, nd] = q.map(|v| v as usize + base_n + 1);
+            writeln!(w, "f {a}//{na} {b}//{nb} {c}//{nc} {d}//{nd}")?;
+        } else {
+            writeln!(w, "f {a} {b} {c} {d}")?;
         }
     }
     Ok(())

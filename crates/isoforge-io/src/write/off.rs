@@ -1,4 +1,4 @@
-//! OFF writer.
+//! OFF writer: triangles, then quads.
 
 use std::io::{self, Write};
 
@@ -17,7 +17,7 @@ pub fn write_off_with(w: &mut dyn Write, mesh: &Mesh, data: &MeshData) -> io::Re
         return Err(io::Error::other("mesh data does not match the mesh"));
     }
     let tag = if data.colors.is_some() { "COFF" } else { "OFF" };
-    writeln!(w, "{tag}\n{} {} 0", mesh.positions.len(), mesh.triangles.len())?;
+    writeln!(w, "{tag}\n{} {} 0", mesh.positions.len(), mesh.triangles.len() + mesh.quads.len())?;
     for (i, p) in mesh.positions.iter().enumerate() {
         match &data.colors {
             Some(c) => writeln!(w, "{} {} {} {} {} {} 255", p[0], p[1], p[2], c[i][0], c[i][1], c[i][2])?,
@@ -26,6 +26,9 @@ pub fn write_off_with(w: &mut dyn Write, mesh: &Mesh, data: &MeshData) -> io::Re
     }
     for t in &mesh.triangles {
         writeln!(w, "3 {} {} {}", t[0], t[1], t[2])?;
+    }
+    for q in &mesh.quads {
+        writeln!(w, "4 {} {} {} {}", q[0], q[1], q[2], q[3])?;
     }
     Ok(())
 }

@@ -15,31 +15,95 @@ pub fn write_ply(w: &mut dyn Write, mesh: &Mesh, ascii: bool) -> io::Result<()> 
     write_ply_with(w, mesh, &MeshData::default(), ascii)
 }
 
+/// The header of a PLY file: `faces` triangles and quads as one `face` element.
+fn header(vertices: usize, faces: usize, normals: bool, data: &MeshData, ascii: bool) -> String {
+    use std::fmt::Write as _;
+    let format = if ascii { "ascii" } else { "binary_little_endian" };
+    let mut h = format!(
+        "ply\nformat {format} 1.0\ncomment isoforge {}\nelement vertex {vertices}\nproperty float x\nproperty float y\nproperty float z\n",
+        env!("CARGO_PKG_VERSION")
+    );
+    if normals {
+        h.push_str("property float nx\nproperty float ny\nproperty float nz\n");
+    }
+    if data.colors.is_some() {
+        h.push_str("property uchar red\nproperty uchar green\nproperty uchar blue\n");
+    }
+    for (name, _) in &data.scalars {
+        let name: String = name.chars().map(|c| if c.is_ascii_alphanumeric() || c == '_' { c } else { '_' }).collect();
+        let _ = writeln!(h, "property float {name}");
+    }
+    let _ = write!(h, "element face {faces}\nproperty list uchar int vertex_indices\n");
+    if data.triangle_labels.is_some() {
+        h.push_str("property int label\n");
+    }
+    h.push_str("end_header\n");
+    h
+}
+
+/// Faces packed per write (13 bytes a triangle, 17 a quad).
+const FACES_PER_WRITE: usize = 1 << 16;
+
+/// Positions (and normals, interleaved) as binary little-endian floats: one write of the cast
+/// slice when there are no normals on a little-endian target, else packed through `buf`.
+fn write_vertices(
+    w: &mut dyn Write,
+    positions: &[[f32; 3]],
+    normals: &[[f32; 3]],
+    buf: &mut Vec<u8>,
+) -> io::Result<()> {
+    if normals.is_empty() && cfg!(target_endian = "little") {
+        return w.write_all(isoforge::grid::as_bytes(positions.as_flattened()));
+    }
+    let stride = if normals.is_empty() { 12 } else { 24 };
+    for (i, chunk) in positions.chunks(FACES_PER_WRITE).enumerate() {
+        buf.clear();
+        buf.reserve(chunk.len() * stride);
+        for (j, p) in chunk.iter().enumerate() {
+            for c in p {
+                buf.extend_from_slice(&c.to_le_bytes());
+            }
+            if let Some(n) = normals.get(i * FACES_PER_WRITE + j) {
+                for c in n {
+                    buf.extend_from_slice(&c.to_le_bytes());
+                }
+            }
+        }
+        w.write_all(buf)?;
+    }
+    Ok(())
+}
+
+/// Polygons (`N` corners) as binary `uchar N, int × N` records, packed 64 Ki at a time into
+/// `buf` (reused, so no whole-mesh staging).
+fn write_faces<const N: usize>(w: &mut dyn Write, faces: &[[u32; N]], buf: &mut Vec<u8>) -> io::Result<()> {
+    for chunk in faces.chunks(FACES_PER_WRITE) {
+        buf.clear();
+        buf.reserve(chunk.len() * (1 + 4 * N));
+        for f in chunk {
+            buf.push(N as u8);
+            for v in f {
+                buf.extend_from_slice(&(*v as i32).to_le_bytes());
+            }
+        }
+        w.write_all(buf)?;
+    }
+    Ok(())
+}
+
 /// Writes `mesh` as PLY with extra vertex properties: `red green blue` (uchar) for colours, then
-/// one `float NAME` per scalar attribute.
+/// one `float NAME` per scalar attribute. Triangles come first, then quads (4-gons), in one
+/// `face` element; triangle labels need a mesh without quads.
 pub fn write_ply_with(w: &mut dyn Write, mesh: &Mesh, data: &MeshData, ascii: bool) -> io::Result<()> {
     if !data.fits(mesh) {
         return Err(io::Error::other("vertex data does not have one entry per vertex"));
     }
+    if data.triangle_labels.is_some() && !mesh.quads.is_empty() {
+        return Err(io::Error::other("triangle labels on a mesh with quads (triangulate it first)"));
+    }
     let normals = !mesh.normals.is_empty();
-    let format = if ascii { "ascii" } else { "binary_little_endian" };
-    write!(w, "ply\nformat {format} 1.0\ncomment isoforge {}\nelement vertex {}\nproperty float x\nproperty float y\nproperty float z\n",
-        env!("CARGO_PKG_VERSION"), mesh.positions.len())?;
-    if normals {
-        w.write_all(b"property float nx\nproperty float ny\nproperty float nz\n")?;
-    }
-    if data.colors.is_some() {
-        w.write_all(b"property uchar red\nproperty uchar green\nproperty uchar blue\n")?;
-    }
-    for (name, _) in &data.scalars {
-        let name: String = name.chars().map(|c| if c.is_ascii_alphanumeric() || c == '_' { c } else { '_' }).collect();
-        writeln!(w, "property float {name}")?;
-    }
-    write!(w, "element face {}\nproperty list uchar int vertex_indices\n", mesh.triangles.len())?;
-    if data.triangle_labels.is_some() {
-        w.write_all(b"property int label\n")?;
-    }
-    w.write_all(b"end_header\n")?;
+    let faces = mesh.triangles.len() + mesh.quads.len();
+    w.write_all(header(mesh.positions.len(), faces, normals, data, ascii).as_bytes())?;
     if ascii {
         for (i, p) in mesh.positions.iter().enumerate() {
             write!(w, "{} {} {}", p[0], p[1], p[2])?;
@@ -61,8 +125,15 @@ pub fn write_ply_with(w: &mut dyn Write, mesh: &Mesh, data: &MeshData, ascii: bo
                 None => writeln!(w, "3 {} {} {}", t[0], t[1], t[2])?,
             }
         }
+        for q in &mesh.quads {
+            writeln!(w, "4 {} {} {} {}", q[0], q[1], q[2], q[3])?;
+        }
+        return Ok(());
+    }
+    let mut buf = Vec::with_capacity(1 << 16);
+    if data.colors.is_none() && data.scalars.is_empty() {
+        write_vertices(w, &mesh.positions, &mesh.normals, &mut buf)?;
     } else {
-        let mut buf = Vec::with_capacity(1 << 16);
         for (i, p) in mesh.positions.iter().enumerate() {
             for c in p {
                 buf.extend_from_slice(&c.to_le_bytes());
@@ -83,37 +154,43 @@ pub fn write_ply_with(w: &mut dyn Write, mesh: &Mesh, data: &MeshData, ascii: bo
                 buf.clear();
             }
         }
-        for (k, t) in mesh.triangles.iter().enumerate() {
-            buf.push(3);
-            for v in t {
-                buf.extend_from_slice(&(*v as i32).to_le_bytes());
-            }
-            if let Some(l) = &data.triangle_labels {
-                buf.extend_from_slice(&l[k].to_le_bytes());
-            }
-            if buf.len() >= 1 << 16 {
-                w.write_all(&buf)?;
-                buf.clear();
-            }
-        }
         w.write_all(&buf)?;
     }
-    Ok(())
+    match &data.triangle_labels {
+        None => write_faces(w, &mesh.triangles, &mut buf)?,
+        Some(l) => {
+            buf.clear();
+            for (t, l) in mesh.triangles.iter().zip(l) {
+                buf.push(3);
+                for v in t {
+                    buf.extend_from_slice(&(*v as i32).to_le_bytes());
+                }
+                buf.extend_from_slice(&l.to_le_bytes());
+                if buf.len() >= 1 << 16 {
+                    w.write_all(&buf)?;
+                    buf.clear();
+                }
+            }
+            w.write_all(&buf)?;
+        }
+    }
+    write_faces(w, &mesh.quads, &mut buf)
 }
 
-/// Width the streamed header reserves for each count, so the counts can be written at the end.
-const COUNT_WIDTH: usize = 20;
-
-/// A binary PLY written as the mesh is produced ([`isoforge::mesh::MeshSink`]): vertices go to the
-/// output's temporary file, triangles to an anonymous scratch file beside it;
-/// [`PlyStream::finish`] appends the triangles and writes the counts into the header's reserved
-/// space. Nothing appears at the path before the batch commits (or, for
-/// [`PlyStream::create`], before `finish`); a stream dropped unfinished leaves nothing.
+/// A binary PLY written as the mesh is produced ([`isoforge::mesh::MeshSink`]): vertices and
+/// faces go to two anonymous scratch files beside the output (the counts, hence the header, are
+/// known only at the end); [`PlyStream::finish`] writes the header into the output's temporary
+/// file and appends both (`copy_file_range`: a copy inside the kernel). The bytes are exactly
+/// [`write_ply`]'s for the same mesh. Nothing appears at the path before the batch commits (or,
+/// for [`PlyStream::create`], before `finish`); a stream dropped unfinished leaves nothing.
 pub struct PlyStream<'a> {
     batch: Owner<'a>,
     path: PathBuf,
-    main: Option<io::BufWriter<TempFile>>,
-    tris: io::BufWriter<TempFile>,
+    main: Option<TempFile>,
+    verts: io::BufWriter<TempFile>,
+    faces: io::BufWriter<TempFile>,
+    /// Reused packing buffer.
+    buf: Vec<u8>,
     normals: bool,
     vertices: u64,
     triangles: u64,
@@ -131,24 +208,6 @@ impl Owner<'_> {
             Owner::Shared(b) => b,
         }
     }
-}
-
-fn stream_header(vertices: u64, triangles: u64, normals: bool) -> String {
-    let mut h = format!(
-        "ply\nformat binary_little_endian 1.0\ncomment isoforge {}\nelement vertex {:<w$}\nproperty float x\nproperty float y\nproperty float z\n",
-        env!("CARGO_PKG_VERSION"),
-        vertices,
-        w = COUNT_WIDTH
-    );
-    if normals {
-        h.push_str("property float nx\nproperty float ny\nproperty float nz\n");
-    }
-    h.push_str(&format!(
-        "element face {:<w$}\nproperty list uchar int vertex_indices\nend_header\n",
-        triangles,
-        w = COUNT_WIDTH
-    ));
-    h
 }
 
 impl PlyStream<'static> {
@@ -177,66 +236,43 @@ impl<'a> PlyStream<'a> {
         let io_err = |source| Error::Io { path: path.to_path_buf(), source };
         let mut main = batch.batch().take(path)?;
         main.reset().map_err(io_err)?;
-        let tris = TempFile::create(path).map_err(io_err)?;
-        let mut s = PlyStream {
+        let verts = TempFile::create(path).map_err(io_err)?;
+        let faces = TempFile::create(path).map_err(io_err)?;
+        Ok(PlyStream {
             batch,
             path: path.to_path_buf(),
-            main: Some(io::BufWriter::with_capacity(1 << 20, main)),
-            tris: io::BufWriter::with_capacity(1 << 20, tris),
+            main: Some(main),
+            verts: io::BufWriter::with_capacity(1 << 20, verts),
+            faces: io::BufWriter::with_capacity(1 << 20, faces),
+            buf: Vec::new(),
             normals,
             vertices: 0,
             triangles: 0,
-        };
-        s.main_mut().and_then(|m| m.write_all(stream_header(0, 0, normals).as_bytes())).map_err(io_err)?;
-        Ok(s)
+        })
     }
 
-    fn main_mut(&mut self) -> io::Result<&mut io::BufWriter<TempFile>> {
-        self.main.as_mut().ok_or_else(|| io::Error::other("the stream is finished"))
-    }
-
-    /// Appends vertices and polygons.
+    /// Appends vertices and polygons (triangles, then quads as 4-gons).
     ///
     /// # Errors
     /// Writing fails, or `normals` does not match the stream.
     pub fn push(&mut self, batch: isoforge::mesh::MeshBatch<'_>) -> io::Result<()> {
         let isoforge::mesh::MeshBatch { positions, normals, triangles, quads } = batch;
+        if self.main.is_none() {
+            return Err(io::Error::other("the stream is finished"));
+        }
         if self.normals == normals.is_empty() && !positions.is_empty() {
             return Err(io::Error::other("normals given to a stream created without them, or missing"));
         }
-        let mut buf = Vec::with_capacity(positions.len() * 24);
-        for (i, p) in positions.iter().enumerate() {
-            for c in p {
-                buf.extend_from_slice(&c.to_le_bytes());
-            }
-            if self.normals {
-                for c in normals[i] {
-                    buf.extend_from_slice(&c.to_le_bytes());
-                }
-            }
-        }
-        self.main_mut()?.write_all(&buf)?;
-        buf.clear();
-        for t in triangles {
-            buf.push(3);
-            for v in t {
-                buf.extend_from_slice(&(*v as i32).to_le_bytes());
-            }
-        }
-        for q in quads {
-            buf.push(4);
-            for v in q {
-                buf.extend_from_slice(&(*v as i32).to_le_bytes());
-            }
-        }
-        self.tris.write_all(&buf)?;
+        write_vertices(&mut self.verts, positions, normals, &mut self.buf)?;
+        write_faces(&mut self.faces, triangles, &mut self.buf)?;
+        write_faces(&mut self.faces, quads, &mut self.buf)?;
         self.vertices += positions.len() as u64;
         self.triangles += (triangles.len() + quads.len()) as u64;
         Ok(())
     }
 
-    /// Appends the triangles and writes the counts; then commits the file (a stream of its own)
-    /// or hands it back to its batch. Returns the vertex and triangle counts.
+    /// Writes the header, appends the vertices and faces; then commits the file (a stream of its
+    /// own) or hands it back to its batch. Returns the vertex and face counts.
     ///
     /// # Errors
     /// [`Error::Io`] naming the path when writing or committing fails (nothing is left behind).
@@ -245,20 +281,23 @@ impl<'a> PlyStream<'a> {
         let path = self.path.clone();
         let io_err = |source| Error::Io { path: path.clone(), source };
         let mut main = self.main.take().ok_or_else(|| io_err(io::Error::other("the stream is finished")))?;
-        let mut file = (|| {
-            self.tris.flush()?;
-            let tris = self.tris.get_mut();
-            tris.seek(SeekFrom::Start(0))?;
-            io::copy(tris, &mut main)?;
-            let mut file = main.into_inner().map_err(|e| e.into_error())?;
-            file.seek(SeekFrom::Start(0))?;
-            file.write_all(stream_header(self.vertices, self.triangles, self.normals).as_bytes())?;
-            Ok(file)
-        })()
-        .map_err(io_err)?;
-        file.seek(SeekFrom::End(0)).map_err(io_err)?;
-        let batch = self.batch.batch();
-        batch.put(&path, file);
+        let written = (|| {
+            let too_many = || io::Error::other("more vertices or faces than this machine can count");
+            let (v, f) = (
+                usize::try_from(self.vertices).map_err(|_| too_many())?,
+                usize::try_from(self.triangles).map_err(|_| too_many())?,
+            );
+            main.write_all(header(v, f, self.normals, &MeshData::default(), false).as_bytes())?;
+            for part in [&mut self.verts, &mut self.faces] {
+                part.flush()?;
+                let scratch = part.get_mut();
+                scratch.seek(SeekFrom::Start(0))?;
+                io::copy(scratch.file_mut(), main.file_mut())?;
+            }
+            Ok(())
+        })();
+        written.map_err(io_err)?;
+        self.batch.batch().put(&path, main);
         if let Owner::Own(b) = std::mem::replace(&mut self.batch, Owner::Own(Batch::new())) {
             b.commit()?;
         }

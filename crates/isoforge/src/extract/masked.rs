@@ -1,7 +1,7 @@
 //! A mask on any extractor: cells are processed iff all eight corners are in the mask.
 
 use super::{Counting, Extractor};
-use crate::walk::Cell;
+use crate::extract::Cell;
 
 /// Which lattice points are in the mask: one flag per point, x fastest.
 #[derive(Debug, Clone, PartialEq, Eq)]

@@ -31,8 +31,9 @@
 
 use super::{CellCounts, Counting, Extractor, ProbeCell};
 use crate::cube::{CubeEdge, CORNER_OFFSETS, EDGE_CORNERS, EDGE_FACES, FACE_CORNERS, FACE_EDGES};
+use crate::extract::Cell;
+use crate::math::UnionFind;
 use crate::mesh::VertexId;
-use crate::walk::Cell;
 
 /// Marching cubes 33: the isosurface of the trilinear interpolant, cell by cell.
 ///
@@ -134,13 +135,13 @@ fn easy_cases() -> &'static [Option<Vec<[u8; 3]>>; 256] {
                 let [p, q, r, s] = f.map(|c| inside(d[c as usize]));
                 p == r && q == s && p != q
             });
-            let mut patches = UnionFind::<8>::new();
+            let mut patches = UnionFind::<[u32; 8]>::fixed();
             for [a, b] in EDGE_CORNERS {
                 if inside(d[a as usize]) == inside(d[b as usize]) {
                     patches.union(a as usize, b as usize);
                 }
             }
-            let roots = |class: bool| {
+            let mut roots = |class: bool| {
                 let mut r: Vec<usize> = (0..8).filter(|&c| inside(d[c]) == class).map(|c| patches.find(c)).collect();
                 r.sort();
                 r.dedup();
@@ -213,7 +214,7 @@ impl CellTopology {
     pub(crate) fn of(d: &[f32; 8]) -> Self {
         // 1. Face segments: next[exit edge] = entry edge; patches of corners joined on the faces.
         let mut next = [NO_EDGE; 12];
-        let mut patches = UnionFind::<8>::new();
+        let mut patches = UnionFind::<[u32; 8]>::fixed();
         for [a, b] in EDGE_CORNERS {
             if inside(d[a as usize]) == inside(d[b as usize]) {
                 patches.union(a as usize, b as usize);
@@ -313,7 +314,7 @@ impl CellTopology {
             if nr < 2 {
                 continue;
             }
-            let interior = interior_components(d, class_inside);
+            let mut interior = interior_components(d, class_inside);
             let mut joined = patches;
             for i in 0..nr {
                 for j in i + 1..nr {
@@ -385,7 +386,7 @@ const ROOT_MERGE: f64 = 1e-9;
 /// with ties outside, the outside class is closed, and two outside regions touching at one point
 /// (a slice saddle reaching iso without crossing it, a double root) are joined there only, as a
 /// face saddle exactly at iso joins the outside corners. Integer data makes these ties (issue 10).
-fn interior_components(d: &[f32; 8], class_inside: bool) -> UnionFind<8> {
+fn interior_components(d: &[f32; 8], class_inside: bool) -> UnionFind<[u32; 8]> {
     let member = |v: f64| (v < 0.0) == class_inside;
     let b: [f64; 4] = [0, 1, 2, 3].map(|c| d[c] as f64);
     let top: [f64; 4] = [4, 5, 6, 7].map(|c| d[c] as f64);
@@ -497,7 +498,7 @@ fn interior_components(d: &[f32; 8], class_inside: bool) -> UnionFind<8> {
             }
         })
     };
-    let mut uf = UnionFind::<{ 4 * (2 * 6 + 3) }>::new();
+    let mut uf = UnionFind::<[u32; 4 * (2 * 6 + 3)]>::fixed();
     let mut last = [0.0f64; 4];
     for (s, &(t, zero, saddle_at_iso)) in samples[..ns].iter().enumerate() {
         let e = slice(t, zero);
@@ -529,7 +530,7 @@ fn interior_components(d: &[f32; 8], class_inside: bool) -> UnionFind<8> {
         }
         last = e;
     }
-    let mut out = UnionFind::<8>::new();
+    let mut out = UnionFind::<[u32; 8]>::fixed();
     let corner_node = |c: usize| if c < 4 { c } else { 4 * (ns - 1) + c - 4 };
     for c0 in 0..8 {
         for c1 in c0 + 1..8 {
@@ -695,30 +696,6 @@ fn trilinear(d: &[f32; 8], p: [f32; 3]) -> f32 {
             w * d[c]
         })
         .sum()
-}
-
-/// A tiny union-find over N elements.
-#[derive(Debug, Clone, Copy)]
-pub(crate) struct UnionFind<const N: usize> {
-    parent: [u8; N],
-}
-
-impl<const N: usize> UnionFind<N> {
-    pub(crate) fn new() -> Self {
-        UnionFind { parent: std::array::from_fn(|i| i as u8) }
-    }
-    pub(crate) fn find(&self, mut x: usize) -> usize {
-        while self.parent[x] as usize != x {
-            x = self.parent[x] as usize;
-        }
-        x
-    }
-    pub(crate) fn union(&mut self, a: usize, b: usize) {
-        let (ra, rb) = (self.find(a), self.find(b));
-        if ra != rb {
-            self.parent[ra.max(rb)] = ra.min(rb) as u8;
-        }
-    }
 }
 
 #[cfg(test)]

@@ -18,6 +18,7 @@
 //! [`counts`](Extractor::counts) first; extractors that cannot tell their output before making
 //! it run on per-slab meshes stitched by vertex key instead.
 
+mod cell;
 pub mod marching_cubes;
 pub mod masked;
 pub mod mc33;
@@ -25,6 +26,7 @@ pub mod squares;
 pub mod surface_nets;
 pub mod tetrahedra;
 
+pub use cell::{Cell, Hermite};
 pub use marching_cubes::MarchingCubes;
 pub use masked::{Masked, PointMask};
 pub use mc33::MarchingCubes33;
@@ -34,7 +36,6 @@ pub use tetrahedra::{Decomposition, MarchingTetrahedra};
 
 use crate::cube::{cell_segment, CellPoint, CubeEdge, Diagonals};
 use crate::mesh::VertexId;
-use crate::walk::{Cell, Hermite};
 
 /// What `process` will emit for one cell, known before the cell is processed.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]

@@ -4,7 +4,7 @@
 
 use super::Extractor;
 use crate::cube::{CubeEdge, CASE_EDGES, CORNER_OFFSETS, EDGE_CORNERS};
-use crate::walk::Cell;
+use crate::extract::Cell;
 
 /// Surface nets: one vertex per active cell at the mean of its edge crossings, and for every
 /// crossed lattice edge a quad joining the vertices of the four cells around it.

@@ -17,7 +17,7 @@ use super::{Counting, Extractor, ProbeCell, Segments};
 use crate::cube::CellPoint;
 use crate::cube::Diagonals;
 use crate::cube::FACE_CORNERS;
-use crate::walk::Cell;
+use crate::extract::Cell;
 
 /// How a cell is split into tetrahedra.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]

@@ -1,7 +1,7 @@
 use std::fmt;
 
 use crate::grid::Lattice;
-use crate::math::Aabb;
+use crate::math::{Aabb, UnionFind};
 use crate::mesh::Mesh;
 use crate::walk::Progress;
 
@@ -362,7 +362,7 @@ pub fn check_with_progress(mesh: &Mesh, opts: &CheckOptions, progress: Option<&d
         for s in 0..3 {
             let (a, b) = (t[s], t[(s + 1) % 3]);
             let forward = (a < b) as u32;
-            let key = ((a.min(b) as u64) << 32) | a.max(b) as u64;
+            let key = edge_key(a, b);
             edges.push((key, (ti << 1) | forward));
         }
     }
@@ -498,6 +498,22 @@ fn min_angles(mesh: &Mesh, triangles: &[u32]) -> (f64, f64) {
     }
 }
 
+/// Undirected edge `a`–`b` as one sortable key: the smaller vertex in the high half. The one
+/// edge-incidence key of the crate (checks, streamed checks, defect edges).
+#[inline]
+pub fn edge_key(a: u32, b: u32) -> u64 {
+    (u64::from(a.min(b)) << 32) | u64::from(a.max(b))
+}
+
+/// The edges of `triangles` used by other than two triangles (open or non-manifold), as vertex
+/// pairs `(smaller, larger)` in increasing order: what pictures of defects draw.
+pub fn defect_edges(triangles: &[[u32; 3]]) -> Vec<(u32, u32)> {
+    let mut keys: Vec<u64> =
+        triangles.iter().flat_map(|t| (0..3).map(move |s| edge_key(t[s], t[(s + 1) % 3]))).collect();
+    keys.sort_unstable();
+    keys.chunk_by(|a, b| a == b).filter(|g| g.len() != 2).map(|g| ((g[0] >> 32) as u32, g[0] as u32)).collect()
+}
+
 /// The smallest interior angle of a triangle in degrees; `None` when it has a zero-length side
 /// or no positive angle.
 pub(super) fn smallest_angle(p: [[f32; 3]; 3]) -> Option<f64> {
@@ -561,45 +577,6 @@ pub(super) fn fans(links: &[(u32, u32, u32)], local: &mut Vec<u32>, parent: &mut
         }
     }
     groups
-}
-
-/// Disjoint sets of vertices, 4 bytes per vertex; the smallest vertex id is a set's root.
-pub(super) struct UnionFind {
-    parent: Vec<u32>,
-}
-
-impl UnionFind {
-    pub(super) fn new(n: usize) -> Self {
-        UnionFind { parent: (0..n as u32).collect() }
-    }
-    /// Vertices held.
-    pub(super) fn len(&self) -> usize {
-        self.parent.len()
-    }
-    /// Adds vertices up to `n` (exclusive), each in a set of its own.
-    pub(super) fn grow(&mut self, n: usize) {
-        let from = self.parent.len() as u32;
-        self.parent.extend(from..n as u32);
-    }
-    pub(super) fn find(&mut self, mut x: u32) -> u32 {
-        while self.parent[x as usize] != x {
-            let p = self.parent[self.parent[x as usize] as usize];
-            self.parent[x as usize] = p;
-            x = p;
-        }
-        x
-    }
-    /// Joins the sets of `a` and `b`; returns `(kept root, absorbed root)` when they differed.
-    pub(super) fn union(&mut self, a: u32, b: u32) -> Option<(u32, u32)> {
-        let (ra, rb) = (self.find(a), self.find(b));
-        if ra == rb {
-            return None;
-        }
-        // Smaller root index wins: deterministic component numbering.
-        let (lo, hi) = if ra < rb { (ra, rb) } else { (rb, ra) };
-        self.parent[hi as usize] = lo;
-        Some((lo, hi))
-    }
 }
 
 #[cfg(test)]

@@ -7,6 +7,7 @@ mod check;
 mod stream;
 
 pub use check::{
-    check, check_with, check_with_progress, CheckOptions, ComponentReport, EdgeFinding, Findings, Guarantee, MeshReport,
+    check, check_with, check_with_progress, defect_edges, edge_key, CheckOptions, ComponentReport, EdgeFinding,
+    Findings, Guarantee, MeshReport,
 };
 pub use stream::StreamCheck;

@@ -27,11 +27,12 @@
 
 use std::collections::HashMap;
 
-use super::check::{doubled_area, fans, smallest_angle, UnionFind};
+use super::check::{doubled_area, edge_key, fans, smallest_angle};
 use super::{CheckOptions, ComponentReport, EdgeFinding, Findings, MeshReport};
 use crate::error::{Error, Result};
 use crate::grid::Lattice;
 use crate::math::Aabb;
+use crate::math::UnionFind;
 use crate::mesh::{ExternalError, MeshBatch, MeshSink};
 
 /// Sums of one connected component, kept at its union-find root and merged on union.
@@ -344,7 +345,7 @@ impl StreamCheck {
             }
             for s in 0..3 {
                 let (a, b, c) = (t[s], t[(s + 1) % 3], t[(s + 2) % 3]);
-                self.edges.push(((u64::from(a.min(b)) << 32) | u64::from(a.max(b)), a < b));
+                self.edges.push((edge_key(a, b), a < b));
                 self.fans.push((a, b, c));
             }
             let mut sorted = t;

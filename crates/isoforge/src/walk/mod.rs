@@ -1,7 +1,7 @@
 //! ② Walker: owns the traversal order and the caches; hands one [`Cell`] at a time to an extractor.
 //!
 //! In: a [`Volume`], an [`Iso`], a [`CellRange`] (global lattice indices; the whole lattice by
-//! default). Out: vertices and polygons in a [`MeshBuilder`] (or, streamed, a [`MeshSink`]).
+//! default). Out: vertices and polygons in a [`MeshBuilder`] (or, streamed, a [`MeshSink`](crate::mesh::MeshSink)).
 //!
 //! | walker | volumes | traversal | parallel |
 //! |---|---|---|---|
@@ -24,64 +24,16 @@ pub use reference::ReferenceWalker;
 pub use slab::SlabWalker;
 pub use stitch::{stitch, stitch_keyed, KeyedMesh};
 
-use crate::cube::{CellPoint, CellRange, CubeEdge, EdgeKey, VertexKey};
+use crate::cube::{CellRange, EdgeKey, VertexKey};
 use crate::error::Result;
 use crate::extract::Extractor;
 use crate::mesh::{MeshBuilder, VertexId};
 use crate::volume::{Iso, Volume};
 
 #[doc(inline)]
+pub use crate::extract::{Cell, Hermite};
+#[doc(inline)]
 pub use crate::volume::SampleSlabs;
-
-/// A walker's cursor on one cell. Extractors are generic over it and see nothing else.
-///
-/// Vertices come in three kinds, each created once per walk and shared through the walker's
-/// caches: crossings on lattice edges ([`edge_vertex`](Cell::edge_vertex)), crossings on other
-/// lattice segments ([`segment_vertex`](Cell::segment_vertex)), and vertices a cell places inside
-/// itself ([`place_vertex`](Cell::place_vertex), which neighbours can refer to through
-/// [`placed_vertex`](Cell::placed_vertex)).
-pub trait Cell {
-    /// Lattice index of the cell's corner 0 (global: the same in a walk of any range).
-    fn ijk(&self) -> [u32; 3];
-    /// The eight corner values offset by iso (inside ⇔ < 0), in corner order.
-    fn values(&self) -> &[f32; 8];
-    /// Case index: bit `c` set ⇔ corner `c` inside.
-    fn case(&self) -> u8;
-
-    /// Hermite data of edge `e` (its corners must differ in class): the crossing and the unit
-    /// outward normal of the field there, computed once per lattice edge. What an algorithm
-    /// needs (dual contouring, feature detection); independent of the normals the output stores.
-    fn hermite(&mut self, e: CubeEdge) -> Hermite;
-    /// The mesh vertex at the crossing on edge `e` (its corners must differ in class), created on
-    /// first request and shared with every other cell touching the same lattice edge.
-    fn edge_vertex(&mut self, e: CubeEdge) -> VertexId;
-
-    /// Whether the neighbouring cell across `face` (`2 · axis + side`) exists in the lattice.
-    fn has_neighbour(&self, face: u8) -> bool;
-    /// The value offset by iso at a cell point: a corner's from [`values`](Cell::values), a
-    /// centre's from [`Volume::value_at`] (computed once per cell).
-    fn point_value(&mut self, p: CellPoint) -> f32;
-    /// The mesh vertex where segment `a`–`b` crosses (their values differ in class), created on
-    /// first request and shared with every cell that names the same lattice segment; axis edges
-    /// give the same vertex as [`edge_vertex`](Cell::edge_vertex).
-    fn segment_vertex(&mut self, a: CellPoint, b: CellPoint) -> VertexId;
-
-    /// Places a new vertex inside this cell at cell coordinates `local` ∈ [0, 1]³, serving the
-    /// crossed cube edges in the bit mask `edges` (0: a vertex only this cell uses). Vertices are
-    /// numbered in placement order `n = 0, 1, …`; their key is [`VertexKey::Cell`].
-    fn place_vertex(&mut self, local: [f32; 3], edges: u16) -> VertexId;
-    /// The vertex that the cell at `ijk + offset` placed for the lattice edge that is edge `e` of
-    /// this cell, if it placed one. `offset` ∈ {−1, 0}³ and the neighbour must contain that edge:
-    /// cells at or before this one in walk order, which walkers have always placed (dual methods
-    /// emit a cell's polygons for its edges at corner 0: 0, 4 and 8). `None` also when the
-    /// neighbour lies outside the lattice.
-    fn placed_vertex(&mut self, offset: [i8; 3], e: CubeEdge) -> Option<VertexId>;
-
-    /// Emits a triangle (wound counter-clockwise seen from outside).
-    fn push_triangle(&mut self, t: [VertexId; 3]);
-    /// Emits a quad (wound counter-clockwise seen from outside).
-    fn push_quad(&mut self, q: [VertexId; 4]);
-}
 
 /// A traversal strategy over the volumes of type `V` it can walk: visits the cells of its range
 /// and lets an extractor process the active ones.
@@ -134,16 +86,6 @@ impl WalkStats {
 pub trait Progress: Sync {
     /// `done` of `total` units of work are finished.
     fn advance(&self, done: u64, total: u64);
-}
-
-/// A crossing with its outward unit normal: the Hermite data dual methods fit vertices to.
-#[derive(Debug, Clone, Copy, PartialEq)]
-pub struct Hermite {
-    /// World position of the crossing.
-    pub point: [f32; 3],
-    /// Unit normal pointing from inside to outside (from the field's gradient; the edge's
-    /// direction where the gradient vanishes).
-    pub normal: [f32; 3],
 }
 
 /// The crossing on lattice edge `key` (offset values `d0` at its origin, `d1` at its end): its

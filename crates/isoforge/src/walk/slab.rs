@@ -7,7 +7,7 @@ use crate::mesh::MeshBuilder;
 use crate::volume::{Iso, Volume};
 
 /// Walks z-slab by z-slab keeping O(nx·ny) state: the values of slabs k and k + 1, and the vertex
-/// caches of the planes around cell layer k ([`LayerCaches`]). Every value is read once and
+/// caches of the planes around cell layer k (`LayerCaches`). Every value is read once and
 /// every vertex is created once, by the first cell that asks for it. Serial; any [`Volume`].
 ///
 /// A walk covers a [`CellRange`] (the whole lattice unless given one). Extractors that place

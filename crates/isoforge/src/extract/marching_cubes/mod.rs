@@ -4,8 +4,8 @@ mod table;
 
 pub use table::{CaseTriangles, TRI_TABLE};
 
+use crate::extract::Cell;
 use crate::extract::{Counting, Extractor};
-use crate::walk::Cell;
 
 /// Marching cubes: each active cell emits the triangles its case lists in [`TRI_TABLE`], on
 /// vertices shared through the walker (one per crossed lattice edge).
