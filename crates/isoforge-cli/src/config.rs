@@ -4,12 +4,12 @@ use std::path::PathBuf;
 
 use anyhow::{anyhow, bail, Context, Result};
 use isoforge::extract::Saddle;
-use isoforge::grid::{DType, WorldSpace};
+use isoforge::grid::DType;
 use isoforge::mesh::colormap::Colormap;
-use isoforge::pipeline::{Labels, Method, Normals, Options};
+use isoforge::pipeline::request::{self, AttributeSource, ColorBy, ParseError};
+use isoforge::pipeline::{Labels, Method, Options, Region, Request, Roi};
 use isoforge::topo::Guarantee;
 use isoforge::volume::catalog::{self, Builtin};
-use isoforge::volume::texture::SolidTexture;
 use isoforge::volume::{Inside, Iso};
 use isoforge_io::write::contour::ContourFormat;
 use isoforge_io::{Limits, MeshFormat, RawSpec};
@@ -47,26 +47,20 @@ impl Placement {
     }
 }
 
+/// What `extract` asks the library for, attribute volumes named by their input configuration.
+pub type ExtractRequest = Request<Box<InputConfig>>;
+
 #[derive(Clone)]
 pub struct ExtractConfig {
     pub input: InputConfig,
     pub output: PathBuf,
     pub format: MeshFormat,
-    /// Iso values (empty: the field's default).
-    pub isos: Vec<f64>,
+    /// Isos, inside rule, labels, region, options (method, normals, threads), attributes, colours.
+    pub request: ExtractRequest,
     /// `--mask`: the mask volume.
     pub mask: Option<InputConfig>,
-    /// `--labels`: one surface per label instead of isosurfaces.
-    pub labels: Option<Labels>,
-    /// What is sampled at the vertices, by attribute name.
-    pub attributes: Vec<(String, AttributeSource)>,
-    /// Vertex colours: attribute name, map, optional value range.
-    pub color: Option<ColorBy>,
     /// Vertex colours from an RGB volume on the input's grid.
     pub color_volume: Option<PathBuf>,
-    pub region: Region,
-    pub inside: Option<Inside>,
-    pub options: Options,
     pub time_json: Option<PathBuf>,
     /// Extractions to run in this process (benchmarking); the last mesh is kept.
     pub repeat: u32,
@@ -86,7 +80,26 @@ pub struct DemoConfig {
     pub output: PathBuf,
     pub n: u32,
     pub json: bool,
-    pub options: Options,
+    /// The field's own iso; options (threads).
+    pub request: Request,
+}
+
+/// `isoforge view`: what to show and the request every extraction starts from (inside rule,
+/// threads); the page's queries fill in method, iso and region through the same parsers.
+pub struct ViewConfig {
+    pub port: u16,
+    pub shown: Shown,
+    pub request: Request,
+}
+
+/// What `view` shows.
+pub enum Shown {
+    /// The demo fields.
+    Demo,
+    /// A mesh file.
+    Mesh(PathBuf),
+    /// A volume file.
+    Volume(Box<InputConfig>),
 }
 
 fn triplet<T: std::str::FromStr>(flag: &str, s: &str) -> Result<[T; 3]> {
@@ -275,51 +288,45 @@ pub fn output_format(path: &std::path::Path, ascii: bool) -> Result<MeshFormat> 
     })
 }
 
+/// `flag` and the parser's message: `--roi "1:2": expected three ranges …`.
+fn flag(flag: &str) -> impl Fn(ParseError) -> anyhow::Error + '_ {
+    move |e| anyhow!("{flag} {e}")
+}
+
 impl ExtractConfig {
     pub fn from_args(a: &ExtractArgs, threads: Option<usize>) -> Result<Self> {
         let input = InputConfig::from_args(&a.input)?;
         let format = output_format(&a.output, a.ascii)?;
-        let isos: Vec<f64> = match a.iso.as_deref() {
-            Some(list) => list.split(',').map(parse_iso).collect::<Result<_>>()?,
-            None => Vec::new(),
-        };
-        let labels = match a.labels.as_deref() {
-            None => None,
-            Some("all") => Some(Labels::All),
-            Some(list) => {
-                Some(Labels::These(list.split(',').map(|t| parse_number("--labels", t)).collect::<Result<Vec<f64>>>()?))
-            }
-        };
+        let isos = a.iso.as_deref().map(request::parse_isos).transpose().map_err(flag("--iso"))?.unwrap_or_default();
+        let labels = a.labels.as_deref().map(str::parse::<Labels>).transpose().map_err(flag("--labels"))?;
         if isos.is_empty() && labels.is_none() && matches!(input.source, Source::File { .. }) {
             bail!("--iso is required for volume files (see `isoforge info {}` for a suggestion)", a.input.input);
         }
-        let inside = a.inside.as_deref().map(parse_inside).transpose()?;
-        let method = Method::parse(&a.method).ok_or_else(|| {
-            let names: Vec<&str> = Method::ALL.iter().map(|m| m.name()).collect();
-            anyhow!("--method {:?}: unknown method (available: {})", a.method, names.join(", "))
-        })?;
-        let normals = match a.normals.as_str() {
-            "gradient" => Normals::Gradient,
-            "none" => Normals::None,
-            s => bail!("--normals {s:?}: must be gradient or none"),
+        let request = Request {
+            isos,
+            inside: a.inside.as_deref().map(str::parse).transpose().map_err(flag("--inside"))?,
+            labels,
+            region: region(a)?,
+            options: Options {
+                method: a.method.parse().map_err(flag("--method"))?,
+                normals: a.normals.parse().map_err(flag("--normals"))?,
+                threads,
+                ..Default::default()
+            },
+            attributes: attributes(a)?,
+            color: color(a)?,
         };
         Ok(ExtractConfig {
             input,
             output: a.output.clone(),
             format,
-            isos,
-            region: Region::from_args(a)?,
-            labels,
+            request,
             mask: a
                 .mask
                 .as_ref()
                 .map(|m| InputConfig::from_args(&InputArgs { input: m.clone(), layout: a.input.layout.clone() }))
                 .transpose()?,
-            attributes: attributes(a)?,
-            color: color(a)?,
             color_volume: a.color_volume.clone(),
-            inside,
-            options: Options { method, normals, threads, ..Default::default() },
             time_json: a.time_json.clone(),
             repeat: a.repeat,
             require: guarantees(&a.require)?,
@@ -328,69 +335,29 @@ impl ExtractConfig {
     }
 }
 
-/// Where an `--attribute` comes from.
-#[derive(Clone)]
-pub enum AttributeSource {
-    /// A co-registered volume, sampled trilinearly in world coordinates.
-    Volume(Box<InputConfig>),
-    /// A procedural solid texture; `scale` is its feature size in world units (default: an
-    /// eighth of the mesh's bounding-box diagonal).
-    Texture(SolidTexture, Option<f64>),
-}
-
-fn attributes(a: &ExtractArgs) -> Result<Vec<(String, AttributeSource)>> {
-    let mut out: Vec<(String, AttributeSource)> = Vec::new();
+fn attributes(a: &ExtractArgs) -> Result<Vec<(String, AttributeSource<Box<InputConfig>>)>> {
+    let mut out: Vec<(String, AttributeSource<Box<InputConfig>>)> = Vec::new();
     for spec in &a.attribute {
-        let (name, src) = spec
-            .split_once('=')
-            .ok_or_else(|| anyhow!("--attribute {spec:?}: expected NAME=VOLUME or NAME=texture:KIND"))?;
-        if name.is_empty() || !name.chars().all(|c| c.is_ascii_alphanumeric() || c == '_') {
-            bail!("--attribute {spec:?}: the name must be letters, digits or _");
-        }
-        if out.iter().any(|(n, _)| n == name) {
+        let (name, source) = request::parse_attribute(spec).map_err(flag("--attribute"))?;
+        if out.iter().any(|(n, _)| *n == name) {
             bail!("--attribute {spec:?}: {name} is given twice");
         }
-        let source = if let Some(t) = src.strip_prefix("texture:") {
-            let (kind, query) = t.split_once('?').unwrap_or((t, ""));
-            let tex = SolidTexture::parse(kind).ok_or_else(|| {
-                let names: Vec<&str> = SolidTexture::ALL.iter().map(|(_, n)| *n).collect();
-                anyhow!("--attribute {spec:?}: unknown texture {kind:?} (available: {})", names.join(", "))
-            })?;
-            let scale = match query.strip_prefix("scale=") {
-                Some(v) => Some(parse_number("--attribute scale", v).and_then(|s| {
-                    if s > 0.0 {
-                        Ok(s)
-                    } else {
-                        bail!("--attribute {spec:?}: scale must be positive")
-                    }
-                })?),
-                None if query.is_empty() => None,
-                None => bail!("--attribute {spec:?}: unknown parameter {query:?} (scale=S)"),
-            };
-            AttributeSource::Texture(tex, scale)
-        } else {
-            let input = InputConfig::from_args(&InputArgs { input: src.to_string(), layout: a.input.layout.clone() })?;
+        let source = source.try_map(|src| -> Result<Box<InputConfig>> {
+            let input = InputConfig::from_args(&InputArgs { input: src, layout: a.input.layout.clone() })?;
             if matches!(input.source, Source::Field(_)) {
                 bail!("--attribute {spec:?}: attributes are sampled from volume files or texture:KIND");
             }
             if a.space == "index" {
                 bail!("--attribute samples volumes in world coordinates: drop --space index");
             }
-            AttributeSource::Volume(Box::new(input))
-        };
-        out.push((name.to_string(), source));
+            Ok(Box::new(input))
+        })?;
+        out.push((name, source));
     }
     Ok(out)
 }
 
 /// `--color-by NAME --colormap MAP [--color-range LO:HI]`.
-#[derive(Clone)]
-pub struct ColorBy {
-    pub attribute: String,
-    pub map: Colormap,
-    pub range: Option<(f64, f64)>,
-}
-
 fn color(a: &ExtractArgs) -> Result<Option<ColorBy>> {
     let Some(name) = &a.color_by else {
         if a.color_range.is_some() {
@@ -427,106 +394,31 @@ fn parse_number(flag: &str, s: &str) -> Result<f64> {
         .ok_or_else(|| anyhow!("{flag}: {s:?} is not a finite number"))
 }
 
-/// Where to cut and how to place the volume before extraction.
-#[derive(Debug, Clone, Default)]
-pub struct Region {
-    pub roi: Option<Roi>,
-    /// `--world`: the frame to express world coordinates in.
-    pub world: Option<WorldSpace>,
-    pub close: bool,
-    pub index_space: bool,
-}
-
-#[derive(Debug, Clone)]
-pub enum Roi {
-    /// Half-open index ranges; `None` bounds take the whole axis.
-    Index([(Option<u32>, Option<u32>); 3]),
-    /// A world box, per axis.
-    World([(f64, f64); 3]),
-}
-
-impl Region {
-    fn from_args(a: &ExtractArgs) -> Result<Self> {
-        let roi = match (&a.roi, &a.roi_world) {
-            (Some(s), _) => {
-                let axes = split3("--roi", s)?;
-                let mut r = [(None, None); 3];
-                for (k, (lo, hi)) in axes.iter().enumerate() {
-                    let num = |t: &str| -> Result<Option<u32>> {
-                        if t.trim().is_empty() {
-                            return Ok(None);
-                        }
-                        t.trim().parse().map(Some).map_err(|_| anyhow!("--roi {s:?}: {t:?} is not a point index"))
-                    };
-                    r[k] = (num(lo)?, num(hi)?);
-                }
-                Some(Roi::Index(r))
-            }
-            (None, Some(s)) => {
-                let axes = split3("--roi-world", s)?;
-                let mut r = [(0.0, 0.0); 3];
-                for (k, (lo, hi)) in axes.iter().enumerate() {
-                    let num = |t: &str| -> Result<f64> {
-                        t.trim()
-                            .parse::<f64>()
-                            .ok()
-                            .filter(|v| v.is_finite())
-                            .ok_or_else(|| anyhow!("--roi-world {s:?}: {t:?} is not a finite number"))
-                    };
-                    r[k] = (num(lo)?, num(hi)?);
-                }
-                Some(Roi::World(r))
-            }
-            (None, None) => None,
-        };
-        let index_space = match a.space.as_str() {
-            "world" => false,
-            "index" => true,
-            s => bail!("--space {s:?}: must be world or index"),
-        };
-        let world = match a.world.as_deref() {
-            None => None,
-            Some("lps") => Some(WorldSpace::Lps),
-            Some("ras") => Some(WorldSpace::Ras),
-            Some(s) => bail!("--world {s:?}: must be lps or ras"),
-        };
-        if world.is_some() && index_space {
-            bail!("--world and --space index exclude each other");
-        }
-        Ok(Region { roi, world, close: a.close, index_space })
+/// `--roi` or `--roi-world`, `--space`, `--world`, `--close`.
+fn region(a: &ExtractArgs) -> Result<Region> {
+    let roi = match (&a.roi, &a.roi_world) {
+        (Some(s), _) => Some(Roi::parse_index(s).map_err(flag("--roi"))?),
+        (None, Some(s)) => Some(Roi::parse_world(s).map_err(flag("--roi-world"))?),
+        (None, None) => None,
+    };
+    let index_space = match a.space.as_str() {
+        "world" => false,
+        "index" => true,
+        s => bail!("--space {s:?}: must be world or index"),
+    };
+    let world = a.world.as_deref().map(str::parse).transpose().map_err(flag("--world"))?;
+    if world.is_some() && index_space {
+        bail!("--world and --space index exclude each other");
     }
-
-    pub fn is_identity(&self) -> bool {
-        self.roi.is_none() && self.world.is_none() && !self.close && !self.index_space
-    }
-}
-
-/// Splits `a:b,c:d,e:f` into three (lo, hi) text pairs.
-fn split3<'a>(flag: &str, s: &'a str) -> Result<Vec<(&'a str, &'a str)>> {
-    let parts: Vec<&str> = s.split(',').collect();
-    if parts.len() != 3 {
-        bail!("{flag} {s:?}: expected three ranges lo:hi separated by commas");
-    }
-    parts
-        .into_iter()
-        .map(|p| p.split_once(':').ok_or_else(|| anyhow!("{flag} {s:?}: range {p:?} has no ':'")))
-        .collect()
+    Ok(Region { roi, world, close: a.close, index_space })
 }
 
 fn parse_iso(s: &str) -> Result<f64> {
-    let v: f64 = s.trim().parse().map_err(|_| anyhow!("--iso {s:?}: not a number"))?;
-    if !v.is_finite() {
-        bail!("--iso {s:?}: must be a finite number");
-    }
-    Ok(v)
+    request::parse_iso(s).map_err(flag("--iso"))
 }
 
 fn parse_inside(s: &str) -> Result<Inside> {
-    match s {
-        "below" => Ok(Inside::Below),
-        "above" => Ok(Inside::Above),
-        s => bail!("--inside {s:?}: must be below or above"),
-    }
+    s.parse().map_err(flag("--inside"))
 }
 
 pub struct ContourConfig {
@@ -580,9 +472,8 @@ pub struct RenderConfig {
     /// A mesh file, or a volume/field to extract first.
     pub mesh: Option<PathBuf>,
     pub input: Option<InputConfig>,
-    pub iso: Option<f64>,
-    pub inside: Option<Inside>,
-    pub options: Options,
+    /// Iso (at most one), inside rule, method, threads.
+    pub request: Request,
     pub render: isoforge_io::render::RenderOptions,
     pub output: PathBuf,
 }
@@ -608,11 +499,8 @@ impl RenderConfig {
             "normal" => isoforge_io::render::Shading::Normal,
             s => bail!("--shading {s:?}: must be lambert or normal"),
         };
-        let method = Method::parse(&a.method).ok_or_else(|| anyhow!("--method {:?}: unknown method", a.method))?;
-        let is_mesh = !a.input.starts_with("field:")
-            && MeshFormat::from_path(std::path::Path::new(&a.input)).is_some()
-            && isoforge_io::VolumeFormat::from_path(std::path::Path::new(&a.input)).is_none();
-        let (mesh, input) = if is_mesh {
+        let method: Method = a.method.parse().map_err(flag("--method"))?;
+        let (mesh, input) = if is_mesh_file(&a.input) {
             (Some(PathBuf::from(&a.input)), None)
         } else {
             (None, Some(InputConfig::from_args(&a.input_args())?))
@@ -624,9 +512,12 @@ impl RenderConfig {
         Ok(RenderConfig {
             mesh,
             input,
-            iso,
-            inside: a.inside.as_deref().map(parse_inside).transpose()?,
-            options: Options { method, threads, ..Options::default() },
+            request: Request {
+                isos: iso.into_iter().collect(),
+                inside: a.inside.as_deref().map(parse_inside).transpose()?,
+                options: Options { method, threads, ..Options::default() },
+                ..Request::default()
+            },
             render: isoforge_io::render::RenderOptions {
                 size: [w, h],
                 view,
@@ -636,6 +527,34 @@ impl RenderConfig {
             },
             output: a.output.clone(),
         })
+    }
+}
+
+/// Whether `input` names a mesh file (a mesh extension that is not also a volume's).
+fn is_mesh_file(input: &str) -> bool {
+    let path = std::path::Path::new(input);
+    !input.starts_with("field:")
+        && MeshFormat::from_path(path).is_some()
+        && isoforge_io::VolumeFormat::from_path(path).is_none()
+}
+
+impl ViewConfig {
+    pub fn from_args(a: &crate::args::ViewArgs, threads: Option<usize>) -> Result<Self> {
+        let inside: Inside = a.inside.parse().map_err(flag("--inside"))?;
+        let shown = match &a.input {
+            None => Shown::Demo,
+            Some(input) if is_mesh_file(input) => Shown::Mesh(PathBuf::from(input)),
+            Some(input) => {
+                let cfg = InputConfig::from_args(&InputArgs { input: input.clone(), layout: a.layout.clone() })?;
+                if matches!(cfg.source, Source::Field(_)) {
+                    bail!("{input}: view shows volume files, meshes, or (without INPUT) the demo fields");
+                }
+                Shown::Volume(Box::new(cfg))
+            }
+        };
+        let request =
+            Request { inside: Some(inside), options: Options { threads, ..Options::default() }, ..Request::default() };
+        Ok(ViewConfig { port: a.port, shown, request })
     }
 }
 
@@ -661,7 +580,7 @@ impl DemoConfig {
             output: a.output.clone(),
             n: a.n,
             json: a.json,
-            options: Options { threads, ..Options::default() },
+            request: Request { options: Options { threads, ..Options::default() }, ..Request::default() },
         })
     }
 }
@@ -691,13 +610,17 @@ mod tests {
         let a = parse(&["isoforge", "--threads", "3", "extract", "-i", "field:sphere", "-o", "s.ply"]);
         let crate::args::Command::Extract(e) = &a.command else { panic!("extract") };
         let c = ExtractConfig::from_args(e, threads(a.threads).unwrap()).unwrap();
-        assert_eq!(c.options.threads, Some(3));
+        assert_eq!(c.request.options.threads, Some(3));
         let a = parse(&["isoforge", "render", "field:sphere", "-o", "s.png", "--threads", "2"]);
         let crate::args::Command::Render(r) = &a.command else { panic!("render") };
-        assert_eq!(RenderConfig::from_args(r, threads(a.threads).unwrap()).unwrap().options.threads, Some(2));
+        assert_eq!(RenderConfig::from_args(r, threads(a.threads).unwrap()).unwrap().request.options.threads, Some(2));
         let a = parse(&["isoforge", "demo", "--threads", "1"]);
         let crate::args::Command::Demo(d) = &a.command else { panic!("demo") };
-        assert_eq!(DemoConfig::from_args(d, threads(a.threads).unwrap()).unwrap().options.threads, Some(1));
+        assert_eq!(DemoConfig::from_args(d, threads(a.threads).unwrap()).unwrap().request.options.threads, Some(1));
+        let a = parse(&["isoforge", "--threads", "2", "view", "--inside", "above"]);
+        let crate::args::Command::View(v) = &a.command else { panic!("view") };
+        let v = ViewConfig::from_args(v, threads(a.threads).unwrap()).unwrap();
+        assert_eq!((v.request.options.threads, v.request.inside), (Some(2), Some(Inside::Above)));
 
         let cores = std::thread::available_parallelism().unwrap().get();
         assert_eq!(threads(None).unwrap(), None);

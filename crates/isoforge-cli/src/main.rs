@@ -51,7 +51,7 @@ fn main() -> ExitCode {
         Command::Check(a) => config::CheckConfig::from_args(a).and_then(|c| run::check(&c)),
         Command::Demo(a) => config::DemoConfig::from_args(a, threads).and_then(|c| run::demo(&c)),
         Command::Contour(a) => config::ContourConfig::from_args(a).and_then(|c| run::contour(&c)),
-        Command::View(a) => run::view(a, threads),
+        Command::View(a) => config::ViewConfig::from_args(a, threads).and_then(|c| run::view(&c)),
         Command::Render(a) => config::RenderConfig::from_args(a, threads).and_then(|c| run::render(&c)),
         Command::Convert(a) => {
             config::InputConfig::from_args(&a.input_args()).and_then(|c| run::convert(&c, &a.output))

@@ -6,9 +6,10 @@
 use std::path::{Path, PathBuf};
 
 use anyhow::Result;
+use isoforge::pipeline::request::AttributeSource;
 use isoforge_io::{Batch, MeshFormat};
 
-use crate::config::{AttributeSource, ExtractConfig, InputConfig, Source};
+use crate::config::{ExtractConfig, InputConfig, Source};
 
 /// The files an input reads, labelled by the flag that named them.
 fn input_files(input: &InputConfig, role: &str) -> Vec<(PathBuf, String)> {
@@ -71,7 +72,8 @@ fn with_suffix(path: &Path, iso: f64) -> PathBuf {
 /// `--attribute` volumes, `--color-volume`).
 pub fn plan_extract(c: &ExtractConfig) -> Result<Batch> {
     // Isos without values (a field's default) and labels write one file.
-    let isos: Vec<f64> = if c.isos.is_empty() || c.labels.is_some() { vec![0.0] } else { c.isos.clone() };
+    let r = &c.request;
+    let isos: Vec<f64> = if r.isos.is_empty() || r.labels.is_some() { vec![0.0] } else { r.isos.clone() };
     let mut outputs = Vec::new();
     for &iso in &isos {
         let (mesh, time) = extract_paths(c, iso, isos.len());
@@ -86,7 +88,7 @@ pub fn plan_extract(c: &ExtractConfig) -> Result<Batch> {
     if let Some(m) = &c.mask {
         inputs.extend(input_files(m, "--mask"));
     }
-    for (name, source) in &c.attributes {
+    for (name, source) in &c.request.attributes {
         if let AttributeSource::Volume(v) = source {
             inputs.extend(input_files(v, &format!("--attribute {name}")));
         }

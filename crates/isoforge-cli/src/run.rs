@@ -9,15 +9,16 @@ use isoforge::mesh::{ExternalError, MeshBatch, MeshSink, Normals};
 use isoforge::pipeline::{self, Extraction, Method};
 use isoforge::topo::{self, CheckOptions, Guarantee, MeshReport, StreamCheck};
 use isoforge::volume::catalog::{self, Builtin};
-use isoforge::volume::{Inside, Iso};
+use isoforge::volume::Iso;
 use isoforge_io::write::contour::ContourFrame;
 use isoforge_io::write::ply::PlyStream;
 use isoforge_io::{Limits, MeshFormat, VolumeReader};
 use serde_json::json;
 
+use isoforge::pipeline::request::{self, Attribute, AttributeSource, NoSurface};
+
 use crate::config::{
-    AttributeSource, CheckConfig, ContourConfig, DemoConfig, ExtractConfig, InputConfig, Placement, Region,
-    RenderConfig, Roi, Source,
+    CheckConfig, ContourConfig, DemoConfig, ExtractConfig, InputConfig, Placement, RenderConfig, Source, ViewConfig,
 };
 use crate::progress::{spin, Task};
 use crate::report;
@@ -106,18 +107,19 @@ fn streams(path: &Path) -> bool {
 /// quads (the in-memory path splits quads by their shorter diagonal, which needs the next slab's
 /// vertices).
 fn streams_by_default(c: &ExtractConfig) -> bool {
+    let r = &c.request;
     c.format == MeshFormat::Ply
-        && c.isos.len() == 1
+        && r.isos.len() == 1
         && c.repeat == 1
         && c.time_json.is_none()
-        && c.region.is_identity()
-        && c.labels.is_none()
+        && r.region.is_identity()
+        && r.labels.is_none()
         && c.mask.is_none()
-        && c.attributes.is_empty()
-        && c.color.is_none()
+        && r.attributes.is_empty()
+        && r.color.is_none()
         && c.color_volume.is_none()
         && c.require.is_empty()
-        && c.options.method != Method::SurfaceNets
+        && r.options.method != Method::SurfaceNets
 }
 
 /// The value range of the volume at `path`, read slab by slab (for the message when a streamed
@@ -145,16 +147,7 @@ fn streamed_range(input: &InputConfig) -> Option<(f64, f64)> {
 
 /// `--spacing` / `--origin` for images: the same samples on a placed lattice.
 fn place(grid: AnyGrid, p: &Placement) -> Result<AnyGrid> {
-    if !p.is_set() {
-        return Ok(grid);
-    }
-    let l = grid.lattice();
-    let lattice = isoforge::grid::Lattice::with_geometry(
-        l.dims(),
-        p.spacing.unwrap_or(l.spacing()),
-        p.origin.unwrap_or(l.origin()),
-    )?;
-    Ok(grid.with_lattice(lattice)?)
+    Ok(grid.placed(p.spacing, p.origin)?)
 }
 
 /// Most vertices per lattice point and triangles per cell of any method: body-centred
@@ -246,24 +239,23 @@ fn extract_streaming(
     if c.format != MeshFormat::Ply {
         bail!("{}: out-of-core extraction (--max-memory) writes binary PLY only", c.output.display());
     }
-    let normals = c.options.normals == Normals::Gradient;
+    let normals = c.request.options.normals == Normals::Gradient;
     let mut ply = PlyStream::create_in(&batch, &c.output, normals)?;
     let mut check = (!c.require.is_empty())
         .then(|| StreamCheck::new(&CheckOptions { max_examples: CheckOptions::default().max_examples, lattice: None }));
     let mut sink = Tee { ply: &mut ply, check: check.as_mut(), budget: c.max_memory.unwrap_or(u64::MAX) };
     let task = Task::start(format!("meshing {name} slab by slab"));
     let start = Instant::now();
-    let stats = pipeline::extract_streamed(&mut reader, iso, &c.options, &mut sink, Some(&task))?;
+    let stats = pipeline::extract_streamed(&mut reader, iso, &c.request.options, &mut sink, Some(&task))?;
     let seconds = start.elapsed().as_secs_f64();
     task.finish();
-    let w = stats.walk;
-    if w.cells > 0 && (w.cells_outside == w.cells || w.cells_inside == w.cells) {
+    if let Some(none) = NoSurface::of(&stats.walk, iso) {
         // The in-memory path's message when the iso is outside the values (a second pass, on failure only).
-        if let Some((lo, hi)) = streamed_range(&c.input).filter(|&(lo, hi)| iso.value < lo || iso.value > hi) {
-            bail!("{name}: iso {} is outside the value range [{lo}, {hi}] (see `isoforge info {name}`)", iso.value);
+        if let Some((lo, hi)) = streamed_range(&c.input) {
+            request::check_isos_in_range(&[iso], lo, hi)
+                .map_err(|e| anyhow!("{name}: {e} (see `isoforge info {name}`)"))?;
         }
-        let side = if w.cells_outside == w.cells { "outside" } else { "inside" };
-        bail!("{name}: iso {} gives no surface: every lattice point is {side}", iso.value);
+        bail!("{name}: {none}");
     }
     ply.finish()?;
     if let Some(t) = &c.time_json {
@@ -277,7 +269,7 @@ fn extract_streaming(
         c.output.display(),
         stats.vertices,
         stats.triangles,
-        c.options.method.name(),
+        c.request.options.method.name(),
         iso.value,
         seconds
     );
@@ -306,10 +298,11 @@ fn verdict(mesh: &Path, report: &MeshReport, require: &[Guarantee]) -> Outcome {
 }
 
 pub fn extract(c: &ExtractConfig) -> Result<Outcome> {
+    let r = &c.request;
     let budget = c.max_memory.map(|bytes| Budget {
         bytes,
-        method: c.options.method,
-        normals: c.options.normals == Normals::Gradient,
+        method: r.options.method,
+        normals: r.options.normals == Normals::Gradient,
         check: !c.require.is_empty(),
     });
     let batch = crate::outputs::plan_extract(c)?;
@@ -319,57 +312,50 @@ pub fn extract(c: &ExtractConfig) -> Result<Outcome> {
         Loaded::Field(b) => b.iso,
         Loaded::Grid(_) | Loaded::Stream(_) => Iso::below(0.0),
     };
-    let inside = c.inside.unwrap_or(default_iso.inside);
-    let isos: Vec<Iso> = if c.isos.is_empty() {
-        vec![Iso { value: default_iso.value, inside }]
-    } else {
-        c.isos.iter().map(|&value| Iso { value, inside }).collect()
-    };
+    let isos = r.isos_or(default_iso);
     let mut mask = None;
     let mut input_lattice = None;
-    if let Some(labels) = &c.labels {
+    if let Some(labels) = &r.labels {
         return extract_labels(c, loaded, labels, &name, batch);
     }
     let loaded = match loaded {
         Loaded::Stream(_) if c.repeat > 1 => bail!("--repeat: out-of-core extraction (--max-memory) runs once"),
         Loaded::Stream(_) if isos.len() > 1 => bail!("--iso with several values: out-of-core extraction runs one"),
-        Loaded::Stream(_) if !c.region.is_identity() => {
+        Loaded::Stream(_) if !r.region.is_identity() => {
             bail!("--roi, --close and --space index need the volume in memory (drop --max-memory)")
         }
         Loaded::Stream(reader) => return extract_streaming(c, reader, isos[0], &name, batch),
-        Loaded::Field(_) if !c.region.is_identity() => {
+        Loaded::Field(_) if !r.region.is_identity() => {
             bail!("--roi, --close and --space index apply to volume files (a field has its own lattice)")
         }
         Loaded::Grid(g) => {
-            let r = g.value_range().ok_or_else(|| anyhow!("{name}: the volume has no samples"))?;
-            for iso in &isos {
-                if iso.value < r.min || iso.value > r.max {
-                    bail!(
-                        "{name}: iso {} is outside the value range [{}, {}] (see `isoforge info {name}`)",
-                        iso.value,
-                        r.min,
-                        r.max
-                    );
-                }
+            let range = g.value_range().ok_or_else(|| anyhow!("{name}: the volume has no samples"))?;
+            request::check_isos_in_range(&isos, range.min, range.max)
+                .map_err(|e| anyhow!("{name}: {e} (see `isoforge info {name}`)"))?;
+            if let Some(roi) = &r.region.roi {
+                roi.point_box(g.lattice()).with_context(|| format!("{name}: --roi"))?;
             }
-            // Padding outside every iso: the range's end on the outside side (ties are outside).
-            let outside = if inside == Inside::Below { r.max } else { r.min };
             if let Some(m) = &c.mask {
-                mask = Some(load_mask(m, g.lattice().dims(), &c.region)?);
+                let mname = input_name(m);
+                let Loaded::Grid(mg) = load(m)? else { bail!("--mask {mname}: not a volume file") };
+                mask = Some(r.region.mask(&mg, g.lattice().dims()).with_context(|| format!("--mask {mname}"))?);
             }
             input_lattice = Some(g.lattice().clone());
-            Loaded::Grid(apply_region(g, &c.region, outside, &name)?)
+            // Padding outside every iso: the range's end on the outside side (ties are outside).
+            let outside = request::outside_value(isos[0].inside, range.min, range.max);
+            Loaded::Grid(r.region.apply(g, outside).with_context(|| name.clone())?)
         }
         Loaded::Field(_) if c.mask.is_some() => bail!("--mask applies to volume files"),
         field => field,
     };
-    let options = isoforge::pipeline::Options { mask: mask.map(std::sync::Arc::new), ..c.options.clone() };
-    let c = &ExtractConfig { options, ..c.clone() };
+    let mut c = c.clone();
+    c.request.options.mask = mask.map(std::sync::Arc::new);
+    let c = &c;
     let frame = match &loaded {
         Loaded::Grid(g) => g.lattice().space(),
         _ => None,
     };
-    let attribute_grids = load_attributes(c, frame)?;
+    let attribute_grids = load_attributes(&c.request, frame)?;
     let rgb = match (&c.color_volume, &input_lattice) {
         (None, _) => None,
         (Some(_), None) => bail!("--color-volume colours meshes of volume files"),
@@ -379,11 +365,11 @@ pub fn extract(c: &ExtractConfig) -> Result<Outcome> {
                 bail!("--color-volume {}: dims {:?} differ from the input's {:?}", path.display(), v.dims, l.dims());
             }
             // Vertices back to voxel indices of the input, in whichever frame they were written.
-            let frame = match c.region.world {
+            let frame = match c.request.region.world {
                 Some(w) => l.in_space(w)?,
                 None => l.clone(),
             };
-            Some((v, frame, c.region.index_space))
+            Some((v, frame, c.request.region.index_space))
         }
     };
     // glTF and OBJ hold several meshes: one file with a node (object) per iso; other formats
@@ -432,19 +418,6 @@ pub fn extract(c: &ExtractConfig) -> Result<Outcome> {
     Ok(outcome)
 }
 
-/// The `--mask` volume as point flags on the (cropped, padded) input lattice.
-fn load_mask(input: &InputConfig, dims: [u32; 3], region: &Region) -> Result<isoforge::extract::PointMask> {
-    let name = input_name(input);
-    let Loaded::Grid(m) = load(input)? else { bail!("--mask {name}: not a volume file") };
-    if m.lattice().dims() != dims {
-        bail!("--mask {name}: dims {:?} differ from the input's {dims:?}", m.lattice().dims());
-    }
-    // Cropped like the input; a --close border counts as inside the mask (it only adds outside points).
-    let m = apply_region(m, &Region { index_space: false, ..region.clone() }, 1.0, &name)?;
-    let flags: Vec<bool> = m.values_f64().map(|v| v != 0.0).collect();
-    Ok(isoforge::extract::PointMask::new(m.lattice().dims(), flags)?)
-}
-
 /// `--labels`: a closed surface per label, written as one file (triangles tagged by label).
 fn extract_labels(
     c: &ExtractConfig,
@@ -454,10 +427,13 @@ fn extract_labels(
     batch: isoforge_io::Batch,
 ) -> Result<Outcome> {
     let Loaded::Grid(g) = loaded else { bail!("{name}: --labels needs a label volume file in memory") };
-    let g = apply_region(g, &Region { close: false, ..c.region.clone() }, 0.0, name)?;
+    if let Some(roi) = &c.request.region.roi {
+        roi.point_box(g.lattice()).with_context(|| format!("{name}: --roi"))?;
+    }
+    let g = c.request.region.for_labels().apply(g, 0.0).with_context(|| name.to_string())?;
     let start = Instant::now();
     let task = Task::counting("meshing label");
-    let surfaces = pipeline::extract_labels_with_progress(&g, labels, &c.options, Some(&task))
+    let surfaces = pipeline::extract_labels_with_progress(&g, labels, &c.request.options, Some(&task))
         .with_context(|| format!("{name}: --labels"))?;
     task.finish();
     let seconds = start.elapsed().as_secs_f64();
@@ -474,15 +450,7 @@ fn extract_labels(
         batch.write_gltf(&c.output, &named, c.format == MeshFormat::Glb)?;
     } else {
         // One mesh, each triangle tagged with its label.
-        let mut mesh = isoforge::mesh::Mesh::default();
-        let mut tags = Vec::new();
-        for (label, e) in &surfaces {
-            let base = mesh.positions.len() as u32;
-            mesh.positions.extend_from_slice(&e.mesh.positions);
-            mesh.normals.extend_from_slice(&e.mesh.normals);
-            mesh.triangles.extend(e.mesh.triangles.iter().map(|t| t.map(|v| v + base)));
-            tags.extend(std::iter::repeat_n(*label as i32, e.mesh.triangles.len()));
-        }
+        let (mesh, tags) = pipeline::merge_labels(&surfaces);
         let data = isoforge_io::MeshData { triangle_labels: Some(tags), ..Default::default() };
         batch.write_mesh(&c.output, &mesh, &data, c.format)?;
     }
@@ -522,29 +490,17 @@ fn extract_labels(
     Ok(outcome)
 }
 
-/// An `--attribute` ready to sample: a volume read once, or a texture.
-enum Attribute {
-    Volume(AnyGrid),
-    Texture(isoforge::volume::texture::SolidTexture, Option<f64>),
-}
-
-/// The `--attribute` sources, volumes read once.
-fn load_attributes(c: &ExtractConfig, frame: Option<isoforge::grid::WorldSpace>) -> Result<Vec<(String, Attribute)>> {
+/// The `--attribute` sources, volumes read once and expressed in the mesh's frame.
+fn load_attributes(
+    r: &crate::config::ExtractRequest,
+    frame: Option<isoforge::grid::WorldSpace>,
+) -> Result<Vec<(String, Attribute)>> {
     let mut out = Vec::new();
-    for (name, source) in &c.attributes {
+    for (name, source) in &r.attributes {
         let a = match source {
             AttributeSource::Volume(input) => {
                 let Loaded::Grid(g) = load(input)? else { bail!("--attribute {name}: not a volume file") };
-                // Sample in the mesh's frame: an RAS attribute for an LPS input (or the reverse)
-                // is re-expressed first.
-                let g = match (frame, g.lattice().space()) {
-                    (Some(want), Some(have)) if want != have => {
-                        let l = g.lattice().in_space(want)?;
-                        g.with_lattice(l)?
-                    }
-                    _ => g,
-                };
-                Attribute::Volume(g)
+                Attribute::volume_in(g, frame).with_context(|| format!("--attribute {name}"))?
             }
             AttributeSource::Texture(t, scale) => Attribute::Texture(*t, *scale),
         };
@@ -553,103 +509,30 @@ fn load_attributes(c: &ExtractConfig, frame: Option<isoforge::grid::WorldSpace>)
     Ok(out)
 }
 
-/// Samples the attributes at the mesh's (world) vertices and colours them.
+/// The attributes at the mesh's (world) vertices, and the colours `--color-by` asks for.
 fn vertex_data(
-    c: &ExtractConfig,
+    r: &crate::config::ExtractRequest,
     mesh: &isoforge::mesh::Mesh,
     attributes: &[(String, Attribute)],
 ) -> isoforge_io::MeshData {
     let mut data = isoforge_io::MeshData::default();
     for (name, attribute) in attributes {
-        let values: Vec<f32> = match attribute {
-            Attribute::Volume(g) => {
-                let mut outside = 0usize;
-                let v: Vec<f32> = mesh
-                    .positions
-                    .iter()
-                    .map(|p| {
-                        let (v, inside) = g.value_at_world(p.map(f64::from));
-                        outside += usize::from(!inside);
-                        v as f32
-                    })
-                    .collect();
-                if outside > 0 {
-                    eprintln!(
-                        "--attribute {name}: {outside} of {} vertices lie outside its volume (given the nearest value)",
-                        v.len()
-                    );
-                }
-                v
-            }
-            Attribute::Texture(t, scale) => {
-                let (lo, hi) =
-                    mesh.positions.iter().fold(([f32::INFINITY; 3], [f32::NEG_INFINITY; 3]), |(lo, hi), p| {
-                        ([0, 1, 2].map(|a| lo[a].min(p[a])), [0, 1, 2].map(|a| hi[a].max(p[a])))
-                    });
-                let diag = (0..3).map(|a| ((hi[a] - lo[a]) as f64).powi(2)).sum::<f64>().sqrt();
-                let s = scale.unwrap_or(if diag > 0.0 { diag / 8.0 } else { 1.0 }) as f32;
-                mesh.positions.iter().map(|p| t.at(isoforge::math::Vec3::from(*p) / s)).collect()
-            }
-        };
-        data.scalars.push((name.clone(), values));
+        let s = attribute.sample(&mesh.positions);
+        if s.outside > 0 {
+            eprintln!(
+                "--attribute {name}: {} of {} vertices lie outside its volume (given the nearest value)",
+                s.outside,
+                s.values.len()
+            );
+        }
+        data.scalars.push((name.clone(), s.values));
     }
-    if let Some(by) = &c.color {
+    if let Some(by) = &r.color {
         if let Some((_, values)) = data.scalars.iter().find(|(n, _)| *n == by.attribute) {
-            let (lo, hi) = by.range.unwrap_or_else(|| {
-                values.iter().fold((f64::INFINITY, f64::NEG_INFINITY), |(a, b), &v| (a.min(v as f64), b.max(v as f64)))
-            });
-            data.colors = Some(by.map.colors(values, lo, hi));
+            data.colors = Some(by.colors(values));
         }
     }
     data
-}
-
-/// Crops (`--roi`), pads (`--close`) and re-places (`--space index`) a grid.
-fn apply_region(mut g: AnyGrid, region: &Region, outside: f64, name: &str) -> Result<AnyGrid> {
-    let dims = g.lattice().dims();
-    // Index-space position of the current grid's first point in the input volume.
-    let mut first = [0.0f64; 3];
-    if let Some(roi) = &region.roi {
-        let (lo, hi) = match roi {
-            Roi::Index(r) => {
-                let lo = [0, 1, 2].map(|a| r[a].0.unwrap_or(0));
-                let hi = [0, 1, 2].map(|a| r[a].1.unwrap_or(dims[a]));
-                (lo, hi)
-            }
-            Roi::World(r) => {
-                // The lattice points inside the box: its corners in index space, rounded inwards.
-                let l = g.lattice();
-                let (mut lo, mut hi) = ([f64::INFINITY; 3], [f64::NEG_INFINITY; 3]);
-                for c in 0..8 {
-                    let w = [0, 1, 2].map(|a| if c >> a & 1 == 1 { r[a].1 } else { r[a].0 });
-                    let p = l.to_index(w);
-                    for a in 0..3 {
-                        lo[a] = lo[a].min(p[a]);
-                        hi[a] = hi[a].max(p[a]);
-                    }
-                }
-                let eps = 1e-9;
-                let lo = [0, 1, 2].map(|a| (lo[a] - eps).ceil().clamp(0.0, dims[a] as f64) as u32);
-                let hi = [0, 1, 2].map(|a| ((hi[a] + eps).floor() + 1.0).clamp(0.0, dims[a] as f64) as u32);
-                (lo, hi)
-            }
-        };
-        g = g.crop(lo, hi).with_context(|| format!("{name}: --roi"))?;
-        first = lo.map(f64::from);
-    }
-    if region.close {
-        g = g.pad(1, outside).with_context(|| format!("{name}: --close"))?;
-        first = first.map(|x| x - 1.0);
-    }
-    if region.index_space {
-        let lattice = isoforge::grid::Lattice::with_geometry(g.lattice().dims(), [1.0; 3], first)?;
-        g = g.with_lattice(lattice)?;
-    }
-    if let Some(target) = region.world {
-        let lattice = g.lattice().in_space(target).with_context(|| format!("{name}: --world"))?;
-        g = g.with_lattice(lattice)?;
-    }
-    Ok(g)
 }
 
 /// What every iso of one `extract` run shares.
@@ -681,11 +564,12 @@ fn extract_one(
     let mut last: Option<Extraction> = None;
     for _ in 0..c.repeat {
         drop(last.take()); // as a warm loop elsewhere: the previous mesh is freed before the next run
-        let task = Task::start(format!("extracting iso {} ({})", iso.value, c.options.method.name()));
+        let options = &c.request.options;
+        let task = Task::start(format!("extracting iso {} ({})", iso.value, options.method.name()));
         let start = Instant::now();
         last = Some(match loaded {
-            Loaded::Grid(g) => pipeline::extract_grid(g, iso, &c.options, Some(&task))?,
-            Loaded::Field(b) => pipeline::extract_builtin(b, iso, &c.options, Some(&task))?,
+            Loaded::Grid(g) => pipeline::extract_grid(g, iso, options, Some(&task))?,
+            Loaded::Field(b) => pipeline::extract_builtin(b, iso, options, Some(&task))?,
             Loaded::Stream(_) => bail!("internal: streamed input reached the in-memory path"),
         });
         runs.push(start.elapsed().as_secs_f64());
@@ -695,16 +579,10 @@ fn extract_one(
     // Quads (dual methods) are written as triangles until every writer takes polygons.
     out.mesh.triangulate();
     let seconds = runs.last().copied().unwrap_or_default();
-    let s = out.stats;
-    if s.cells > 0 && (s.cells_outside == s.cells || s.cells_inside == s.cells) {
-        let side = if s.cells_outside == s.cells { "outside" } else { "inside" };
-        bail!(
-            "{name}: iso {} gives no surface: every lattice point is {side} (inside is {} iso)",
-            iso.value,
-            if iso.inside == Inside::Below { "below" } else { "above" }
-        );
+    if let Some(none) = out.no_surface(iso) {
+        bail!("{name}: {none}");
     }
-    let mut data = vertex_data(c, &out.mesh, attributes);
+    let mut data = vertex_data(&c.request, &out.mesh, attributes);
     if let Some((v, lattice, index_space)) = rgb {
         let at = |p: [f32; 3]| {
             let p = p.map(f64::from);
@@ -735,7 +613,7 @@ fn extract_one(
         shown.display(),
         out.mesh.num_vertices(),
         out.mesh.num_triangles(),
-        c.options.method.name(),
+        c.request.options.method.name(),
         iso.value,
         seconds
     ));
@@ -772,7 +650,7 @@ pub fn info(input: &InputConfig, json_out: bool) -> Result<Outcome> {
         Loaded::Stream(_) => None,
         Loaded::Field(b) => {
             v["default_iso"] = json!(b.iso.value);
-            v["inside"] = json!(if b.iso.inside == Inside::Below { "below" } else { "above" });
+            v["inside"] = json!(b.iso.inside.name());
             None
         }
     };
@@ -809,11 +687,7 @@ pub fn info(input: &InputConfig, json_out: bool) -> Result<Outcome> {
     }
     println!("world:       ({:.4}, {:.4}, {:.4}) to ({:.4}, {:.4}, {:.4})", lo[0], lo[1], lo[2], hi[0], hi[1], hi[2]);
     if let Loaded::Field(b) = &loaded {
-        println!(
-            "default iso: {} (inside {})",
-            b.iso.value,
-            if b.iso.inside == Inside::Below { "below" } else { "above" }
-        );
+        println!("default iso: {} (inside {})", b.iso.value, b.iso.inside.name());
     }
     if let Some(h) = &hist {
         println!("values:      {} to {}, mean {:.4}", h.min, h.max, h.mean);
@@ -859,7 +733,8 @@ pub fn demo(c: &DemoConfig) -> Result<Outcome> {
     let b = catalog::parse(&format!("metaballs?n={}", c.n))?;
     let start = Instant::now();
     let task = Task::start("extracting the demo field");
-    let out = pipeline::extract_builtin(&b, b.iso, &c.options, Some(&task))?;
+    let iso = c.request.isos_or(b.iso)[0];
+    let out = pipeline::extract_builtin(&b, iso, &c.request.options, Some(&task))?;
     task.finish();
     let seconds = start.elapsed().as_secs_f64();
     spin("writing the demo mesh", || batch.write_mesh(&c.output, &out.mesh, &Default::default(), format))?;
@@ -1005,11 +880,12 @@ pub fn render(c: &RenderConfig) -> Result<Outcome> {
                 Loaded::Field(b) => b.iso,
                 _ => Iso::below(0.0),
             };
-            let iso = Iso { value: c.iso.unwrap_or(default_iso.value), inside: c.inside.unwrap_or(default_iso.inside) };
-            let task = Task::start(format!("extracting iso {} ({})", iso.value, c.options.method.name()));
+            let iso = c.request.isos_or(default_iso)[0];
+            let options = &c.request.options;
+            let task = Task::start(format!("extracting iso {} ({})", iso.value, options.method.name()));
             let mesh = match &loaded {
-                Loaded::Grid(g) => pipeline::extract_grid(g, iso, &c.options, Some(&task))?.mesh,
-                Loaded::Field(b) => pipeline::extract_builtin(b, iso, &c.options, Some(&task))?.mesh,
+                Loaded::Grid(g) => pipeline::extract_grid(g, iso, options, Some(&task))?.mesh,
+                Loaded::Field(b) => pipeline::extract_builtin(b, iso, options, Some(&task))?.mesh,
                 Loaded::Stream(_) => bail!("{name}: too large to render in memory"),
             };
             task.finish();
@@ -1024,39 +900,25 @@ pub fn render(c: &RenderConfig) -> Result<Outcome> {
     Ok(Outcome::Success)
 }
 
-pub fn view(a: &crate::args::ViewArgs, threads: Option<usize>) -> Result<Outcome> {
+pub fn view(c: &ViewConfig) -> Result<Outcome> {
+    use crate::config::Shown as Input;
     use crate::view::Shown;
-    // The server's extractions share one pool: rayon's global pool, sized by --threads.
-    if let Some(n) = threads {
-        rayon::ThreadPoolBuilder::new()
-            .num_threads(n)
-            .build_global()
-            .map_err(|e| anyhow!("--threads {n}: cannot start the worker threads: {e}"))?;
-    }
-    let inside = match a.inside.as_str() {
-        "below" => Inside::Below,
-        "above" => Inside::Above,
-        s => bail!("--inside {s:?}: must be below or above"),
-    };
-    let shown = match &a.input {
-        None => Shown::Demo,
-        Some(input) => {
-            let path = Path::new(input);
-            let is_mesh = MeshFormat::from_path(path).is_some() && isoforge_io::VolumeFormat::from_path(path).is_none();
-            if is_mesh {
-                let mesh = spin(format!("reading {input}"), || isoforge_io::read_mesh(path, &Limits::default()))?;
-                Shown::Mesh { name: input.clone(), mesh }
-            } else {
-                let cfg =
-                    InputConfig::from_args(&crate::args::InputArgs { input: input.clone(), layout: a.layout.clone() })?;
-                match load(&cfg)? {
-                    Loaded::Grid(grid) => Shown::Volume { name: input.clone(), grid, inside },
-                    _ => bail!("{input}: view shows volume files, meshes, or (without INPUT) the demo fields"),
-                }
+    let shown = match &c.shown {
+        Input::Demo => Shown::Demo,
+        Input::Mesh(path) => {
+            let mesh =
+                spin(format!("reading {}", path.display()), || isoforge_io::read_mesh(path, &Limits::default()))?;
+            Shown::Mesh { name: path.display().to_string(), mesh }
+        }
+        Input::Volume(input) => {
+            let name = input_name(input);
+            match load(input)? {
+                Loaded::Grid(grid) => Shown::Volume { name, grid },
+                _ => bail!("{name}: view shows volume files, meshes, or (without INPUT) the demo fields"),
             }
         }
     };
-    crate::view::serve(a.port, shown)?;
+    crate::view::serve(c.port, shown, c.request.clone())?;
     Ok(Outcome::Success)
 }
 

@@ -12,6 +12,10 @@
 
 use std::sync::Arc;
 
+pub mod request;
+
+pub use request::{NoSurface, ParseError, Region, Request, Roi};
+
 use crate::cube::{CellRange, VertexKey};
 use crate::error::{Error, Result};
 use crate::extract::{
@@ -81,7 +85,7 @@ impl Method {
 }
 
 /// Extraction options.
-#[derive(Debug, Clone, Default)]
+#[derive(Debug, Clone, Default, PartialEq)]
 pub struct Options {
     /// The method.
     pub method: Method,
@@ -110,10 +114,10 @@ pub struct Extraction {
 }
 
 impl Extraction {
-    /// Why there is no surface: `Some("outside")` (or `"inside"`) when every cell walked was on
-    /// that side of the iso.
-    pub fn no_surface(&self) -> Option<&'static str> {
-        self.stats.uniform_side()
+    /// Why there is no surface at `iso` (the iso this extraction was made at): every cell walked
+    /// was on one side of it.
+    pub fn no_surface(&self, iso: Iso) -> Option<NoSurface> {
+        NoSurface::of(&self.stats, iso)
     }
 }
 
@@ -395,6 +399,31 @@ pub fn extract_labels_with_progress(
     Ok(out)
 }
 
+/// Label surfaces as one triangle mesh: the surfaces' vertices and triangles one after the
+/// other (quads of dual methods split), and each triangle's label (label values converted to
+/// `i32`, rounding toward zero, as label formats store them).
+pub fn merge_labels(surfaces: &[(f64, Extraction)]) -> (Mesh, Vec<i32>) {
+    let mut mesh = Mesh::default();
+    let mut tags = Vec::new();
+    for (label, e) in surfaces {
+        let split;
+        let m = if e.mesh.quads.is_empty() {
+            &e.mesh
+        } else {
+            let mut t = e.mesh.clone();
+            t.triangulate();
+            split = t;
+            &split
+        };
+        let base = mesh.positions.len() as u32;
+        mesh.positions.extend_from_slice(&m.positions);
+        mesh.normals.extend_from_slice(&m.normals);
+        mesh.triangles.extend(m.triangles.iter().map(|t| t.map(|v| v + base)));
+        tags.extend(std::iter::repeat_n(*label as i32, m.triangles.len()));
+    }
+    (mesh, tags)
+}
+
 /// Runs `f` on a pool of `threads` workers (rayon's global pool when `None`).
 fn in_pool<R: Send>(threads: Option<usize>, f: impl FnOnce() -> R + Send) -> Result<R> {
     #[cfg(feature = "parallel")]
@@ -432,4 +461,50 @@ pub fn extract_builtin(b: &Builtin, iso: Iso, opts: &Options, progress: Option<&
         }
     }
     b.field.visit(Go { b, iso, opts, progress })
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::grid::Lattice;
+
+    /// Two labels side by side in a 6×4×4 volume: one closed surface each, merged into one mesh
+    /// whose triangles carry their label, with indices offset past the earlier surfaces.
+    #[test]
+    fn label_surfaces_merge_with_their_tags() {
+        let g: AnyGrid =
+            DenseGrid::from_fn(Lattice::new([6, 4, 4]).unwrap(), |p| if p[0] < 3 { 3u8 } else { 7 }).into();
+        for method in [Method::MarchingCubes, Method::SurfaceNets] {
+            let opts = Options { method, ..Options::default() };
+            let surfaces = extract_labels(&g, &Labels::All, &opts).unwrap();
+            assert_eq!(surfaces.iter().map(|s| s.0).collect::<Vec<_>>(), [3.0, 7.0]);
+            let (mesh, tags) = merge_labels(&surfaces);
+            assert!(mesh.quads.is_empty());
+            assert_eq!(tags.len(), mesh.triangles.len());
+            let first = {
+                let mut m = surfaces[0].1.mesh.clone();
+                m.triangulate();
+                m
+            };
+            let n0 = first.triangles.len();
+            assert!(n0 > 0 && tags[..n0].iter().all(|&t| t == 3) && tags[n0..].iter().all(|&t| t == 7));
+            assert_eq!(mesh.triangles[..n0], first.triangles[..]);
+            let base = first.positions.len() as u32;
+            assert!(mesh.triangles[n0..].iter().flatten().all(|&v| v >= base));
+            assert_eq!(mesh.positions.len(), base as usize + surfaces[1].1.mesh.positions.len());
+            for (l, e) in &surfaces {
+                assert!(crate::topo::check(&e.mesh).is_closed(), "label {l}");
+            }
+        }
+        assert!(extract_labels(&g, &Labels::These(vec![5.0]), &Options::default()).is_err());
+    }
+
+    /// `Options.threads` is honoured: the extraction runs on a pool of that many workers.
+    #[cfg(feature = "parallel")]
+    #[test]
+    fn threads_option_sizes_the_pool() {
+        assert_eq!(in_pool(Some(3), rayon::current_num_threads).unwrap(), 3);
+        assert_eq!(in_pool(Some(1), rayon::current_num_threads).unwrap(), 1);
+        assert_eq!(in_pool(None, rayon::current_num_threads).unwrap(), rayon::current_num_threads());
+    }
 }

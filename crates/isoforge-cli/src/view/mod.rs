@@ -35,10 +35,15 @@ use std::time::{Duration, Instant};
 use anyhow::{anyhow, bail, Context, Result};
 use isoforge::grid::{downsample_mean, AnyGrid, Histogram};
 use isoforge::mesh::Mesh;
-use isoforge::pipeline::{self, Method, Options};
+use isoforge::pipeline::{self, request, Method, Roi};
 use isoforge::topo::{self, CheckOptions};
 use isoforge::volume::catalog::Classic;
-use isoforge::volume::{Inside, Iso};
+use isoforge::volume::Iso;
+
+/// A parser's message for query parameter `key`: `roi="1:2": expected three ranges …`.
+fn param(key: &str) -> impl Fn(request::ParseError) -> anyhow::Error + '_ {
+    move |e| anyhow!("{key}={e}")
+}
 use serde_json::{json, Value};
 
 use self::http::{Body, Request, Response, Stats};
@@ -48,7 +53,7 @@ pub enum Shown {
     /// The classic demo fields.
     Demo,
     /// A volume, meshed at the requested iso.
-    Volume { name: String, grid: AnyGrid, inside: Inside },
+    Volume { name: String, grid: AnyGrid },
     /// A fixed mesh.
     Mesh { name: String, mesh: Mesh },
 }
@@ -81,11 +86,11 @@ const PAGE: [(&str, &str, &str); 5] = [
 ///
 /// # Errors
 /// When the port cannot be bound.
-pub fn serve(port: u16, shown: Shown) -> Result<()> {
+pub fn serve(port: u16, shown: Shown, base: pipeline::Request) -> Result<()> {
     let listener =
         TcpListener::bind(("127.0.0.1", port)).with_context(|| format!("cannot listen on 127.0.0.1:{port}"))?;
     let addr = listener.local_addr().context("the server has no address")?;
-    let viewer = Arc::new(Viewer::new(shown));
+    let viewer = Arc::new(Viewer::new(shown, base));
     let stats = viewer.stats.clone();
     println!("http://{addr}/");
     use std::io::Write as _;
@@ -94,19 +99,19 @@ pub fn serve(port: u16, shown: Shown) -> Result<()> {
     Ok(())
 }
 
-/// A mesh request, validated and typed.
+/// A mesh request, validated and typed: the library's request (method, iso, region, inside,
+/// threads) and, for the demo, the field.
 #[derive(Debug, Clone, PartialEq)]
 struct Query {
-    method: Method,
-    /// The iso value (volumes and the demo).
-    iso: Option<f64>,
-    /// A volume region.
-    roi: Option<Roi>,
+    request: pipeline::Request,
     demo: Option<Demo>,
 }
 
-/// Half-open point ranges of a volume region: (lower corner, upper corner).
-type Roi = ([u32; 3], [u32; 3]);
+impl Query {
+    fn method(&self) -> Method {
+        self.request.options.method
+    }
+}
 
 /// A block-averaged volume (or region) for previews.
 struct Preview {
@@ -125,6 +130,8 @@ struct Demo {
 /// The server's state: what is shown, and the work it keeps between requests.
 struct Viewer {
     shown: Shown,
+    /// What every query starts from: the inside rule and threads of the command line.
+    base: pipeline::Request,
     /// Histogram of a volume, made once.
     histogram: Option<Histogram>,
     /// The last preview grid.
@@ -196,13 +203,14 @@ fn still_wanted(req: &Request) -> Result<(), Abandoned> {
 }
 
 impl Viewer {
-    fn new(shown: Shown) -> Viewer {
+    fn new(shown: Shown, base: pipeline::Request) -> Viewer {
         let histogram = match &shown {
             Shown::Volume { grid, .. } => Histogram::of(grid, 128),
             _ => None,
         };
         Viewer {
             shown,
+            base,
             histogram,
             preview: Mutex::new(None),
             last_mesh: Mutex::new(None),
@@ -256,11 +264,11 @@ impl Viewer {
                 "fields": Classic::ALL.map(|c| c.name()), "iso": isoforge::volume::classic::CLASSIC_ISO,
                 "n": {"min": MIN_N, "max": MAX_N, "default": 40}
             }),
-            Shown::Volume { name, grid, inside } => {
+            Shown::Volume { name, grid } => {
                 let h = self.histogram.as_ref();
                 json!({
                     "kind": "volume", "name": name, "parameters": parameters, "methods": methods,
-                    "dims": grid.lattice().dims(), "inside": if *inside == Inside::Above { "above" } else { "below" },
+                    "dims": grid.lattice().dims(), "inside": self.base.inside.unwrap_or_default().name(),
                     "range": h.map(|h| [h.min, h.max]), "histogram": h.map(|h| h.counts.clone()),
                     "iso": h.map(|h| h.surface_iso()), "preview_step": preview_step(grid.lattice().num_points()),
                 })
@@ -290,12 +298,13 @@ impl Viewer {
             let all: Vec<&str> = accepted.iter().chain(extra).copied().collect();
             bail!("parameter {k:?} is not accepted here (accepted: {})", all.join(", "));
         }
-        let method = match get(params, "method") {
-            None => Method::MarchingCubes,
-            Some(m) => Method::parse(m).ok_or_else(|| anyhow!("method={m:?}: unknown"))?,
-        };
-        let iso = number(params, "iso")?;
-        let mut q = Query { method, iso, roi: None, demo: None };
+        let mut r = self.base.clone();
+        if let Some(m) = get(params, "method") {
+            r.options.method = m.parse().map_err(param("method"))?;
+        }
+        let iso = get(params, "iso").map(request::parse_iso).transpose().map_err(param("iso"))?;
+        r.isos = iso.into_iter().collect();
+        let mut q = Query { request: r, demo: None };
         match &self.shown {
             Shown::Demo => {
                 let name = get(params, "field").unwrap_or("metaballs");
@@ -315,10 +324,9 @@ impl Viewer {
                 if iso.is_none() {
                     bail!("iso is required");
                 }
-                q.roi = match get(params, "roi").filter(|r| !r.trim().is_empty()) {
-                    None => None,
-                    Some(roi) => Some(parse_roi(roi, grid.lattice().dims())?),
-                };
+                if let Some(roi) = get(params, "roi").filter(|r| !r.trim().is_empty()) {
+                    q.request.region.roi = Some(checked_roi(roi, grid)?);
+                }
             }
             Shown::Mesh { .. } => {}
         }
@@ -337,57 +345,60 @@ impl Viewer {
         let start = Instant::now();
         let (mesh, step) = match self.preview_grid(&q, preview, req)? {
             Some((grid, step)) => {
-                let opts = Options { method: q.method, ..Options::default() };
-                (Arc::new(drawable(pipeline::extract_grid(&grid, self.iso(&q)?, &opts, None)?.mesh)), step)
+                let mesh = pipeline::extract_grid(&grid, self.iso(&q)?, &q.request.options, None)?.mesh;
+                (Arc::new(drawable(mesh)), step)
             }
             None => (self.full_mesh(&q, req)?, 1),
         };
         let ms = start.elapsed().as_secs_f64() * 1e3;
         still_wanted(req)?;
         let head = json!({
-            "level": if step > 1 { "preview" } else { "full" }, "step": step, "method": q.method.name(),
+            "level": if step > 1 { "preview" } else { "full" }, "step": step, "method": q.method().name(),
             "vertices": mesh.num_vertices(), "triangles": mesh.num_triangles(), "extraction_ms": ms,
         });
         Ok(Response::ok("application/octet-stream", Body::Owned(codec::encode_mesh(&mesh, head))))
     }
 
     fn iso(&self, q: &Query) -> Result<Iso> {
-        Ok(match (&self.shown, q.demo) {
-            (Shown::Volume { inside, .. }, _) => {
-                Iso { value: q.iso.ok_or_else(|| anyhow!("iso is required"))?, inside: *inside }
-            }
+        let default = match (&self.shown, q.demo) {
+            (Shown::Volume { .. }, _) if q.request.isos.is_empty() => bail!("iso is required"),
+            (Shown::Volume { .. }, _) => Iso::below(0.0),
+            // The demo fields keep their own inside rule.
             (_, Some(d)) => {
-                let default = d.field.builtin(MIN_N, d.t)?.iso;
-                Iso { value: q.iso.unwrap_or(default.value), inside: default.inside }
+                let iso = d.field.builtin(MIN_N, d.t)?.iso;
+                return Ok(Iso { value: q.request.isos.first().copied().unwrap_or(iso.value), inside: iso.inside });
             }
             _ => bail!("internal: no iso for a mesh; this is a bug, please report it"),
-        })
+        };
+        Ok(q.request.isos_or(default)[0])
     }
 
     /// For a preview of a large volume: its block-averaged grid (kept for the next request) and
     /// the step. `None` when the full resolution is wanted or small enough to be the preview.
     fn preview_grid(&self, q: &Query, preview: bool, req: &Request) -> Result<Option<(Arc<AnyGrid>, u32)>, Failure> {
         let Shown::Volume { grid, .. } = &self.shown else { return Ok(None) };
-        let points = match q.roi {
+        let roi = &q.request.region.roi;
+        let boxed = roi.as_ref().map(|r| r.point_box(grid.lattice())).transpose()?;
+        let points = match boxed {
             None => grid.lattice().num_points(),
-            Some((lo, hi)) => (0..3).map(|a| (hi[a] - lo[a]) as u64).product(),
+            Some((lo, hi)) => (0..3).map(|a| u64::from(hi[a] - lo[a])).product(),
         };
         let step = preview_step(points);
         if !preview || step == 1 {
             return Ok(None);
         }
         let mut cached = lock_or_abandon(&self.preview, req)?;
-        if let Some(p) = cached.as_ref().filter(|p| p.roi == q.roi && p.step == step) {
+        if let Some(p) = cached.as_ref().filter(|p| p.roi == *roi && p.step == step) {
             return Ok(Some((p.grid.clone(), step)));
         }
         let down = |g: &AnyGrid| -> Result<AnyGrid> {
             Ok(AnyGrid::F32(isoforge::with_grid!(g, g => downsample_mean(g, step))?))
         };
-        let g = Arc::new(match q.roi {
+        let g = Arc::new(match boxed {
             None => down(grid)?,
             Some((lo, hi)) => down(&grid.crop(lo, hi)?)?,
         });
-        *cached = Some(Preview { roi: q.roi, step, grid: g.clone() });
+        *cached = Some(Preview { roi: roi.clone(), step, grid: g.clone() });
         Ok(Some((g, step)))
     }
 
@@ -403,15 +414,18 @@ impl Viewer {
             return Ok(m);
         }
         still_wanted(req)?;
-        let opts = Options { method: q.method, ..Options::default() };
+        let opts = &q.request.options;
         let mesh = match (&self.shown, q.demo) {
             (Shown::Mesh { mesh, .. }, _) => mesh.clone(),
-            (Shown::Volume { grid, .. }, _) => match q.roi {
-                None => pipeline::extract_grid(grid, self.iso(q)?, &opts, None)?.mesh,
-                Some((lo, hi)) => pipeline::extract_grid(&grid.crop(lo, hi)?, self.iso(q)?, &opts, None)?.mesh,
+            (Shown::Volume { grid, .. }, _) => match &q.request.region.roi {
+                None => pipeline::extract_grid(grid, self.iso(q)?, opts, None)?.mesh,
+                Some(roi) => {
+                    let (lo, hi) = roi.point_box(grid.lattice())?;
+                    pipeline::extract_grid(&grid.crop(lo, hi)?, self.iso(q)?, opts, None)?.mesh
+                }
             },
             (Shown::Demo, Some(d)) => {
-                pipeline::extract_builtin(&d.field.builtin(d.n, d.t)?, self.iso(q)?, &opts, None)?.mesh
+                pipeline::extract_builtin(&d.field.builtin(d.n, d.t)?, self.iso(q)?, opts, None)?.mesh
             }
             (Shown::Demo, None) => return Err(Failure::Bad(anyhow!("internal: a demo query without a field"))),
         };
@@ -441,7 +455,7 @@ impl Viewer {
         edges.truncate(MAX_DEFECT_EDGES);
         trim_examples(&mut r, 10);
         let mut head = crate::report::mesh_json(&r);
-        head["method"] = json!(q.method.name());
+        head["method"] = json!(q.method().name());
         head["check_ms"] = json!(ms);
         head["components"] = json!(r.components.len());
         head["defect_edges"] = json!(r.boundary_edges.count + r.non_manifold_edges.count);
@@ -557,30 +571,15 @@ fn number(params: &[(String, String)], key: &str) -> Result<Option<f64>> {
     }
 }
 
-/// `i0:i1,j0:j1,k0:k1` (half-open point indices; empty bounds take the whole axis), as in
-/// `extract --roi`, checked against `dims`: at least two points per axis.
-fn parse_roi(roi: &str, dims: [u32; 3]) -> Result<Roi> {
-    let parts: Vec<&str> = roi.split(',').collect();
-    if parts.len() != 3 {
-        bail!("roi={roi:?}: expected i0:i1,j0:j1,k0:k1");
+/// `roi=i0:i1,j0:j1,k0:k1`: parsed and checked as `extract --roi` is ([`Roi::parse_index`],
+/// [`Roi::point_box`]), and holding at least two points per axis (a mesh needs a cell).
+fn checked_roi(text: &str, grid: &AnyGrid) -> Result<Roi> {
+    let roi = Roi::parse_index(text).map_err(param("roi"))?;
+    let (lo, hi) = roi.point_box(grid.lattice()).map_err(|e| anyhow!("roi={text:?}: {e}"))?;
+    if let Some(a) = (0..3).find(|&a| hi[a] - lo[a] < 2) {
+        bail!("roi={text:?}: axis {a} range {}:{} must hold at least 2 points", lo[a], hi[a]);
     }
-    let (mut lo, mut hi) = ([0u32; 3], dims);
-    for (a, part) in parts.iter().enumerate() {
-        let (l, h) = part.split_once(':').ok_or_else(|| anyhow!("roi={roi:?}: {part:?} has no ':'"))?;
-        let num = |t: &str, default: u32| -> Result<u32> {
-            if t.trim().is_empty() {
-                Ok(default)
-            } else {
-                t.trim().parse().map_err(|_| anyhow!("roi={roi:?}: {t:?} is not a point index"))
-            }
-        };
-        lo[a] = num(l, 0)?;
-        hi[a] = num(h, dims[a])?;
-        if hi[a] > dims[a] || lo[a] + 2 > hi[a] {
-            bail!("roi={roi:?}: axis {a} range {}:{} must hold at least 2 of the {} points", lo[a], hi[a], dims[a]);
-        }
-    }
-    Ok((lo, hi))
+    Ok(roi)
 }
 
 /// The mesh as the page draws it: triangles only (quads of dual methods split).
@@ -604,10 +603,16 @@ mod tests {
 
     #[test]
     fn regions_are_checked_against_the_dims() {
-        assert_eq!(parse_roi("1:4,:,2:", [5, 6, 7]).unwrap(), ([1, 0, 2], [4, 6, 7]));
+        let g: AnyGrid =
+            isoforge::grid::DenseGrid::<u8>::new(isoforge::grid::Lattice::new([5, 6, 7]).unwrap(), vec![0; 210])
+                .unwrap()
+                .into();
+        let roi = checked_roi("1:4,:,2:", &g).unwrap();
+        assert_eq!(roi.point_box(g.lattice()).unwrap(), ([1, 0, 2], [4, 6, 7]));
         for bad in ["1:99,:,:", "3:4,:,:", ":,:", "a:b,:,:", "4:2,:,:"] {
-            assert!(parse_roi(bad, [5, 6, 7]).is_err(), "{bad}");
+            assert!(checked_roi(bad, &g).is_err(), "{bad}");
         }
+        assert!(checked_roi(":,:", &g).unwrap_err().to_string().starts_with("roi=\":,:\": expected three ranges"));
     }
 
     #[test]

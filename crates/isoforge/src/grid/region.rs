@@ -104,6 +104,20 @@ impl AnyGrid {
         (v, inside)
     }
 
+    /// The same samples placed with `spacing` and `origin` where given (images carry no
+    /// geometry: unset, they keep spacing 1 and origin 0); the direction is reset to the identity.
+    ///
+    /// # Errors
+    /// [`Error::InvalidInput`] when the spacing is not positive and finite or the origin not finite.
+    pub fn placed(self, spacing: Option<[f64; 3]>, origin: Option<[f64; 3]>) -> Result<AnyGrid> {
+        if spacing.is_none() && origin.is_none() {
+            return Ok(self);
+        }
+        let l = self.lattice();
+        let lattice = Lattice::with_geometry(l.dims(), spacing.unwrap_or(l.spacing()), origin.unwrap_or(l.origin()))?;
+        self.with_lattice(lattice)
+    }
+
     /// [`DenseGrid::with_lattice`] for any sample type.
     ///
     /// # Errors
@@ -132,6 +146,17 @@ mod tests {
         assert_eq!(c.lattice().to_world([1.0, 1.0, 1.0]), g.lattice().to_world([2.0, 2.0, 1.0]));
         assert!(g.crop([0, 0, 0], [5, 1, 1]).is_err());
         assert!(g.crop([2, 0, 0], [2, 1, 1]).is_err());
+    }
+
+    #[test]
+    fn placing_sets_spacing_and_origin_where_given() {
+        let g: AnyGrid = grid().into();
+        let p = g.clone().placed(Some([0.5, 2.0, 1.0]), None).unwrap();
+        assert_eq!((p.lattice().spacing(), p.lattice().origin()), ([0.5, 2.0, 1.0], g.lattice().origin()));
+        let p = g.clone().placed(None, Some([1.0, -2.0, 3.0])).unwrap();
+        assert_eq!((p.lattice().spacing(), p.lattice().origin()), (g.lattice().spacing(), [1.0, -2.0, 3.0]));
+        assert_eq!(p.values_f64().collect::<Vec<_>>(), g.values_f64().collect::<Vec<_>>());
+        assert!(g.placed(Some([0.0, 1.0, 1.0]), None).is_err());
     }
 
     #[test]

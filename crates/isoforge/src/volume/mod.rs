@@ -42,6 +42,16 @@ pub enum Inside {
     Above,
 }
 
+impl Inside {
+    /// `below` or `above` (the CLI's word; parsed by `str::parse`).
+    pub fn name(self) -> &'static str {
+        match self {
+            Inside::Below => "below",
+            Inside::Above => "above",
+        }
+    }
+}
+
 /// An iso value and the side that counts as inside.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct Iso {
