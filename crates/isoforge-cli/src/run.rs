@@ -103,9 +103,8 @@ fn streams(path: &Path) -> bool {
 /// O(nx·ny) memory) without `--max-memory`: when the streamed PLY is byte for byte the
 /// in-memory one, i.e. one iso into binary PLY with nothing that needs the whole grid or mesh
 /// (ROI, labels, mask, attributes, colours, `--require`'s full report) and no benchmarking flags
-/// (`--repeat`, `--time-json`: their seconds are the extraction's alone), and a method without
-/// quads (the in-memory path splits quads by their shorter diagonal, which needs the next slab's
-/// vertices).
+/// (`--repeat`, `--time-json`: their seconds are the extraction's alone). Quads are written as
+/// quads on both paths.
 fn streams_by_default(c: &ExtractConfig) -> bool {
     let r = &c.request;
     c.format == MeshFormat::Ply
@@ -119,7 +118,14 @@ fn streams_by_default(c: &ExtractConfig) -> bool {
         && r.color.is_none()
         && c.color_volume.is_none()
         && c.require.is_empty()
-        && r.options.method != Method::SurfaceNets
+}
+
+/// "N triangles", and ", M quads" when the mesh has quads.
+fn polygon_counts(mesh: &isoforge::mesh::Mesh) -> String {
+    match mesh.num_quads() {
+        0 => format!("{} triangles", mesh.num_triangles()),
+        q => format!("{} triangles, {q} quads", mesh.num_triangles()),
+    }
 }
 
 /// The value range of the volume at `path`, read slab by slab (for the message when a streamed
@@ -259,13 +265,19 @@ fn extract_streaming(
     }
     ply.finish()?;
     if let Some(t) = &c.time_json {
-        let body =
-            json!({ "seconds": seconds, "vertices": stats.vertices, "triangles": stats.triangles, "streamed": true });
+        let body = json!({
+            "seconds": seconds,
+            "vertices": stats.vertices,
+            "triangles": stats.triangles,
+            "quads": stats.quads,
+            "streamed": true
+        });
         batch.write(t, |w| w.write_all(body.to_string().as_bytes()))?;
     }
     batch.commit()?;
+    let quads = if stats.quads > 0 { format!(", {} quads", stats.quads) } else { String::new() };
     eprintln!(
-        "{}: {} vertices, {} triangles ({}, streamed slab by slab, iso {}, reading + extraction + writing {:.3} s)",
+        "{}: {} vertices, {} triangles{quads} ({}, streamed slab by slab, iso {}, reading + extraction + writing {:.3} s)",
         c.output.display(),
         stats.vertices,
         stats.triangles,
@@ -575,9 +587,8 @@ fn extract_one(
         runs.push(start.elapsed().as_secs_f64());
         task.finish();
     }
-    let mut out = last.ok_or_else(|| anyhow!("internal: --repeat ran no extraction"))?;
-    // Quads (dual methods) are written as triangles until every writer takes polygons.
-    out.mesh.triangulate();
+    // Quads (dual methods) stay quads: PLY, OBJ and OFF write them, STL and glTF split them.
+    let out = last.ok_or_else(|| anyhow!("internal: --repeat ran no extraction"))?;
     let seconds = runs.last().copied().unwrap_or_default();
     if let Some(none) = out.no_surface(iso) {
         bail!("{name}: {none}");
@@ -602,17 +613,18 @@ fn extract_one(
             "seconds": seconds,
             "runs": runs,
             "vertices": out.mesh.num_vertices(),
-            "triangles": out.mesh.num_triangles()
+            "triangles": out.mesh.num_triangles(),
+            "quads": out.mesh.num_quads()
         });
         batch.write(t, |w| w.write_all(body.to_string().as_bytes()))?;
     }
     let shown = output.unwrap_or(&c.output);
     // Said once the batch is committed: before that the file does not exist.
     done.borrow_mut().push(format!(
-        "{}: {} vertices, {} triangles ({} method, iso {}, extraction {:.3} s)",
+        "{}: {} vertices, {} ({} method, iso {}, extraction {:.3} s)",
         shown.display(),
         out.mesh.num_vertices(),
-        out.mesh.num_triangles(),
+        polygon_counts(&out.mesh),
         c.request.options.method.name(),
         iso.value,
         seconds

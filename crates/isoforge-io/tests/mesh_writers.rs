@@ -108,6 +108,34 @@ fn quads_are_written_as_4_gons_and_read_back_as_their_fans() {
 }
 
 #[test]
+fn triangle_only_formats_split_quads_by_their_shorter_diagonal() {
+    // STL and glTF hold triangles: each quad becomes the two triangles `Mesh::triangulate` makes
+    // (none is dropped), so the file is the triangulated mesh's.
+    let dir = tempfile::tempdir().unwrap();
+    let m = mesh(Method::SurfaceNets, isoforge::mesh::Normals::None);
+    assert!(m.quads.len() > 300 && m.triangles.is_empty());
+    let mut split = m.clone();
+    split.triangulate();
+    assert_eq!(split.triangles.len(), 2 * m.quads.len());
+    assert_eq!(m.all_triangles().collect::<Vec<_>>(), split.triangles);
+    for (name, format) in [("q.stl", MeshFormat::Stl), ("qa.stl", MeshFormat::StlAscii), ("q.glb", MeshFormat::Glb)] {
+        let (a, b) = (dir.path().join(name), dir.path().join(format!("split-{name}")));
+        for (path, mesh) in [(&a, &m), (&b, &split)] {
+            let batch = Batch::new();
+            batch.write_mesh(path, mesh, &MeshData::default(), format).unwrap();
+            batch.commit().unwrap();
+        }
+        assert_eq!(std::fs::read(&a).unwrap(), std::fs::read(&b).unwrap(), "{name}");
+        if format != MeshFormat::Glb {
+            let back = isoforge_io::read_mesh(&a, &Limits::default()).unwrap();
+            assert_eq!(back.triangles.len(), 2 * m.quads.len(), "{name}");
+            let rep = isoforge::topo::check(&back);
+            assert!(rep.is_closed() && rep.is_manifold(), "{name}: {rep:?}");
+        }
+    }
+}
+
+#[test]
 fn triangle_labels_refuse_quads() {
     let m = mesh(Method::SurfaceNets, isoforge::mesh::Normals::None);
     let data = MeshData { triangle_labels: Some(vec![1; m.triangles.len()]), ..Default::default() };

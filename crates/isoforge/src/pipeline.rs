@@ -424,18 +424,34 @@ pub fn merge_labels(surfaces: &[(f64, Extraction)]) -> (Mesh, Vec<i32>) {
     (mesh, tags)
 }
 
-/// Runs `f` on a pool of `threads` workers (rayon's global pool when `None`).
+/// Runs `f` on a pool of `threads` workers (rayon's global pool when `None`). Pools are built
+/// once per thread count and kept for the process (a viewer or a warm loop re-extracts often;
+/// starting threads each time cost more than small extractions).
 fn in_pool<R: Send>(threads: Option<usize>, f: impl FnOnce() -> R + Send) -> Result<R> {
     #[cfg(feature = "parallel")]
     if let Some(n) = threads {
-        let pool = rayon::ThreadPoolBuilder::new()
-            .num_threads(n.max(1))
-            .build()
-            .map_err(|e| Error::InvalidInput(format!("cannot start {n} worker threads: {e}")))?;
-        return Ok(pool.install(f));
+        return Ok(pool(n.max(1))?.install(f));
     }
     let _ = threads;
     Ok(f())
+}
+
+/// The process's pool of `n` workers, built on first use.
+#[cfg(feature = "parallel")]
+fn pool(n: usize) -> Result<std::sync::Arc<rayon::ThreadPool>> {
+    use std::sync::{Arc, Mutex, PoisonError};
+    static POOLS: Mutex<Vec<(usize, Arc<rayon::ThreadPool>)>> = Mutex::new(Vec::new());
+    let mut pools = POOLS.lock().unwrap_or_else(PoisonError::into_inner);
+    if let Some((_, p)) = pools.iter().find(|(m, _)| *m == n) {
+        return Ok(Arc::clone(p));
+    }
+    let p = rayon::ThreadPoolBuilder::new()
+        .num_threads(n)
+        .build()
+        .map_err(|e| Error::InvalidInput(format!("cannot start {n} worker threads: {e}")))?;
+    let p = Arc::new(p);
+    pools.push((n, Arc::clone(&p)));
+    Ok(p)
 }
 
 /// Extracts a built-in field on its lattice (matched once).

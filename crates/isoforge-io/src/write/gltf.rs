@@ -73,12 +73,13 @@ fn build(meshes: &[NamedMesh], uri: Option<&str>) -> io::Result<(Vec<u8>, String
             accessors.push(format!(r#"{{"bufferView":{v},"componentType":5126,"count":{n},"type":"SCALAR"}}"#));
             attrs.push(format!(r#""_{}":{}"#, json_name(name).to_ascii_uppercase(), accessors.len() - 1));
         }
-        let idx: Vec<u8> = mesh.triangles.iter().flatten().flat_map(|i| i.to_le_bytes()).collect();
+        // glTF primitives here are triangle lists: quads are split (`Mesh::all_triangles`).
+        let idx: Vec<u8> = mesh.all_triangles().flatten().flat_map(|i| i.to_le_bytes()).collect();
         let v = view(&mut bin, &idx, 34963);
-        let max_index = mesh.triangles.iter().flatten().max().copied().unwrap_or(0);
+        let max_index = mesh.all_triangles().flatten().max().unwrap_or(0);
         accessors.push(format!(
             r#"{{"bufferView":{v},"componentType":5125,"count":{},"type":"SCALAR","min":[0],"max":[{max_index}]}}"#,
-            mesh.triangles.len() * 3
+            mesh.num_split_triangles() * 3
         ));
         gmeshes.push(format!(
             r#"{{"name":"{}","primitives":[{{"attributes":{{{}}},"indices":{},"mode":4}}]}}"#,

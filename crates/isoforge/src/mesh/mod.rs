@@ -80,17 +80,37 @@ impl Mesh {
     pub fn triangulate(&mut self) {
         let quads = std::mem::take(&mut self.quads);
         self.triangles.reserve(2 * quads.len());
-        for [a, b, c, d] in quads {
-            let len2 = |u: u32, v: u32| {
-                let (p, q) = (self.positions[u as usize], self.positions[v as usize]);
-                (0..3).map(|i| ((p[i] - q[i]) as f64).powi(2)).sum::<f64>()
-            };
-            if len2(b, d) < len2(a, c) {
-                self.triangles.extend([[a, b, d], [b, c, d]]);
-            } else {
-                self.triangles.extend([[a, b, c], [a, c, d]]);
-            }
+        for q in quads {
+            let split = self.split_quad(q);
+            self.triangles.extend(split);
         }
+    }
+
+    /// Quad `[a, b, c, d]` as two triangles split along its shorter diagonal (ac on a tie), wound
+    /// as the quad: what [`triangulate`](Mesh::triangulate) makes of it.
+    #[inline]
+    pub fn split_quad(&self, [a, b, c, d]: [u32; 4]) -> [[u32; 3]; 2] {
+        let len2 = |u: u32, v: u32| {
+            let (p, q) = (self.positions[u as usize], self.positions[v as usize]);
+            (0..3).map(|i| ((p[i] - q[i]) as f64).powi(2)).sum::<f64>()
+        };
+        if len2(b, d) < len2(a, c) {
+            [[a, b, d], [b, c, d]]
+        } else {
+            [[a, b, c], [a, c, d]]
+        }
+    }
+
+    /// Every triangle the mesh stands for: its triangles, then its quads split as
+    /// [`triangulate`](Mesh::triangulate) splits them (for writers of triangle-only formats,
+    /// without copying the mesh).
+    pub fn all_triangles(&self) -> impl Iterator<Item = [u32; 3]> + '_ {
+        self.triangles.iter().copied().chain(self.quads.iter().flat_map(|&q| self.split_quad(q)))
+    }
+
+    /// Triangles after [`triangulate`](Mesh::triangulate): `triangles + 2 · quads`.
+    pub fn num_split_triangles(&self) -> usize {
+        self.triangles.len() + 2 * self.quads.len()
     }
 
     /// Reverses every polygon's winding and negates the normals.
