@@ -130,14 +130,22 @@ impl<V: SampleSlabs, X: Extractor> Passes<'_, V, X> {
         // the diagonals the extractor names), then room for the vertices its cells place. The
         // samples a row needs are scattered (sparse surfaces) and the hardware cannot guess them;
         // their positions are known from the bits, so they are prefetched PREFETCH_ROWS rows ahead.
+        // Rows without crossings (most rows of a sparse surface) are skipped: the counts know them.
+        let has_crossings = |r: usize| table.count(r).v.iter().any(|&n| n > 0);
         for j in 0..PREFETCH_ROWS.min(ny) {
-            self.prefetch_row(bits, k, j, s0, s1, &mut ymask);
+            if has_crossings(k * ny + j) {
+                self.prefetch_row(bits, k, j, s0, s1, &mut ymask);
+            }
         }
         for j in 0..ny {
-            if j + PREFETCH_ROWS < ny {
+            if j + PREFETCH_ROWS < ny && has_crossings(k * ny + j + PREFETCH_ROWS) {
                 self.prefetch_row(bits, k, j + PREFETCH_ROWS, s0, s1, &mut ymask);
             }
             let r = k * ny + j;
+            if !has_crossings(r) {
+                out_v += table.count(r).placed as usize;
+                continue;
+            }
             let at = bx.in_slab(0, j);
             for f in 0..FAMILIES {
                 if !self.walked.has(f) || !self.walked.mask(f, bits, r, [j, k], bx.dims, &mut mask) {
