@@ -785,13 +785,13 @@ fn band<C: Cell>(cell: &mut C, d: &[f32; 8], la: &[u8], lb: &[u8], id: &mut impl
 /// distinct face chord), without placing anything.
 fn band_counts(d: &[f32; 8], la: &[u8], lb: &[u8]) -> CellCounts {
     let mut counts = CellCounts::default();
-    let mut split = 0u128; // bit 12·lo + hi: face chord lo–hi split
+    let mut split = 0u128; // bit 11·lo + hi − 1 (lo < hi ≤ 11: at most 120): face chord lo–hi split
     band_triangles(d, la, lb, |p, q, r| {
         counts.triangles += 1;
         for (x, y) in [(q, r), (r, p)] {
             if common_face_of(x, y).is_some() {
                 counts.triangles += 1;
-                let bit = 1u128 << (12 * x.min(y) as u32 + x.max(y) as u32);
+                let bit = 1u128 << (11 * x.min(y) as u32 + x.max(y) as u32 - 1);
                 if split & bit == 0 {
                     split |= bit;
                     counts.placed += 1;
