@@ -23,13 +23,19 @@
 //!    is split at a cell-private vertex, because the neighbour's tunnel through that face could
 //!    pick the same chord.
 //!
+//! Steps 1–2 and the candidate loops of step 3 depend only on the case and the face deciders, so
+//! they are tabulated once per case and face decisions (`Skeleton`); per cell only the deciders and,
+//! for a class with several patches, the slice sweep run. A walker that counts before it fills gets
+//! the decided topology from [`counts`](Extractor::counts) and hands it back to
+//! [`process_decided`](Extractor::process_decided).
+//!
 //! Ties follow the project rule (a value equal to iso is outside; a saddle exactly at iso is
 //! outside), identically in both cells of a face, so no crack or non-manifold edge can appear.
 //! Inside the cell the same rule makes the outside closed: where a slice saddle only touches iso
 //! (a double root) or two vertical edges reach iso at one height, the outside regions meeting
 //! there are joined. Integer scans produce all of these (issue 10; `tests/real_data.rs`).
 
-use super::{CellCounts, Counting, Extractor, ProbeCell};
+use super::{CellCounts, Counting, Decision, Extractor, ProbeCell};
 use crate::cube::{CubeEdge, CORNER_OFFSETS, EDGE_CORNERS, EDGE_FACES, FACE_CORNERS, FACE_EDGES};
 use crate::extract::Cell;
 use crate::math::UnionFind;
@@ -57,14 +63,33 @@ impl Extractor for MarchingCubes33 {
         easy_cases()[case as usize].as_deref()
     }
 
-    fn counts(&self, case: u8, ijk: [u32; 3], values: impl FnOnce() -> [f32; 8]) -> CellCounts {
+    fn counts(&self, case: u8, ijk: [u32; 3], values: impl FnOnce() -> [f32; 8]) -> (CellCounts, Decision) {
+        let _ = ijk;
         if let Some(t) = self.case_triangles(case, false) {
-            return CellCounts { triangles: t.len() as u16, ..Default::default() };
+            return (CellCounts { triangles: t.len() as u16, ..Default::default() }, Decision::default());
         }
-        // The values decide: run the cell once to count what it makes.
-        let mut probe = ProbeCell::new(ijk, values());
-        self.process(&mut probe);
-        probe.counts
+        // The values decide: what `general` makes, without making it.
+        let d = values();
+        let topo = CellTopology::of(&d);
+        let mut counts = CellCounts::default();
+        let mut in_tube = [false; MAX_LOOPS];
+        for &(a, b) in &topo.tubes[..topo.n_tubes] {
+            in_tube[a] = true;
+            in_tube[b] = true;
+            let c = band_counts(&d, topo.loop_edges(a), topo.loop_edges(b));
+            counts.triangles += c.triangles;
+            counts.placed += c.placed;
+        }
+        for l in (0..topo.n_loops()).filter(|&l| !in_tube[l]) {
+            let n = topo.loop_edges(l).len() as u16;
+            if topo.visits_a_face_twice(l) {
+                counts.triangles += n;
+                counts.placed += 1;
+            } else {
+                counts.triangles += n - 2;
+            }
+        }
+        (counts, topo.decision())
     }
 
     fn process<C: Cell>(&self, cell: &mut C) {
@@ -78,6 +103,16 @@ impl Extractor for MarchingCubes33 {
             None => self.general(cell),
         }
     }
+
+    fn process_decided<C: Cell>(&self, cell: &mut C, decision: Decision) {
+        match self.case_triangles(cell.case(), false) {
+            Some(_) => self.process(cell),
+            None => {
+                let d = *cell.values();
+                self.triangulate(cell, &d, &CellTopology::of_decision(decision));
+            }
+        }
+    }
 }
 
 impl MarchingCubes33 {
@@ -85,7 +120,12 @@ impl MarchingCubes33 {
     /// where the case decides).
     fn general<C: Cell>(&self, cell: &mut C) {
         let d = *cell.values();
-        let topo = CellTopology::of(&d);
+        self.triangulate(cell, &d, &CellTopology::of(&d));
+    }
+
+    /// Triangulates a cell of values `d` and topology `topo`: a band per tunnel, a disk per
+    /// other loop.
+    fn triangulate<C: Cell>(&self, cell: &mut C, d: &[f32; 8], topo: &CellTopology) {
         let mut ids = [VertexId::NONE; 12];
         let mut id = |cell: &mut C, e: u8| {
             if ids[e as usize] == VertexId::NONE {
@@ -97,15 +137,15 @@ impl MarchingCubes33 {
         for &(a, b) in &topo.tubes[..topo.n_tubes] {
             in_tube[a] = true;
             in_tube[b] = true;
-            band(cell, &d, topo.loop_edges(a), topo.loop_edges(b), &mut id);
+            band(cell, d, topo.loop_edges(a), topo.loop_edges(b), &mut id);
         }
-        for l in 0..topo.n_loops {
+        for l in 0..topo.n_loops() {
             if in_tube[l] {
                 continue;
             }
             let edges = topo.loop_edges(l);
             if topo.visits_a_face_twice(l) {
-                let c = centroid(&d, edges);
+                let c = centroid(d, edges);
                 let centre = cell.place_vertex(c, 0);
                 for i in 0..edges.len() {
                     let (p, q) = (id(cell, edges[i]), id(cell, edges[(i + 1) % edges.len()]));
@@ -189,34 +229,142 @@ pub(crate) fn saddle_inside(p: f64, q: f64, r: f64, s: f64) -> bool {
 }
 
 /// The loops of one cell and which pairs of them a tunnel joins.
-#[derive(Debug, Clone)]
+#[derive(Debug, Clone, Copy)]
 pub(crate) struct CellTopology {
-    /// Loop vertices (crossed edges) in order, loop after loop.
-    edges: [u8; 12],
-    /// Start of each loop in `edges` (loop l spans `start[l]..start[l + 1]`).
-    start: [usize; MAX_LOOPS + 1],
-    pub(crate) n_loops: usize,
-    /// Faces crossed by each loop, one bit per face, and whether one face is crossed twice.
-    twice: [bool; MAX_LOOPS],
+    /// What the signs and face decisions fix (tabulated), and its index in the table.
+    skeleton: &'static Skeleton,
+    index: u32,
     pub(crate) tubes: [(usize, usize); 2],
     pub(crate) n_tubes: usize,
 }
 
 impl CellTopology {
-    pub(crate) fn loop_edges(&self, l: usize) -> &[u8] {
-        &self.edges[self.start[l]..self.start[l + 1]]
+    pub(crate) fn loop_edges(&self, l: usize) -> &'static [u8] {
+        self.skeleton.loop_edges(l)
+    }
+
+    pub(crate) fn n_loops(&self) -> usize {
+        self.skeleton.n_loops as usize
     }
 
     fn visits_a_face_twice(&self, l: usize) -> bool {
-        self.twice[l]
+        self.skeleton.twice >> l & 1 == 1
     }
 
+    /// The topology of the cell with offset values `d`: its skeleton from the signs and the face
+    /// deciders (a table lookup), then the tunnels its interior makes (the slice sweep, only for
+    /// a class with several patches on the cell's surface).
     pub(crate) fn of(d: &[f32; 8]) -> Self {
+        let case = crate::cube::case_of(d);
+        let faces = &skeletons().faces[case as usize];
+        // PASS 1: the deciders of the case's ambiguous faces select the skeleton.
+        let mut bits = 0usize;
+        for (i, &f) in faces.ambiguous[..faces.n_ambiguous as usize].iter().enumerate() {
+            bits |= (face_centre_inside(d, f as usize) as usize) << i;
+        }
+        let index = faces.first + bits as u32;
+        let skeleton = &skeletons().table[index as usize];
+        // PASS 2: tunnels, two patches of one class joined through the interior.
+        let mut t = CellTopology { skeleton, index, tubes: [(0, 0); 2], n_tubes: 0 };
+        for (class, patches) in skeleton.classes.iter().enumerate() {
+            let n = patches.n as usize;
+            if n < 2 {
+                continue;
+            }
+            let mut interior = interior_components(d, class == 0);
+            let mut joined = UnionFind::<[u32; 4]>::fixed();
+            for i in 0..n {
+                for j in i + 1..n {
+                    let (p, q) = (patches.roots[i] as usize, patches.roots[j] as usize);
+                    if interior.find(p) != interior.find(q) || joined.find(i) == joined.find(j) {
+                        continue;
+                    }
+                    let [l0, l1] = patches.tube_loops[i][j];
+                    if l0 != NO_LOOP {
+                        if t.n_tubes < t.tubes.len() {
+                            t.tubes[t.n_tubes] = (l0 as usize, l1 as usize);
+                            t.n_tubes += 1;
+                        }
+                        joined.union(i, j);
+                    }
+                }
+            }
+        }
+        t
+    }
+
+    /// The topology as a [`Decision`]: the skeleton's index (bits 0–13), the number of tunnels
+    /// (bits 14–15), then the two loops of each tunnel (2 bits each).
+    fn decision(&self) -> Decision {
+        let mut code = self.index | (self.n_tubes as u32) << SKELETON_BITS;
+        for (i, &(a, b)) in self.tubes[..self.n_tubes].iter().enumerate() {
+            code |= ((a | b << 2) as u32) << (SKELETON_BITS + 2 + 4 * i as u32);
+        }
+        Decision(code)
+    }
+
+    /// The topology a [`decision`](CellTopology::decision) encodes.
+    fn of_decision(Decision(code): Decision) -> Self {
+        let index = code & ((1 << SKELETON_BITS) - 1);
+        let mut t = CellTopology {
+            skeleton: &skeletons().table[index as usize],
+            index,
+            tubes: [(0, 0); 2],
+            n_tubes: (code >> SKELETON_BITS & 3) as usize,
+        };
+        for i in 0..t.n_tubes {
+            let tube = code >> (SKELETON_BITS + 2 + 4 * i as u32);
+            t.tubes[i] = ((tube & 3) as usize, (tube >> 2 & 3) as usize);
+        }
+        t
+    }
+}
+
+/// Bits of a skeleton's index in a [`Decision`] (the table holds fewer skeletons).
+const SKELETON_BITS: u32 = 14;
+
+const NO_LOOP: u8 = u8::MAX;
+
+/// The loops of a cell and its patches, which the case and the decisions of its ambiguous faces
+/// fix; the interior, decided from the values, only adds tunnels between patches.
+#[derive(Debug, Clone)]
+struct Skeleton {
+    /// Loop vertices (crossed edges) in order, loop after loop.
+    edges: [u8; 12],
+    /// Start of each loop in `edges` (loop l spans `start[l]..start[l + 1]`).
+    start: [u8; MAX_LOOPS + 1],
+    n_loops: u8,
+    /// Bit l: loop l crosses one face twice.
+    twice: u8,
+    /// The patches of the inside class, then of the outside class, when a tunnel can join two.
+    classes: [ClassPatches; 2],
+}
+
+/// The patches of one class on a cell's surface, and the loops a tunnel between two would join.
+#[derive(Debug, Clone, Copy, Default)]
+struct ClassPatches {
+    /// Patches (0 when fewer than two loops: no tunnel possible).
+    n: u8,
+    /// Each patch's smallest corner, in corner order.
+    roots: [u8; 4],
+    /// For patches i < j: the loops bounding them that a tunnel joins (`NO_LOOP`: none).
+    tube_loops: [[[u8; 2]; 4]; 4],
+}
+
+impl Skeleton {
+    fn loop_edges(&self, l: usize) -> &[u8] {
+        &self.edges[self.start[l] as usize..self.start[l + 1] as usize]
+    }
+
+    /// The skeleton of `case` when the saddle of each ambiguous face `f` is inside iff bit `f` of
+    /// `centre_in` is set.
+    fn new(case: u8, centre_in: u8) -> Self {
+        let inside = |c: u8| case >> c & 1 == 1;
         // 1. Face segments: next[exit edge] = entry edge; patches of corners joined on the faces.
         let mut next = [NO_EDGE; 12];
         let mut patches = UnionFind::<[u32; 8]>::fixed();
         for [a, b] in EDGE_CORNERS {
-            if inside(d[a as usize]) == inside(d[b as usize]) {
+            if inside(a) == inside(b) {
                 patches.union(a as usize, b as usize);
             }
         }
@@ -226,8 +374,8 @@ impl CellTopology {
             let mut n = 0;
             for i in 0..4 {
                 let (p, q) = (cs[i], cs[(i + 1) % 4]);
-                if inside(d[p as usize]) != inside(d[q as usize]) {
-                    xs[n] = (FACE_EDGES[f][i], inside(d[p as usize]));
+                if inside(p) != inside(q) {
+                    xs[n] = (FACE_EDGES[f][i], inside(p));
                     n += 1;
                 }
             }
@@ -237,7 +385,7 @@ impl CellTopology {
                     next[exit as usize] = entry;
                 }
                 4 => {
-                    let centre_in = face_centre_inside(d, f);
+                    let centre_in = centre_in >> f & 1 == 1;
                     for i in 0..4 {
                         if xs[i].1 {
                             let j = if centre_in { (i + 1) % 4 } else { (i + 3) % 4 };
@@ -245,25 +393,23 @@ impl CellTopology {
                         }
                     }
                     // The diagonal of the centre's class is joined across the face.
-                    let (p, r) = (cs[0] as usize, cs[2] as usize);
-                    let (q, s) = (cs[1] as usize, cs[3] as usize);
-                    if inside(d[p]) == centre_in {
-                        patches.union(p, r);
+                    let [p, q, r, s] = cs;
+                    if inside(p) == centre_in {
+                        patches.union(p as usize, r as usize);
                     } else {
-                        patches.union(q, s);
+                        patches.union(q as usize, s as usize);
                     }
                 }
                 _ => {}
             }
         }
         // 2. Loops.
-        let mut t = CellTopology {
+        let mut t = Skeleton {
             edges: [0; 12],
             start: [0; MAX_LOOPS + 1],
             n_loops: 0,
-            twice: [false; MAX_LOOPS],
-            tubes: [(0, 0); 2],
-            n_tubes: 0,
+            twice: 0,
+            classes: [ClassPatches::default(); 2],
         };
         let mut seen = [false; 12];
         let mut n = 0;
@@ -271,62 +417,52 @@ impl CellTopology {
             if next[e0 as usize] == NO_EDGE || seen[e0 as usize] {
                 continue;
             }
-            let l = t.n_loops;
+            let l = t.n_loops as usize;
             t.start[l] = n;
             let mut faces = 0u8;
             let mut e = e0;
             while !seen[e as usize] {
                 seen[e as usize] = true;
-                t.edges[n] = e;
+                t.edges[n as usize] = e;
                 n += 1;
                 let nx = next[e as usize];
                 if nx == NO_EDGE {
                     break; // unreachable for consistent faces: every crossed edge exits one face
                 }
                 let f = common_face(e, nx);
-                t.twice[l] |= faces & (1 << f) != 0;
+                if faces & (1 << f) != 0 {
+                    t.twice |= 1 << l;
+                }
                 faces |= 1 << f;
                 e = nx;
             }
             t.n_loops += 1;
-            t.start[t.n_loops] = n;
+            t.start[t.n_loops as usize] = n;
         }
         if t.n_loops < 2 {
             return t;
         }
-        // 3. Tunnels: two patches of one class joined through the interior.
+        // 3. Where tunnels may run: each class's patches, and for each pair the loops bounding
+        // them; prefer two that also bound one patch of the other class (the tube runs through it).
         let side_corner = |l: usize, class_inside: bool| -> usize {
-            let [a, b] = EDGE_CORNERS[t.edges[t.start[l]] as usize];
-            (if inside(d[a as usize]) == class_inside { a } else { b }) as usize
+            let [a, b] = EDGE_CORNERS[t.edges[t.start[l] as usize] as usize];
+            (if inside(a) == class_inside { a } else { b }) as usize
         };
-        let mut tubes = [(0usize, 0usize); 2];
-        let mut n_tubes = 0;
-        for class_inside in [true, false] {
-            let mut roots = [0usize; 8];
-            let mut nr = 0;
-            for c in 0..8 {
-                let r = patches.find(c);
-                if inside(d[c]) == class_inside && !roots[..nr].contains(&r) {
-                    roots[nr] = r;
-                    nr += 1;
+        for (class, class_inside) in [true, false].into_iter().enumerate() {
+            let mut cp = ClassPatches { tube_loops: [[[NO_LOOP; 2]; 4]; 4], ..Default::default() };
+            for c in 0..8u8 {
+                let r = patches.find(c as usize) as u8;
+                if inside(c) == class_inside && !cp.roots[..cp.n as usize].contains(&r) {
+                    cp.roots[cp.n as usize] = r;
+                    cp.n += 1;
                 }
             }
-            if nr < 2 {
-                continue;
-            }
-            let mut interior = interior_components(d, class_inside);
-            let mut joined = patches;
-            for i in 0..nr {
-                for j in i + 1..nr {
-                    let (p, q) = (roots[i], roots[j]);
-                    if interior.find(p) != interior.find(q) || joined.find(p) == joined.find(q) {
-                        continue;
-                    }
-                    // The loops bounding p and q; prefer two that also bound one patch of the
-                    // other class (the tube runs through it).
+            for i in 0..cp.n as usize {
+                for j in i + 1..cp.n as usize {
+                    let (p, q) = (cp.roots[i] as usize, cp.roots[j] as usize);
                     let mut best: Option<(usize, usize, bool)> = None;
-                    for l0 in 0..t.n_loops {
-                        for l1 in 0..t.n_loops {
+                    for l0 in 0..t.n_loops as usize {
+                        for l1 in 0..t.n_loops as usize {
                             if patches.find(side_corner(l0, class_inside)) != p
                                 || patches.find(side_corner(l1, class_inside)) != q
                             {
@@ -340,19 +476,56 @@ impl CellTopology {
                         }
                     }
                     if let Some((l0, l1, _)) = best {
-                        if n_tubes < tubes.len() {
-                            tubes[n_tubes] = (l0, l1);
-                            n_tubes += 1;
-                        }
-                        joined.union(p, q);
+                        cp.tube_loops[i][j] = [l0 as u8, l1 as u8];
                     }
                 }
             }
+            t.classes[class] = cp;
         }
-        t.tubes = tubes;
-        t.n_tubes = n_tubes;
         t
     }
+}
+
+/// The ambiguous faces of one case, and where its skeletons start in [`Skeletons::table`].
+#[derive(Debug, Clone, Copy, Default)]
+struct CaseFaces {
+    first: u32,
+    ambiguous: [u8; 6],
+    n_ambiguous: u8,
+}
+
+/// Every skeleton: per case, one for each combination of its ambiguous faces' decisions (bit i
+/// of the index: the saddle of its i-th ambiguous face is inside).
+struct Skeletons {
+    faces: [CaseFaces; 256],
+    table: Vec<Skeleton>,
+}
+
+fn skeletons() -> &'static Skeletons {
+    static SKELETONS: std::sync::OnceLock<Skeletons> = std::sync::OnceLock::new();
+    SKELETONS.get_or_init(|| {
+        let mut faces = [CaseFaces::default(); 256];
+        let mut table = Vec::new();
+        for case in 0..=255u8 {
+            let cf = &mut faces[case as usize];
+            cf.first = table.len() as u32;
+            for (f, cs) in FACE_CORNERS.iter().enumerate() {
+                let [p, q, r, s] = cs.map(|c| case >> c & 1 == 1);
+                if p == r && q == s && p != q {
+                    cf.ambiguous[cf.n_ambiguous as usize] = f as u8;
+                    cf.n_ambiguous += 1;
+                }
+            }
+            for bits in 0..1u32 << cf.n_ambiguous {
+                let centre_in = (0..cf.n_ambiguous as usize)
+                    .filter(|&i| bits >> i & 1 == 1)
+                    .fold(0u8, |m, i| m | 1 << cf.ambiguous[i]);
+                table.push(Skeleton::new(case, centre_in));
+            }
+        }
+        assert!(table.len() <= 1 << SKELETON_BITS, "{} skeletons", table.len());
+        Skeletons { faces, table }
+    })
 }
 
 /// The face shared by two edges that follow each other on a loop.
@@ -576,19 +749,6 @@ fn dist2(p: [f32; 3], q: [f32; 3]) -> f32 {
 /// that face may hold a tunnel through the same face and pick the same chord, and a chord on a
 /// face would then carry four triangles (issue 10, seen on CT scans where such cells pair up).
 fn band<C: Cell>(cell: &mut C, d: &[f32; 8], la: &[u8], lb: &[u8], id: &mut impl FnMut(&mut C, u8) -> VertexId) {
-    // Walk A = reverse(la) forward and B = reverse(lb) backward (see the module docs for the
-    // orientation argument): triangles (a_i, a_i+1, b_j) and (b_j−1, b_j, a_i).
-    let a: Vec<u8> = la.iter().rev().copied().collect();
-    let b: Vec<u8> = lb.iter().rev().copied().collect();
-    let (m, n) = (a.len(), b.len());
-    let pa: Vec<[f32; 3]> = a.iter().map(|&e| edge_point(d, e)).collect();
-    let pb: Vec<[f32; 3]> = b.iter().map(|&e| edge_point(d, e)).collect();
-    let j0 = (0..n).min_by(|&x, &y| dist2(pa[0], pb[x]).total_cmp(&dist2(pa[0], pb[y]))).unwrap_or(0);
-    let (mut i, mut j) = (0usize, j0 + n); // j counts down; indices mod n
-    let (mut da, mut db) = (0, 0);
-    // Steps taken around the current b (by A) and around the current a (by B): a full turn of
-    // one loop around a single vertex of the other would repeat a chord (a non-manifold edge).
-    let (mut run_a, mut run_b) = (0, 0);
     // The private vertex splitting each face chord, made on first use (indexed by cube edges).
     let mut split = [[VertexId::NONE; 12]; 12];
     let mut chord = |cell: &mut C, x: u8, y: u8| -> Option<VertexId> {
@@ -599,17 +759,7 @@ fn band<C: Cell>(cell: &mut C, d: &[f32; 8], la: &[u8], lb: &[u8], id: &mut impl
         }
         Some(split[lo][hi])
     };
-    while da < m || db < n {
-        let (ai, ai1) = (i % m, (i + 1) % m);
-        let (bj, bj1) = (j % n, (j + n - 1) % n);
-        let can_a = da < m && run_a + 1 < m;
-        let can_b = db < n && run_b + 1 < n;
-        let advance_a = match (can_a, can_b) {
-            (true, true) => dist2(pa[ai1], pb[bj]) <= dist2(pa[ai], pb[bj1]),
-            (a, _) => a,
-        };
-        // The triangle (loop edge p → q, apex r): its chords are q → r and r → p.
-        let (p, q, r) = if advance_a { (a[ai], a[ai1], b[bj]) } else { (b[bj1], b[bj], a[ai]) };
+    band_triangles(d, la, lb, |p, q, r| {
         let (mqr, mrp) = (chord(cell, q, r), chord(cell, r, p));
         let (vp, vq, vr) = (id(cell, p), id(cell, q), id(cell, r));
         match (mqr, mrp) {
@@ -628,12 +778,69 @@ fn band<C: Cell>(cell: &mut C, d: &[f32; 8], la: &[u8], lb: &[u8], id: &mut impl
                 cell.push_triangle([vp, m1, m2]);
             }
         }
+    });
+}
+
+/// What [`band`] emits for loops `la` and `lb`: triangles, and private vertices (one per
+/// distinct face chord), without placing anything.
+fn band_counts(d: &[f32; 8], la: &[u8], lb: &[u8]) -> CellCounts {
+    let mut counts = CellCounts::default();
+    let mut split = 0u128; // bit 11·lo + hi − 1 (lo < hi ≤ 11: at most 120): face chord lo–hi split
+    band_triangles(d, la, lb, |p, q, r| {
+        counts.triangles += 1;
+        for (x, y) in [(q, r), (r, p)] {
+            if common_face_of(x, y).is_some() {
+                counts.triangles += 1;
+                let bit = 1u128 << (11 * x.min(y) as u32 + x.max(y) as u32 - 1);
+                if split & bit == 0 {
+                    split |= bit;
+                    counts.placed += 1;
+                }
+            }
+        }
+    });
+    counts
+}
+
+/// The band's triangles before its face chords are split, in order: `(p, q, r)` for loop edge
+/// p → q and apex r (its chords are q → r and r → p), crossed cube edges all three.
+fn band_triangles(d: &[f32; 8], la: &[u8], lb: &[u8], mut triangle: impl FnMut(u8, u8, u8)) {
+    // Walk A = reverse(la) forward and B = reverse(lb) backward (see the module docs for the
+    // orientation argument): triangles (a_i, a_i+1, b_j) and (b_j−1, b_j, a_i).
+    let (m, n) = (la.len(), lb.len());
+    let (mut a, mut b) = ([0u8; 12], [0u8; 12]);
+    let (mut pa, mut pb) = ([[0.0f32; 3]; 12], [[0.0f32; 3]; 12]);
+    for (i, &e) in la.iter().rev().enumerate() {
+        a[i] = e;
+        pa[i] = edge_point(d, e);
+    }
+    for (i, &e) in lb.iter().rev().enumerate() {
+        b[i] = e;
+        pb[i] = edge_point(d, e);
+    }
+    let j0 = (0..n).min_by(|&x, &y| dist2(pa[0], pb[x]).total_cmp(&dist2(pa[0], pb[y]))).unwrap_or(0);
+    let (mut i, mut j) = (0usize, j0 + n); // j counts down; indices mod n
+    let (mut da, mut db) = (0, 0);
+    // Steps taken around the current b (by A) and around the current a (by B): a full turn of
+    // one loop around a single vertex of the other would repeat a chord (a non-manifold edge).
+    let (mut run_a, mut run_b) = (0, 0);
+    while da < m || db < n {
+        let (ai, ai1) = (i % m, (i + 1) % m);
+        let (bj, bj1) = (j % n, (j + n - 1) % n);
+        let can_a = da < m && run_a + 1 < m;
+        let can_b = db < n && run_b + 1 < n;
+        let advance_a = match (can_a, can_b) {
+            (true, true) => dist2(pa[ai1], pb[bj]) <= dist2(pa[ai], pb[bj1]),
+            (a, _) => a,
+        };
         if advance_a {
+            triangle(a[ai], a[ai1], b[bj]);
             i += 1;
             da += 1;
             run_a += 1;
             run_b = 0;
         } else {
+            triangle(b[bj1], b[bj], a[ai]);
             j -= 1;
             db += 1;
             run_b += 1;
@@ -729,7 +936,11 @@ mod tests {
                 let mut processed = ProbeCell::new([3, 4, 5], d);
                 MarchingCubes33.process(&mut processed);
                 assert_eq!(processed.counts, general.counts, "case {case} {d:?}");
-                assert_eq!(MarchingCubes33.counts(case, [3, 4, 5], || d), general.counts, "case {case}");
+                let (counts, decision) = MarchingCubes33.counts(case, [3, 4, 5], || d);
+                assert_eq!(counts, general.counts, "case {case}");
+                let mut decided = ProbeCell::new([3, 4, 5], d);
+                MarchingCubes33.process_decided(&mut decided, decision);
+                assert_eq!((decided.counts, &decided.triangles), (general.counts, &general.triangles), "case {case}");
                 if let Some(t) = MarchingCubes33.case_triangles(case, false) {
                     assert_eq!(t, &general.triangles[..], "case {case} {d:?}");
                     assert_eq!(general.counts.placed, 0);
@@ -742,6 +953,40 @@ mod tests {
     }
 
     use super::*;
+
+    /// Issue 11: on integer cells (ties at iso, plateaus, simultaneous vertical crossings: what
+    /// scans make), the count pass's counts and decision give exactly what `process` makes.
+    #[test]
+    fn issue_11_decided_cells_equal_processed_cells_on_integer_values() {
+        let vals = [-3.0f32, -2.0, -1.0, 0.0, 1.0, 2.0, 3.0];
+        let (mut decided_cells, mut tubes) = (0, 0);
+        // Every 11th code of 7⁸ (a stride prime to 7 gives every corner every value).
+        for code in (0..7usize.pow(8)).step_by(11) {
+            let mut c = code;
+            let d: [f32; 8] = std::array::from_fn(|_| {
+                let v = vals[c % 7];
+                c /= 7;
+                v
+            });
+            let case = crate::cube::case_of(&d);
+            if MarchingCubes33.case_triangles(case, false).is_some() || case == 0 || case == 255 {
+                continue;
+            }
+            let mut processed = ProbeCell::new([1, 2, 3], d);
+            MarchingCubes33.process(&mut processed);
+            let (counts, decision) = MarchingCubes33.counts(case, [1, 2, 3], || d);
+            let mut decided = ProbeCell::new([1, 2, 3], d);
+            MarchingCubes33.process_decided(&mut decided, decision);
+            assert_eq!(counts, processed.counts, "{d:?}");
+            assert_eq!((decided.counts, &decided.triangles), (processed.counts, &processed.triangles), "{d:?}");
+            let t = CellTopology::of(&d);
+            let back = CellTopology::of_decision(decision);
+            assert_eq!((back.index, back.tubes, back.n_tubes), (t.index, t.tubes, t.n_tubes), "{d:?}");
+            decided_cells += 1;
+            tubes += usize::from(t.n_tubes > 0);
+        }
+        assert!(decided_cells > 10_000 && tubes > 100, "{decided_cells} cells, {tubes} with a tube");
+    }
 
     #[test]
     fn the_face_decider_agrees_from_both_sides_and_every_start() {
@@ -764,7 +1009,7 @@ mod tests {
         // the tube cross the faces x = 0 and x = 1, whose saddles separate them.
         let d = [56.0f32, 55.0, 43.0, 48.0, 52.0, 49.0, 54.0, 58.0].map(|v| (v as f64 - 52.2949) as f32);
         let t = CellTopology::of(&d);
-        assert_eq!((t.n_loops, t.n_tubes), (2, 1));
+        assert_eq!((t.n_loops(), t.n_tubes), (2, 1));
         let (a, b) = (t.loop_edges(t.tubes[0].0), t.loop_edges(t.tubes[0].1));
         let mut on_faces = 0;
         for &x in a {
@@ -807,6 +1052,6 @@ mod tests {
         let caps = [-0.1, 1.0, 1.0, 1.0, 1.0, 1.0, 1.0, -0.1];
         assert_eq!(CellTopology::of(&tube).n_tubes, 1);
         assert_eq!(CellTopology::of(&caps).n_tubes, 0);
-        assert_eq!(CellTopology::of(&tube).n_loops, 2);
+        assert_eq!(CellTopology::of(&tube).n_loops(), 2);
     }
 }

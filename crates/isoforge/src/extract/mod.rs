@@ -15,8 +15,9 @@
 //! cell that needs it, then [`process`](Extractor::process) for every cell with a crossing. A
 //! walker that allocates before it fills (count → prefix sums → fill, the Flying Edges walker's
 //! fast path) asks [`case_triangles`](Extractor::case_triangles) (a table it applies itself) or
-//! [`counts`](Extractor::counts) first; extractors that cannot tell their output before making
-//! it run on per-slab meshes stitched by vertex key instead.
+//! [`counts`](Extractor::counts) first, then hands each counted cell's [`Decision`] back to
+//! [`process_decided`](Extractor::process_decided); extractors that cannot tell their output
+//! before making it run on per-slab meshes stitched by vertex key instead.
 
 mod cell;
 pub mod marching_cubes;
@@ -47,6 +48,11 @@ pub struct CellCounts {
     /// Vertices the cell places itself ([`Cell::place_vertex`]: private, never shared).
     pub placed: u16,
 }
+
+/// What [`Extractor::counts`] found out about a cell, in the extractor's own encoding, handed back
+/// to [`Extractor::process_decided`] so the cell is not decided twice (MC33: its topology).
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
+pub struct Decision(pub u32);
 
 /// How the output of a cell can be known before processing it.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
@@ -113,13 +119,24 @@ pub trait Extractor {
 
     /// What [`process`](Extractor::process) will emit for a cell of `case` without a
     /// [`case_triangles`](Extractor::case_triangles) entry, for extractors with
-    /// [`Counting::Known`]; `values` gives the cell's offset values and `ijk` its position. The
-    /// default says nothing (never called for [`Counting::Unknown`]).
-    fn counts(&self, case: u8, ijk: [u32; 3], values: impl FnOnce() -> [f32; 8]) -> CellCounts {
+    /// [`Counting::Known`]; `values` gives the cell's offset values and `ijk` its position. Also
+    /// returns what was decided on the way: a walker that counts a cell may later hand it to
+    /// [`process_decided`](Extractor::process_decided) instead of calling `process`. The default
+    /// says nothing (never called for [`Counting::Unknown`]) and decides nothing.
+    fn counts(&self, case: u8, ijk: [u32; 3], values: impl FnOnce() -> [f32; 8]) -> (CellCounts, Decision) {
         let _ = values;
         let odd = (ijk[0] + ijk[1] + ijk[2]) % 2 == 1;
         let triangles = self.case_triangles(case, odd).map_or(0, |t| t.len() as u16);
-        CellCounts { triangles, ..Default::default() }
+        (CellCounts { triangles, ..Default::default() }, Decision::default())
+    }
+
+    /// [`process`](Extractor::process) for a cell that [`counts`](Extractor::counts) returned
+    /// `decision` for: must emit exactly what `process` emits, in the same order (walkers that
+    /// do not count a cell call `process`; both give one mesh). The default calls `process`.
+    #[inline]
+    fn process_decided<C: Cell>(&self, cell: &mut C, decision: Decision) {
+        let _ = decision;
+        self.process(cell);
     }
 
     /// Whether walkers must also call [`process`](Extractor::process) for cells whose eight

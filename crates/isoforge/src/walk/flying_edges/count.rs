@@ -4,7 +4,7 @@
 use super::bits::{case_at, cell_rows, for_each_bit, mark_active, popcount, uniform_block, Bits};
 use super::families::FAMILIES;
 use super::{cell_values, Passes};
-use crate::extract::{CellCounts, Extractor};
+use crate::extract::{CellCounts, Decision, Extractor};
 use crate::volume::SampleSlabs;
 
 /// Counts of one row (its segments' crossings, by family) and of the cell row starting at it
@@ -49,8 +49,16 @@ impl CaseCounts {
 
 impl<V: SampleSlabs, X: Extractor> Passes<'_, V, X> {
     /// PASS 2 for the rows of point plane `k` (box-local) into `out`; returns the all-outside and
-    /// all-inside cell counts of cell layer `k`.
-    pub(super) fn count_plane(&self, bits: &Bits, k: usize, out: &mut [RowCount]) -> [u64; 2] {
+    /// all-inside cell counts of cell layer `k`. The decisions of the cells counted from their
+    /// values go to `decisions`, in walk order, for the fill (`Extractor::process_decided`).
+    pub(super) fn count_plane(
+        &self,
+        bits: &Bits,
+        k: usize,
+        out: &mut [RowCount],
+        decisions: &mut Vec<Decision>,
+    ) -> [u64; 2] {
+        decisions.clear();
         let bx = &self.bx;
         let [nx, ny, nz] = bx.dims;
         let mut cs = [0u64; 2];
@@ -86,7 +94,10 @@ impl<V: SampleSlabs, X: Extractor> Passes<'_, V, X> {
                     Some(n) => n,
                     None => {
                         let l = [i, j, k];
-                        self.x.counts(case, bx.global(l), || cell_values(self.vol, bx, self.iso, l))
+                        let (n, decision) =
+                            self.x.counts(case, bx.global(l), || cell_values(self.vol, bx, self.iso, l));
+                        decisions.push(decision);
+                        n
                     }
                 };
                 c.tris += n.triangles as u32;

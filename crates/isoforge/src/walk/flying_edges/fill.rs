@@ -9,7 +9,7 @@ use super::families::FAMILIES;
 use super::{cell_values, Passes};
 use crate::cube::{cell_segment, CellPoint, CubeEdge, EdgeKey, VertexKey, CELL_SEGMENTS};
 use crate::error::{Error, Result};
-use crate::extract::Extractor;
+use crate::extract::{Decision, Extractor};
 use crate::grid::Sample;
 use crate::mesh::{MeshBuilder, VertexId};
 use crate::volume::SampleSlabs;
@@ -111,8 +111,16 @@ pub(super) struct SlabOut<'a> {
 const PREFETCH_ROWS: usize = 2;
 
 impl<V: SampleSlabs, X: Extractor> Passes<'_, V, X> {
-    /// PASS 4 for box plane `k`: the vertices of its rows, then the polygons of its cell rows.
-    pub(super) fn fill_plane(&self, bits: &Bits, table: &RowTable, k: usize, out: &mut SlabOut) {
+    /// PASS 4 for box plane `k`: the vertices of its rows, then the polygons of its cell rows;
+    /// `decisions` are the count pass's for the cells it counted from their values, in walk order.
+    pub(super) fn fill_plane(
+        &self,
+        bits: &Bits,
+        table: &RowTable,
+        k: usize,
+        decisions: &[Decision],
+        out: &mut SlabOut,
+    ) {
         let bx = &self.bx;
         let [nx, ny, nz] = bx.dims;
         let words = bits.words;
@@ -191,6 +199,9 @@ impl<V: SampleSlabs, X: Extractor> Passes<'_, V, X> {
         let mut ranked = RowMasks::new(words);
         let mut active = vec![0u64; words];
         let mut state = FillState { t: 0, q: 0, plane_v: plane[0], next_placed: 0 };
+        // Cells without a table entry, in walk order, each with its decision from the count pass
+        // (every such cell emits polygons, so no row holding one is skipped below).
+        let mut decided = decisions.iter();
         for j in 0..ny - 1 {
             let r = k * ny + j;
             let c = table.count(r);
@@ -235,9 +246,12 @@ impl<V: SampleSlabs, X: Extractor> Passes<'_, V, X> {
                     out,
                     state: &mut state,
                 };
-                self.x.process(&mut cell);
+                let decision = decided.next().copied();
+                debug_assert!(decision.is_some(), "fewer decisions than counted cells");
+                self.x.process_decided(&mut cell, decision.unwrap_or_default());
             });
         }
+        debug_assert!(decided.next().is_none(), "more decisions than counted cells");
         debug_assert_eq!(state.t, out.triangles.len());
         debug_assert_eq!(state.q, out.quads.len());
         // Placed vertices sit between their rows' edge vertices but were keyed after them.

@@ -7,11 +7,12 @@
 //! PASS 2 count      every row (j, k) → crossed x-, y-, z-edges starting in it (popcounts of XORed
 //!                   bit rows); every cell row → its active cells' triangles, quads and placed
 //!                   vertices (the extractor's counts: a table per case, the values where the
-//!                   case does not decide)
+//!                   case does not decide; those cells' decisions are kept for the fill)
 //! PASS 3 prefix     running sums → each row's first vertex, triangle and quad; exact allocation
 //! PASS 4 fill       every slab in parallel writes its rows' vertices and its cells' polygons at
 //!                   those offsets, no locks; an edge's vertex id = its row's base + its rank in
-//!                   the row; the extractor sees each active cell through `Cell`
+//!                   the row; the extractor sees each active cell through `Cell` (with its
+//!                   count-pass decision: `Extractor::process_decided`)
 //! ```
 //! Vertex order: rows in (k, j) order; within a row its x-edges by i, then y-edges, then z-edges,
 //! then the vertices its cells place. Crossings and normals come from the shared
@@ -223,13 +224,15 @@ impl<V: SampleSlabs + Sync, X: Extractor + Sync> Passes<'_, V, X> {
         let rows = ny * nz;
         // PASS 2: count.
         let mut counts = vec![RowCount::default(); rows];
-        let mut cell_stats = vec![[0u64; 2]; nz];
-        for_each_chunk_with(&mut counts, ny, &mut cell_stats, |k, plane, cs| {
-            *cs = self.count_plane(bits, k, plane);
+        // Per plane: all-outside and all-inside cells, and the decisions of cells counted from
+        // their values (handed back to the extractor in the fill).
+        let mut cell_stats = vec![([0u64; 2], Vec::new()); nz];
+        for_each_chunk_with(&mut counts, ny, &mut cell_stats, |k, plane, (cs, decisions)| {
+            *cs = self.count_plane(bits, k, plane, decisions);
         });
         let mut stats = WalkStats { cells: self.range.num_cells(), ..Default::default() };
-        stats.cells_outside = cell_stats.iter().map(|c| c[0]).sum();
-        stats.cells_inside = cell_stats.iter().map(|c| c[1]).sum();
+        stats.cells_outside = cell_stats.iter().map(|c| c.0[0]).sum();
+        stats.cells_inside = cell_stats.iter().map(|c| c.0[1]).sum();
         // PASS 3: prefix sums; exact allocation.
         let table = RowTable::prefix(counts)?;
         let [v, t, q] = table.totals();
@@ -254,12 +257,16 @@ impl<V: SampleSlabs + Sync, X: Extractor + Sync> Passes<'_, V, X> {
                 tri = rest;
                 let (qu, rest) = qua.split_at_mut(dq);
                 qua = rest;
-                tasks.push((k, SlabOut { positions: p, normals: n, triangles: tr, quads: qu, keys: Vec::new() }));
+                tasks.push((
+                    k,
+                    &cell_stats[k].1,
+                    SlabOut { positions: p, normals: n, triangles: tr, quads: qu, keys: Vec::new() },
+                ));
             }
         }
         let done = AtomicU64::new(0);
-        let keys = map_tasks(tasks, |(k, mut slab)| {
-            self.fill_plane(bits, &table, k, &mut slab);
+        let keys = map_tasks(tasks, |(k, decisions, mut slab)| {
+            self.fill_plane(bits, &table, k, decisions, &mut slab);
             if let Some(p) = progress {
                 p.advance(done.fetch_add(1, Ordering::Relaxed) + 1, nz as u64);
             }

@@ -173,17 +173,20 @@ impl FlyingEdgesWalker<'_> {
             Counting::Known => {
                 let mut rows = RowTable::window(2 * ny);
                 let mut start = [0u64; 3];
-                let cs = ctx.on(&ring).count_plane(&bits, 0, &mut rows.counts[..ny]);
+                // The count pass's decisions for slab k and for slab k + 1.
+                let (mut decisions, mut next_decisions) = (Vec::new(), Vec::new());
+                let cs = ctx.on(&ring).count_plane(&bits, 0, &mut rows.counts[..ny], &mut decisions);
                 out.walk.cells_outside += cs[0];
                 out.walk.cells_inside += cs[1];
                 let (mut pos, mut nrm, mut tri, mut qua) = (Vec::new(), Vec::new(), Vec::new(), Vec::new());
                 for k in 0..nz {
                     if k + 1 < nz {
-                        let cs = ctx.on(&ring).count_plane(&bits, k + 1, &mut rows.counts[ny..]);
+                        let cs = ctx.on(&ring).count_plane(&bits, k + 1, &mut rows.counts[ny..], &mut next_decisions);
                         out.walk.cells_outside += cs[0];
                         out.walk.cells_inside += cs[1];
                     } else {
                         rows.counts[ny..].fill(Default::default());
+                        next_decisions.clear();
                     }
                     rows.restart(k * ny, start)?;
                     // PASS 4 for slab k, into reused buffers sized from the counts.
@@ -203,7 +206,7 @@ impl FlyingEdgesWalker<'_> {
                         quads: &mut qua,
                         keys: Vec::new(),
                     };
-                    ctx.on(&ring).fill_plane(&bits, &rows, k, &mut slab);
+                    ctx.on(&ring).fill_plane(&bits, &rows, k, &decisions, &mut slab);
                     sink.push(MeshBatch { positions: &pos, normals: &nrm, triangles: &tri, quads: &qua })
                         .map_err(external)?;
                     out.vertices += dv as u64;
@@ -212,6 +215,7 @@ impl FlyingEdgesWalker<'_> {
                     start = rows.base((k + 1) * ny);
                     // Slide the windows up one slab.
                     rows.counts.copy_within(ny.., 0);
+                    std::mem::swap(&mut decisions, &mut next_decisions);
                     bits.data.copy_within(ny * words.., 0);
                     bits.row0 += ny;
                     if k + 3 < nz {
