@@ -141,6 +141,9 @@ pub(crate) struct LayerCaches {
     placed: [Placed; 2],
     /// Hermite data per edge slot, like the ids (allocated on the first request).
     hermite: Option<Box<[Stamped<Hermite>; 5]>>,
+    /// Cell-centre values (offset by iso) of the current layer and the one below, by layer
+    /// parity, each computed once through `Volume::value_at` (allocated on the first request).
+    centres: Option<Box<[Stamped<f32>; 2]>>,
 }
 
 const NO_HERMITE: Hermite = Hermite { point: [f32::NAN; 3], normal: [0.0; 3] };
@@ -160,6 +163,7 @@ impl LayerCaches {
             self.placed[1].reset(n);
         }
         self.hermite = None;
+        self.centres = None;
     }
 
     /// After a layer of cells: the next one (stamps make older slots stale, nothing is cleared).
@@ -200,6 +204,80 @@ impl LayerCaches {
         (ijk[1] - self.origin[1]) as usize * self.w + (ijk[0] - self.origin[0]) as usize
     }
 
+    /// The segment tables, allocated on the first request.
+    #[inline]
+    fn segment_tables(&mut self) -> &mut SegmentTables {
+        let n = self.w * self.h;
+        self.segments.get_or_insert_with(|| Box::new(SegmentTables::new(n)))
+    }
+
+    /// Index of box cell or face `(i, j)` (global), if it lies in the box.
+    #[inline(always)]
+    fn box_index(&self, i: u32, j: u32) -> Option<usize> {
+        let (i, j) = (i.wrapping_sub(self.origin[0]) as usize, j.wrapping_sub(self.origin[1]) as usize);
+        (i < self.w && j < self.h).then(|| j * self.w + i)
+    }
+
+    /// The centre table, stamp and index of cell `c`'s centre, if the table covers it (a cell of
+    /// the current layer or the one below, inside the box).
+    #[inline(always)]
+    fn centre_slot(&self, c: [u32; 3]) -> Option<(usize, u32, usize)> {
+        if c[2] != self.k && c[2].wrapping_add(1) != self.k {
+            return None;
+        }
+        Some((c[2] as usize % 2, c[2], self.box_index(c[0], c[1])?))
+    }
+
+    /// Where segment `a`–`b` of cell `ijk` (of the current layer) is kept, found from the names of
+    /// its ends alone, for the segments of body-centred splits: a centre to a corner of its cell,
+    /// a centre to the centre across a face. `None` for any other segment or one the tables do
+    /// not cover: the key then decides ([`segment_slot`](Self::segment_slot)), which gives the same
+    /// slot for every segment found here (a test checks it).
+    #[inline]
+    fn named_slot(&self, ijk: [u32; 3], a: CellPoint, b: CellPoint) -> Option<SegmentSlot> {
+        use CellPoint::{Beyond, Centre, Corner};
+        // The neighbour across face f (its index, if representable).
+        let across = |f: u8| -> Option<[u32; 3]> {
+            let mut n = ijk;
+            let x = (f / 2) as usize;
+            n[x] = if f % 2 == 0 { n[x].checked_sub(1)? } else { n[x].checked_add(1)? };
+            Some(n)
+        };
+        let centre_corner = |cell: [u32; 3], corner: u8| -> Option<SegmentSlot> {
+            if cell[2] != self.k && cell[2].wrapping_add(1) != self.k {
+                return None;
+            }
+            let at = self.box_index(cell[0], cell[1])?;
+            Some(SegmentSlot::CentreCorner { corner: corner as usize, stamp: cell[2], at })
+        };
+        match (a, b) {
+            (Centre, Corner(c)) | (Corner(c), Centre) => centre_corner(ijk, c),
+            (Beyond(f), Corner(c)) | (Corner(c), Beyond(f)) => {
+                // A corner on the shared face is the neighbour's corner with the face's axis bit flipped.
+                let bit = 1u8 << (f / 2);
+                let on_face = (c & bit != 0) == (f % 2 == 1);
+                if !on_face {
+                    return None;
+                }
+                centre_corner(across(f)?, c ^ bit)
+            }
+            (Centre, Beyond(f)) | (Beyond(f), Centre) => {
+                let normal = (f / 2) as usize;
+                let mut o = ijk;
+                if f % 2 == 1 {
+                    o[normal] = o[normal].checked_add(1)?;
+                } else {
+                    across(f)?;
+                }
+                if !(o[2] == self.k || normal == 2 && o[2] == self.k.wrapping_add(1)) {
+                    return None;
+                }
+                Some(SegmentSlot::Face { normal, kind: 2, stamp: o[2], at: self.box_index(o[0], o[1])? })
+            }
+            _ => None,
+        }
+    }
+
     /// Where segment `key` (named by a cell of the current layer) is kept, if the tables cover it.
     fn segment_slot(&self, key: &SegmentKey) -> Option<SegmentSlot> {
         let (a, b) = (key.a.map(i64::from), key.b.map(i64::from));
@@ -213,8 +291,8 @@ impl LayerCaches {
                 .then(|| j as usize * self.w + i as usize)
         };
         let k = self.k as i64;
-        let moved: Vec<usize> = (0..3).filter(|&x| d[x] != 0).collect();
-        if even(&a) && even(&b) && moved.len() == 2 && moved.iter().all(|&x| d[x] == 2) {
+        let moved = d.iter().filter(|&&x| x != 0).count();
+        if even(&a) && even(&b) && moved == 2 && d.iter().all(|&x| x == 0 || x == 2) {
             // A face diagonal: the face's normal is the axis that does not move.
             let normal = (0..3).find(|x| d[*x] == 0)?;
             let low_high = (0..3).all(|x| a[x] <= b[x]);
@@ -226,7 +304,7 @@ impl LayerCaches {
             let at = index(o[0], o[1])?;
             return Some(SegmentSlot::Face { normal, kind: usize::from(!low_high), stamp: stamp as u32, at });
         }
-        if even(&a) && even(&b) && moved.len() == 3 && d.iter().all(|&x| x == 2) {
+        if even(&a) && even(&b) && moved == 3 && d.iter().all(|&x| x == 2) {
             let cell = lo.map(|c| c / 2);
             let bottom = if a[2] < b[2] { a } else { b };
             let which = (((bottom[0] / 2 - cell[0]) as usize) | (((bottom[1] / 2 - cell[1]) as usize) << 1)) & 3;
@@ -235,9 +313,9 @@ impl LayerCaches {
             }
             return Some(SegmentSlot::Body { which, stamp: k as u32, at: index(cell[0], cell[1])? });
         }
-        if odd(&a) && odd(&b) && moved.len() == 1 && d[moved[0]] == 2 {
+        if odd(&a) && odd(&b) && moved == 1 && d.iter().any(|&x| x == 2) {
             // Between two centres: the face they share.
-            let normal = moved[0];
+            let normal = (0..3).find(|&x| d[x] != 0)?;
             let mut o = lo.map(|c| (c - 1) / 2);
             o[normal] += 1;
             if !(o[2] == k || normal == 2 && o[2] == k + 1) {
@@ -354,7 +432,33 @@ impl<V: Volume> Cell for CachedCell<'_, V> {
 
     #[inline]
     fn point_value(&mut self, p: CellPoint) -> f32 {
-        segment::point_value(self.vol, self.iso, self.ijk, &self.d, &mut self.memo, p)
+        let mut c = self.ijk;
+        match p {
+            CellPoint::Corner(corner) => return self.d[corner as usize],
+            CellPoint::Centre => {}
+            CellPoint::Beyond(f) => {
+                let x = (f / 2) as usize;
+                c[x] = if f % 2 == 0 { c[x].wrapping_sub(1) } else { c[x].wrapping_add(1) };
+            }
+        }
+        let Some((parity, stamp, at)) = self.caches.centre_slot(c) else {
+            return segment::point_value(self.vol, self.iso, self.ijk, &self.d, &mut self.memo, p);
+        };
+        let n = self.caches.w * self.caches.h;
+        let table = &mut self.caches.centres.get_or_insert_with(|| {
+            let mut t: [Stamped<f32>; 2] = Default::default();
+            for s in &mut t {
+                s.reset(n, f32::NAN);
+            }
+            Box::new(t)
+        })[parity];
+        if let Some(v) = table.get(at, stamp) {
+            return v;
+        }
+        // The same point as `segment::point_value` names (ijk + local), so the same bits.
+        let v = self.vol.value_at(c.map(|x| x as f64 + 0.5), self.iso);
+        table.set(at, stamp, v);
+        v
     }
 
     fn segment_vertex(&mut self, a: CellPoint, b: CellPoint) -> VertexId {
@@ -362,13 +466,25 @@ impl<V: Volume> Cell for CachedCell<'_, V> {
             return self.edge_vertex(e);
         }
         let (vol, iso) = (self.vol, self.iso);
-        let (key, d0, d1) = segment::cell_segment(vol, iso, self.ijk, &self.d, &mut self.memo, (a, b));
+        if let Some(slot) = self.caches.named_slot(self.ijk, a, b) {
+            // Centre segments: found without a key; the key and the end values only for a new vertex.
+            let (table, stamp, at) = self.caches.segment_tables().table(slot);
+            if let Some(id) = table.get(at, stamp) {
+                return id;
+            }
+            let ijk = self.ijk;
+            let (key, d0, d1) = segment::segment_ends(ijk, a, b, |p| self.point_value(p));
+            let id = segment::push_segment_vertex(vol, key, d0, d1, iso, self.out);
+            let (table, stamp, at) = self.caches.segment_tables().table(slot);
+            table.set(at, stamp, id);
+            return id;
+        }
+        let ijk = self.ijk;
+        let (key, d0, d1) = segment::segment_ends(ijk, a, b, |p| self.point_value(p));
         let caches = &mut *self.caches;
         match caches.segment_slot(&key) {
             Some(slot) => {
-                let n = caches.w * caches.h;
-                let tables = caches.segments.get_or_insert_with(|| Box::new(SegmentTables::new(n)));
-                let (table, stamp, at) = tables.table(slot);
+                let (table, stamp, at) = caches.segment_tables().table(slot);
                 if let Some(id) = table.get(at, stamp) {
                     return id;
                 }
