@@ -43,33 +43,42 @@ impl Placed {
     }
 }
 
-/// A dense table of values stamped with the plane or layer they belong to.
+/// A dense table of values stamped with the plane or layer they belong to, and with the walk
+/// that wrote them: every reset starts a new generation, so a table of the same size is reused
+/// by the next walk (the next layer group) without clearing or reallocating it.
 #[derive(Debug, Clone)]
 struct Stamped<T> {
-    slots: Vec<(u32, T)>,
+    /// `(generation, stamp, value)`; generation 0 is never current.
+    slots: Vec<(u32, u32, T)>,
+    generation: u32,
 }
 
 impl<T> Default for Stamped<T> {
     fn default() -> Self {
-        Stamped { slots: Vec::new() }
+        Stamped { slots: Vec::new(), generation: 0 }
     }
 }
 
 impl<T: Copy> Stamped<T> {
     fn reset(&mut self, n: usize, empty: T) {
+        if self.slots.len() == n && self.generation < u32::MAX {
+            self.generation += 1;
+            return;
+        }
         self.slots.clear();
-        self.slots.resize(n, (u32::MAX, empty));
+        self.slots.resize(n, (0, u32::MAX, empty));
+        self.generation = 1;
     }
 
     #[inline(always)]
     fn get(&self, at: usize, stamp: u32) -> Option<T> {
-        let (s, v) = self.slots[at];
-        (s == stamp).then_some(v)
+        let (g, s, v) = self.slots[at];
+        (g == self.generation && s == stamp).then_some(v)
     }
 
     #[inline(always)]
     fn set(&mut self, at: usize, stamp: u32, v: T) {
-        self.slots[at] = (stamp, v);
+        self.slots[at] = (self.generation, stamp, v);
     }
 }
 
@@ -101,11 +110,16 @@ struct SegmentTables {
 impl SegmentTables {
     fn new(n: usize) -> Self {
         let mut t = SegmentTables::default();
+        t.reset(n);
+        t
+    }
+
+    fn reset(&mut self, n: usize) {
+        let t = self;
         let all = t.z_faces.iter_mut().flatten().chain(t.x_faces.iter_mut()).chain(t.y_faces.iter_mut());
         for s in all.chain(t.centre_corner.iter_mut().flatten()).chain(t.body.iter_mut()) {
             s.reset(n, VertexId::NONE);
         }
-        t
     }
 
     fn table(&mut self, slot: SegmentSlot) -> (&mut Stamped<VertexId>, u32, usize) {
@@ -156,14 +170,21 @@ impl LayerCaches {
         for ids in self.x.iter_mut().chain(self.y.iter_mut()).chain(std::iter::once(&mut self.z)) {
             ids.reset(n, VertexId::NONE);
         }
-        self.segments = None;
+        // Tables a previous walk allocated are kept (a new generation), the others made on demand.
+        if let Some(t) = &mut self.segments {
+            t.reset(n);
+        }
         self.other.clear();
         if places {
             self.placed[0].reset(n);
             self.placed[1].reset(n);
         }
-        self.hermite = None;
-        self.centres = None;
+        for s in self.hermite.iter_mut().flat_map(|t| t.iter_mut()) {
+            s.reset(n, NO_HERMITE);
+        }
+        for s in self.centres.iter_mut().flat_map(|t| t.iter_mut()) {
+            s.reset(n, f32::NAN);
+        }
     }
 
     /// After a layer of cells: the next one (stamps make older slots stale, nothing is cleared).
