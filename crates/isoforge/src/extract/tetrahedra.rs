@@ -15,10 +15,10 @@
 
 use super::{Counting, Extractor, ProbeCell, Segments};
 use crate::cube::CellPoint;
+use crate::cube::CubeEdge;
 use crate::cube::Diagonals;
 use crate::cube::FACE_CORNERS;
 use crate::extract::{Cell, Hermite};
-use crate::cube::CubeEdge;
 use crate::mesh::VertexId;
 
 /// How a cell is split into tetrahedra.
@@ -150,8 +150,7 @@ fn body_centred<C: Cell>(cell: &mut C) {
         // (the octahedra it owns) is of the other class.
         let inside = case == 255;
         let other = |v: f32| (v < 0.0) != inside;
-        if centre == inside && (0..3u8).all(|a| !cell.has_neighbour(2 * a) || !other(cell.point_value(Beyond(2 * a))))
-        {
+        if centre == inside && (0..3u8).all(|a| !cell.has_neighbour(2 * a) || !other(cell.point_value(Beyond(2 * a)))) {
             return;
         }
     }
@@ -322,7 +321,8 @@ impl Cell for SolidProbe {
     fn segment_vertex(&mut self, a: CellPoint, b: CellPoint) -> VertexId {
         let (a, b) = (self.index(a), self.index(b));
         let c = &mut self.case;
-        let known = c.segments[..c.segment_count as usize].iter().position(|&[p, q]| [p, q] == [a, b] || [q, p] == [a, b]);
+        let known =
+            c.segments[..c.segment_count as usize].iter().position(|&[p, q]| [p, q] == [a, b] || [q, p] == [a, b]);
         VertexId(known.unwrap_or_else(|| {
             c.segments[c.segment_count as usize] = [a, b];
             c.segment_count += 1;

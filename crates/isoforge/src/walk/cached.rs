@@ -83,7 +83,7 @@ impl<T: Copy> Stamped<T> {
 }
 
 /// Where a segment's vertex is kept: a table and an index in it, with the stamp to match.
-#[derive(Debug, Clone, Copy)]
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
 enum SegmentSlot {
     /// Face slots: the face's normal axis and its kind (0: low–high diagonal, 1: the other
     /// diagonal, 2: the segment between the centres on both sides), at plane or layer `stamp`.
@@ -94,16 +94,50 @@ enum SegmentSlot {
     Body { which: usize, stamp: u32, at: usize },
 }
 
-/// The segment tables (allocated on the first segment a walk names).
+/// The vertex ids of one cell's (or face's) segments, stamped as a group with the layer (plane)
+/// and the generation they belong to: a cell's segments are named together, so they share a
+/// cache line.
+#[derive(Debug, Clone, Copy)]
+#[repr(C, align(64))]
+struct Group<const N: usize> {
+    generation: u32,
+    stamp: u32,
+    ids: [VertexId; N],
+}
+
+/// Segments per cell group: centre to corner 0–7, then x-faces by kind (8–10), y-faces (11–13).
+const CELL_GROUP: usize = 14;
+/// Segments per z-face group: by kind.
+const PLANE_GROUP: usize = 3;
+
+impl<const N: usize> Group<N> {
+    const EMPTY: Self = Group { generation: 0, stamp: u32::MAX, ids: [VertexId::NONE; N] };
+
+    #[inline(always)]
+    fn get(&self, generation: u32, stamp: u32, i: usize) -> Option<VertexId> {
+        let id = self.ids[i];
+        (self.generation == generation && self.stamp == stamp && id != VertexId::NONE).then_some(id)
+    }
+
+    #[inline(always)]
+    fn set(&mut self, generation: u32, stamp: u32, i: usize, id: VertexId) {
+        if self.generation != generation || self.stamp != stamp {
+            *self = Group { generation, stamp, ids: [VertexId::NONE; N] };
+        }
+        self.ids[i] = id;
+    }
+}
+
+/// The segment tables (allocated on the first segment a walk names), reused across walks of
+/// the same box size like [`Stamped`].
 #[derive(Debug, Default)]
 struct SegmentTables {
-    /// Faces normal to z, by plane parity, then kind.
-    z_faces: [[Stamped<VertexId>; 3]; 2],
-    /// Faces normal to x and y (inside a layer), by kind.
-    x_faces: [Stamped<VertexId>; 3],
-    y_faces: [Stamped<VertexId>; 3],
-    /// Centre-to-corner segments by layer parity, then corner.
-    centre_corner: [[Stamped<VertexId>; 8]; 2],
+    generation: u32,
+    /// Per cell, by layer parity: its centre-to-corner segments and the x- and y-faces at its
+    /// low side (whose stamp is always the current layer).
+    cells: [Vec<Group<CELL_GROUP>>; 2],
+    /// Faces normal to z, by plane parity.
+    planes: [Vec<Group<PLANE_GROUP>>; 2],
     body: [Stamped<VertexId>; 4],
 }
 
@@ -115,24 +149,53 @@ impl SegmentTables {
     }
 
     fn reset(&mut self, n: usize) {
-        let t = self;
-        let all = t.z_faces.iter_mut().flatten().chain(t.x_faces.iter_mut()).chain(t.y_faces.iter_mut());
-        for s in all.chain(t.centre_corner.iter_mut().flatten()).chain(t.body.iter_mut()) {
-            s.reset(n, VertexId::NONE);
+        if self.cells[0].len() == n && self.generation < u32::MAX {
+            self.generation += 1;
+        } else {
+            for c in &mut self.cells {
+                c.clear();
+                c.resize(n, Group::EMPTY);
+            }
+            for p in &mut self.planes {
+                p.clear();
+                p.resize(n, Group::EMPTY);
+            }
+            self.generation = 1;
+        }
+        for b in &mut self.body {
+            b.reset(n, VertexId::NONE);
         }
     }
 
-    fn table(&mut self, slot: SegmentSlot) -> (&mut Stamped<VertexId>, u32, usize) {
+    /// The vertex in `slot`, if one was made.
+    #[inline(always)]
+    fn get(&self, slot: SegmentSlot) -> Option<VertexId> {
+        let g = self.generation;
+        match slot {
+            SegmentSlot::Face { normal: 2, kind, stamp, at } => self.planes[stamp as usize % 2][at].get(g, stamp, kind),
+            SegmentSlot::Face { normal, kind, stamp, at } => {
+                self.cells[stamp as usize % 2][at].get(g, stamp, 8 + 3 * normal + kind)
+            }
+            SegmentSlot::CentreCorner { corner, stamp, at } => self.cells[stamp as usize % 2][at].get(g, stamp, corner),
+            SegmentSlot::Body { which, stamp, at } => self.body[which].get(at, stamp),
+        }
+    }
+
+    /// Keeps `id` in `slot`.
+    #[inline(always)]
+    fn set(&mut self, slot: SegmentSlot, id: VertexId) {
+        let g = self.generation;
         match slot {
             SegmentSlot::Face { normal: 2, kind, stamp, at } => {
-                (&mut self.z_faces[stamp as usize % 2][kind], stamp, at)
+                self.planes[stamp as usize % 2][at].set(g, stamp, kind, id)
             }
-            SegmentSlot::Face { normal: 0, kind, stamp, at } => (&mut self.x_faces[kind], stamp, at),
-            SegmentSlot::Face { kind, stamp, at, .. } => (&mut self.y_faces[kind], stamp, at),
+            SegmentSlot::Face { normal, kind, stamp, at } => {
+                self.cells[stamp as usize % 2][at].set(g, stamp, 8 + 3 * normal + kind, id)
+            }
             SegmentSlot::CentreCorner { corner, stamp, at } => {
-                (&mut self.centre_corner[stamp as usize % 2][corner], stamp, at)
+                self.cells[stamp as usize % 2][at].set(g, stamp, corner, id)
             }
-            SegmentSlot::Body { which, stamp, at } => (&mut self.body[which], stamp, at),
+            SegmentSlot::Body { which, stamp, at } => self.body[which].set(at, stamp, id),
         }
     }
 }
@@ -489,15 +552,13 @@ impl<V: Volume> Cell for CachedCell<'_, V> {
         let (vol, iso) = (self.vol, self.iso);
         if let Some(slot) = self.caches.named_slot(self.ijk, a, b) {
             // Centre segments: found without a key; the key and the end values only for a new vertex.
-            let (table, stamp, at) = self.caches.segment_tables().table(slot);
-            if let Some(id) = table.get(at, stamp) {
+            if let Some(id) = self.caches.segment_tables().get(slot) {
                 return id;
             }
             let ijk = self.ijk;
             let (key, d0, d1) = segment::segment_ends(ijk, a, b, |p| self.point_value(p));
             let id = segment::push_segment_vertex(vol, key, d0, d1, iso, self.out);
-            let (table, stamp, at) = self.caches.segment_tables().table(slot);
-            table.set(at, stamp, id);
+            self.caches.segment_tables().set(slot, id);
             return id;
         }
         let ijk = self.ijk;
@@ -505,12 +566,12 @@ impl<V: Volume> Cell for CachedCell<'_, V> {
         let caches = &mut *self.caches;
         match caches.segment_slot(&key) {
             Some(slot) => {
-                let (table, stamp, at) = caches.segment_tables().table(slot);
-                if let Some(id) = table.get(at, stamp) {
+                let tables = caches.segment_tables();
+                if let Some(id) = tables.get(slot) {
                     return id;
                 }
                 let id = segment::push_segment_vertex(vol, key, d0, d1, iso, self.out);
-                table.set(at, stamp, id);
+                tables.set(slot, id);
                 id
             }
             None => {
@@ -564,5 +625,89 @@ impl<V: Volume> Cell for CachedCell<'_, V> {
     #[inline]
     fn push_quad(&mut self, q: [VertexId; 4]) {
         self.out.push_quad(q);
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::cube::CellPoint::{Beyond, Centre, Corner};
+    use crate::grid::{DenseGrid, Lattice};
+    use crate::mesh::Normals;
+    use crate::volume::GridVolume;
+
+    fn points() -> Vec<CellPoint> {
+        (0..8).map(Corner).chain([Centre]).chain((0..6).map(Beyond)).collect()
+    }
+
+    #[test]
+    fn named_slots_are_the_slots_of_their_keys() {
+        let mut c = LayerCaches::default();
+        // Box points i 1..=5, j 2..=5; layer 3. Cells around and outside the box too.
+        let k = 3;
+        c.reset([1, 2], 5, 4, k, false);
+        let mut named = 0;
+        for i in 0..8 {
+            for j in 0..8 {
+                let ijk = [i, j, k];
+                for a in points() {
+                    for b in points() {
+                        let Some((key, _)) = SegmentKey::of_cell(ijk, a, b) else { continue };
+                        if a == b {
+                            continue;
+                        }
+                        if let Some(slot) = c.named_slot(ijk, a, b) {
+                            assert_eq!(Some(slot), c.segment_slot(&key), "cell {ijk:?}, {a:?}–{b:?}");
+                            named += 1;
+                        }
+                    }
+                }
+            }
+        }
+        // Inside the box every centre-to-corner and centre-to-centre segment is found by name.
+        let inner = [2, 3, k];
+        for p in points().into_iter().filter(|p| *p != Centre) {
+            assert!(c.named_slot(inner, Centre, p).is_some(), "{p:?}");
+        }
+        assert!(named > 0);
+    }
+
+    #[test]
+    fn centre_table_gives_the_values_of_value_at() {
+        let dims = [6, 5, 7];
+        let mut h = 0x2545_f491_u32;
+        let g = DenseGrid::from_fn(Lattice::new(dims).unwrap(), |_| {
+            h ^= h << 13;
+            h ^= h >> 17;
+            h ^= h << 5;
+            (h % 1000) as f32 / 7.0
+        });
+        let vol = GridVolume::new(&g);
+        let iso = Iso::below(60.0);
+        let mut out = MeshBuilder::new(Normals::None);
+        let mut caches = LayerCaches::default();
+        // Twice: the second walk reuses the tables (a new generation).
+        for _ in 0..2 {
+            caches.reset([0, 0], dims[0] as usize, dims[1] as usize, 0, false);
+            for k in 0..dims[2] - 1 {
+                for j in 0..dims[1] - 1 {
+                    for i in 0..dims[0] - 1 {
+                        let ijk = [i, j, k];
+                        let mut cell = CachedCell::new(ijk, [1.0; 8], 0, &vol, iso, &mut caches, &mut out);
+                        for f in (0..6).filter(|&f| cell.has_neighbour(f)) {
+                            let mut n = ijk.map(f64::from);
+                            n[(f / 2) as usize] += if f % 2 == 0 { -1.0 } else { 1.0 };
+                            let want = vol.value_at(n.map(|x| x + 0.5), iso);
+                            for _ in 0..2 {
+                                assert_eq!(cell.point_value(Beyond(f)).to_bits(), want.to_bits(), "{ijk:?} face {f}");
+                            }
+                        }
+                        let want = vol.value_at(ijk.map(|x| x as f64 + 0.5), iso);
+                        assert_eq!(cell.point_value(Centre).to_bits(), want.to_bits(), "{ijk:?}");
+                    }
+                }
+                caches.advance(false);
+            }
+        }
     }
 }
