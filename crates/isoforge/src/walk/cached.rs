@@ -694,7 +694,8 @@ mod tests {
                     for i in 0..dims[0] - 1 {
                         let ijk = [i, j, k];
                         let mut cell = CachedCell::new(ijk, [1.0; 8], 0, &vol, iso, &mut caches, &mut out);
-                        for f in (0..6).filter(|&f| cell.has_neighbour(f)) {
+                        let faces: Vec<u8> = (0..6).filter(|&f| cell.has_neighbour(f)).collect();
+                        for f in faces {
                             let mut n = ijk.map(f64::from);
                             n[(f / 2) as usize] += if f % 2 == 0 { -1.0 } else { 1.0 };
                             let want = vol.value_at(n.map(|x| x + 0.5), iso);
