@@ -397,7 +397,7 @@ impl LayerCaches {
             }
             return Some(SegmentSlot::Body { which, stamp: k as u32, at: index(cell[0], cell[1])? });
         }
-        if odd(&a) && odd(&b) && moved == 1 && d.iter().any(|&x| x == 2) {
+        if odd(&a) && odd(&b) && moved == 1 && d.contains(&2) {
             // Between two centres: the face they share.
             let normal = (0..3).find(|&x| d[x] != 0)?;
             let mut o = lo.map(|c| (c - 1) / 2);
