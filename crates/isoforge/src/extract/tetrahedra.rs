@@ -15,9 +15,11 @@
 
 use super::{Counting, Extractor, ProbeCell, Segments};
 use crate::cube::CellPoint;
+use crate::cube::CubeEdge;
 use crate::cube::Diagonals;
 use crate::cube::FACE_CORNERS;
-use crate::extract::Cell;
+use crate::extract::{Cell, Hermite};
+use crate::mesh::VertexId;
 
 /// How a cell is split into tetrahedra.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
@@ -123,35 +125,7 @@ impl Extractor for MarchingTetrahedra {
                     tetrahedron(cell, t.map(Corner));
                 }
             }
-            Decomposition::BodyCentred => {
-                let case = cell.case();
-                if case == 0 || case == 255 {
-                    // A uniform cell holds a crossing only if its centre or the centre across a
-                    // lower face (the octahedra it owns) is of the other class.
-                    let inside = case == 255;
-                    let other = |v: f32| (v < 0.0) != inside;
-                    if !other(cell.point_value(Centre))
-                        && (0..3u8).all(|a| !cell.has_neighbour(2 * a) || !other(cell.point_value(Beyond(2 * a))))
-                    {
-                        return;
-                    }
-                }
-                for f in 0..6u8 {
-                    let r = FACE_CORNERS[f as usize].map(Corner);
-                    if !cell.has_neighbour(f) {
-                        // A face on the lattice's boundary: the pyramid from the centre, split by
-                        // a diagonal that no other cell sees.
-                        tetrahedron(cell, [Centre, r[0], r[1], r[2]]);
-                        tetrahedron(cell, [Centre, r[0], r[2], r[3]]);
-                    } else if f % 2 == 0 {
-                        // The octahedron around a lower face belongs to this cell; the one around
-                        // an upper face to the neighbour.
-                        for i in 0..4 {
-                            tetrahedron(cell, [Centre, Beyond(f), r[i], r[(i + 1) % 4]]);
-                        }
-                    }
-                }
-            }
+            Decomposition::BodyCentred => body_centred(cell),
         }
     }
 
@@ -159,6 +133,215 @@ impl Extractor for MarchingTetrahedra {
         // A cell whose corners agree can still hold a crossing on its centre segments (a field
         // centre of the other class, or the neighbour's centre in an octahedron it owns).
         self.decomposition == Decomposition::BodyCentred
+    }
+}
+
+/// The body-centred split of one cell: the octahedra around its lower faces (each from the cell's
+/// centre to the centre across the face, cut into four tetrahedra around that segment) and the
+/// pyramids on its faces on the lattice's boundary (cut into two tetrahedra by a diagonal no other
+/// cell sees). Each solid's triangles come from a table of its points' signs ([`bcc_tables`]):
+/// the same vertices, in the same order, as running [`tetrahedron`] on its tetrahedra in turn.
+#[inline]
+fn body_centred<C: Cell>(cell: &mut C) {
+    let case = cell.case();
+    let centre = cell.point_value(Centre) < 0.0;
+    if case == 0 || case == 255 {
+        // A uniform cell holds a crossing only if its centre or the centre across a lower face
+        // (the octahedra it owns) is of the other class.
+        let inside = case == 255;
+        let other = |v: f32| (v < 0.0) != inside;
+        if centre == inside && (0..3u8).all(|a| !cell.has_neighbour(2 * a) || !other(cell.point_value(Beyond(2 * a)))) {
+            return;
+        }
+    }
+    let tables = bcc_tables();
+    for f in 0..6u8 {
+        let corners = FACE_CASE[f as usize][case as usize] as usize;
+        if !cell.has_neighbour(f) {
+            let pattern = usize::from(centre) | corners << 1;
+            solid(cell, &tables.pyramids[f as usize][pattern]);
+        } else if f % 2 == 0 {
+            let beyond = cell.point_value(Beyond(f)) < 0.0;
+            let pattern = usize::from(centre) | usize::from(beyond) << 1 | corners << 2;
+            solid(cell, &tables.octahedra[(f / 2) as usize][pattern]);
+        }
+    }
+}
+
+/// The points of the octahedron around lower face `f`: the centre, the centre across `f`, the
+/// face's corners in [`FACE_CORNERS`] order.
+fn octahedron_points(f: u8) -> [CellPoint; 6] {
+    let r = FACE_CORNERS[f as usize].map(Corner);
+    [Centre, Beyond(f), r[0], r[1], r[2], r[3]]
+}
+
+/// The points of the pyramid on boundary face `f`: the centre, the face's corners.
+fn pyramid_points(f: u8) -> [CellPoint; 5] {
+    let r = FACE_CORNERS[f as usize].map(Corner);
+    [Centre, r[0], r[1], r[2], r[3]]
+}
+
+/// The tetrahedra of the octahedron around lower face `f` (`f` even) or of the pyramid on
+/// boundary face `f`, in the order the split visits them.
+fn solid_tetrahedra(f: u8, octahedron: bool) -> Vec<[CellPoint; 4]> {
+    let r = FACE_CORNERS[f as usize].map(Corner);
+    if octahedron {
+        (0..4).map(|i| [Centre, Beyond(f), r[i], r[(i + 1) % 4]]).collect()
+    } else {
+        vec![[Centre, r[0], r[1], r[2]], [Centre, r[0], r[2], r[3]]]
+    }
+}
+
+/// For each face and case, the face's corners' signs as bits in [`FACE_CORNERS`] order.
+const FACE_CASE: [[u8; 256]; 6] = {
+    let mut t = [[0u8; 256]; 6];
+    let mut f = 0;
+    while f < 6 {
+        let mut case = 0;
+        while case < 256 {
+            let mut i = 0;
+            while i < 4 {
+                t[f][case] |= (((case >> FACE_CORNERS[f][i]) & 1) << i) as u8;
+                i += 1;
+            }
+            case += 1;
+        }
+        f += 1;
+    }
+    t
+};
+
+/// What [`tetrahedron`] makes in one solid for one sign pattern of its points.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+struct SolidCase {
+    /// The solid's points (unused entries repeat the last).
+    points: [CellPoint; 6],
+    /// The crossed segments, as pairs of points, in the order `tetrahedron` first names them.
+    segments: [[u8; 2]; 12],
+    segment_count: u8,
+    /// The triangles, as indices into `segments`, in the order `tetrahedron` pushes them.
+    triangles: [[u8; 3]; 8],
+    triangle_count: u8,
+}
+
+/// The triangles of the octahedra (by lower face axis, then the 6-bit sign pattern: centre,
+/// centre beyond, the face's corners) and of the boundary pyramids (by face, then the 5-bit
+/// pattern: centre, corners).
+struct BccTables {
+    octahedra: [[SolidCase; 64]; 3],
+    pyramids: [[SolidCase; 32]; 6],
+}
+
+/// The body-centred tables, built once by running [`tetrahedron`] on a probe per solid and pattern.
+fn bcc_tables() -> &'static BccTables {
+    static TABLES: std::sync::OnceLock<BccTables> = std::sync::OnceLock::new();
+    TABLES.get_or_init(|| BccTables {
+        octahedra: std::array::from_fn(|a| {
+            let f = 2 * a as u8;
+            std::array::from_fn(|pattern| SolidProbe::run(&octahedron_points(f), &solid_tetrahedra(f, true), pattern))
+        }),
+        pyramids: std::array::from_fn(|f| {
+            let f = f as u8;
+            std::array::from_fn(|pattern| SolidProbe::run(&pyramid_points(f), &solid_tetrahedra(f, false), pattern))
+        }),
+    })
+}
+
+/// Emits one solid's tabulated triangles through `cell`.
+#[inline]
+fn solid<C: Cell>(cell: &mut C, t: &SolidCase) {
+    if t.triangle_count == 0 {
+        return;
+    }
+    let mut ids = [VertexId::NONE; 12];
+    for (id, &[p, q]) in ids.iter_mut().zip(&t.segments[..t.segment_count as usize]) {
+        *id = cell.segment_vertex(t.points[p as usize], t.points[q as usize]);
+    }
+    for tri in &t.triangles[..t.triangle_count as usize] {
+        cell.push_triangle(tri.map(|s| ids[s as usize]));
+    }
+}
+
+/// A cell that records what [`tetrahedron`] does on a solid's points with given signs.
+struct SolidProbe {
+    case: SolidCase,
+    pattern: usize,
+}
+
+impl SolidProbe {
+    /// Runs `tetrahedra` (on `points`, whose bit `i` in `pattern` says point `i` is inside).
+    fn run(points: &[CellPoint], tetrahedra: &[[CellPoint; 4]], pattern: usize) -> SolidCase {
+        let mut padded = [points[points.len() - 1]; 6];
+        padded[..points.len()].copy_from_slice(points);
+        let case = SolidCase {
+            points: padded,
+            segments: [[0; 2]; 12],
+            segment_count: 0,
+            triangles: [[0; 3]; 8],
+            triangle_count: 0,
+        };
+        let mut probe = SolidProbe { case, pattern };
+        for &t in tetrahedra {
+            tetrahedron(&mut probe, t);
+        }
+        probe.case
+    }
+
+    fn index(&self, p: CellPoint) -> u8 {
+        self.case.points.iter().position(|&q| q == p).expect("a solid's tetrahedra use its points") as u8
+    }
+}
+
+impl Cell for SolidProbe {
+    fn ijk(&self) -> [u32; 3] {
+        [1; 3]
+    }
+    fn values(&self) -> &[f32; 8] {
+        unreachable!("tetrahedra ask for point values")
+    }
+    fn case(&self) -> u8 {
+        unreachable!("tetrahedra ask for point values")
+    }
+    fn hermite(&mut self, _e: CubeEdge) -> Hermite {
+        unreachable!("tetrahedra need no Hermite data")
+    }
+    fn edge_vertex(&mut self, _e: CubeEdge) -> VertexId {
+        unreachable!("tetrahedra name segments")
+    }
+    fn has_neighbour(&self, _face: u8) -> bool {
+        true
+    }
+    fn point_value(&mut self, p: CellPoint) -> f32 {
+        if self.pattern >> self.index(p) & 1 == 1 {
+            -1.0
+        } else {
+            1.0
+        }
+    }
+    fn segment_vertex(&mut self, a: CellPoint, b: CellPoint) -> VertexId {
+        let (a, b) = (self.index(a), self.index(b));
+        let c = &mut self.case;
+        let known =
+            c.segments[..c.segment_count as usize].iter().position(|&[p, q]| [p, q] == [a, b] || [q, p] == [a, b]);
+        VertexId(known.unwrap_or_else(|| {
+            c.segments[c.segment_count as usize] = [a, b];
+            c.segment_count += 1;
+            c.segment_count as usize - 1
+        }) as u32)
+    }
+    fn place_vertex(&mut self, _local: [f32; 3], _edges: u16) -> VertexId {
+        unreachable!("tetrahedra place no vertex")
+    }
+    fn placed_vertex(&mut self, _offset: [i8; 3], _e: CubeEdge) -> Option<VertexId> {
+        unreachable!("tetrahedra place no vertex")
+    }
+    fn push_triangle(&mut self, t: [VertexId; 3]) {
+        let c = &mut self.case;
+        c.triangles[c.triangle_count as usize] = t.map(|v| v.0 as u8);
+        c.triangle_count += 1;
+    }
+    fn push_quad(&mut self, _q: [VertexId; 4]) {
+        unreachable!("tetrahedra make triangles")
     }
 }
 
@@ -216,5 +399,162 @@ fn tetrahedron<C: Cell>(cell: &mut C, mut p: [CellPoint; 4]) {
             cell.push_triangle([ac, bd, bc]);
         }
         _ => {}
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use std::collections::HashMap;
+
+    /// A cell with given signs at its corners, centre and the centres across its faces, that
+    /// records the vertices in the order they are first named (by lattice segment) and the
+    /// triangles on them.
+    struct Recorder {
+        /// Bit per point: corners 0–7, centre 8, beyond faces 9–14.
+        signs: u16,
+        neighbours: u8,
+        case: u8,
+        values: [f32; 8],
+        vertices: HashMap<([i64; 3], [i64; 3]), u32>,
+        order: Vec<([i64; 3], [i64; 3])>,
+        triangles: Vec<[u32; 3]>,
+    }
+
+    impl Recorder {
+        fn new(signs: u16, neighbours: u8) -> Self {
+            let values = std::array::from_fn(|c| if signs >> c & 1 == 1 { -1.0 } else { 1.0 });
+            Recorder {
+                signs,
+                neighbours,
+                case: (signs & 0xff) as u8,
+                values,
+                vertices: HashMap::new(),
+                order: Vec::new(),
+                triangles: Vec::new(),
+            }
+        }
+    }
+
+    impl Cell for Recorder {
+        fn ijk(&self) -> [u32; 3] {
+            [1; 3]
+        }
+        fn values(&self) -> &[f32; 8] {
+            &self.values
+        }
+        fn case(&self) -> u8 {
+            self.case
+        }
+        fn hermite(&mut self, _e: CubeEdge) -> Hermite {
+            unreachable!()
+        }
+        fn edge_vertex(&mut self, e: CubeEdge) -> VertexId {
+            let [a, b] = e.corners();
+            self.segment_vertex(Corner(a), Corner(b))
+        }
+        fn has_neighbour(&self, face: u8) -> bool {
+            self.neighbours >> face & 1 == 1
+        }
+        fn point_value(&mut self, p: CellPoint) -> f32 {
+            let bit = match p {
+                Corner(c) => c,
+                Centre => 8,
+                Beyond(f) => {
+                    assert!(self.has_neighbour(f), "asked for a missing neighbour's centre");
+                    9 + f
+                }
+            };
+            if self.signs >> bit & 1 == 1 {
+                -1.0
+            } else {
+                1.0
+            }
+        }
+        fn segment_vertex(&mut self, a: CellPoint, b: CellPoint) -> VertexId {
+            let (a, b) = (a.doubled(), b.doubled());
+            let key = if a <= b { (a, b) } else { (b, a) };
+            let n = self.order.len() as u32;
+            let id = *self.vertices.entry(key).or_insert(n);
+            if id == n {
+                self.order.push(key);
+            }
+            VertexId(id)
+        }
+        fn place_vertex(&mut self, _local: [f32; 3], _edges: u16) -> VertexId {
+            unreachable!()
+        }
+        fn placed_vertex(&mut self, _offset: [i8; 3], _e: CubeEdge) -> Option<VertexId> {
+            unreachable!()
+        }
+        fn push_triangle(&mut self, t: [VertexId; 3]) {
+            self.triangles.push(t.map(|v| v.0));
+        }
+        fn push_quad(&mut self, _q: [VertexId; 4]) {
+            unreachable!()
+        }
+    }
+
+    /// The body-centred split tetrahedron by tetrahedron, as it ran before the tables.
+    fn by_tetrahedra<C: Cell>(cell: &mut C) {
+        let case = cell.case();
+        if case == 0 || case == 255 {
+            let inside = case == 255;
+            let other = |v: f32| (v < 0.0) != inside;
+            if !other(cell.point_value(Centre))
+                && (0..3u8).all(|a| !cell.has_neighbour(2 * a) || !other(cell.point_value(Beyond(2 * a))))
+            {
+                return;
+            }
+        }
+        for f in 0..6u8 {
+            let r = FACE_CORNERS[f as usize].map(Corner);
+            if !cell.has_neighbour(f) {
+                tetrahedron(cell, [Centre, r[0], r[1], r[2]]);
+                tetrahedron(cell, [Centre, r[0], r[2], r[3]]);
+            } else if f % 2 == 0 {
+                for i in 0..4 {
+                    tetrahedron(cell, [Centre, Beyond(f), r[i], r[(i + 1) % 4]]);
+                }
+            }
+        }
+    }
+
+    #[test]
+    fn tabulated_body_centred_split_equals_tetrahedra() {
+        // Every sign of the corners, the centre and the lower neighbours' centres (each octahedron
+        // sees all 64 patterns of its points), under several sets of existing neighbours (each
+        // pyramid sees all 32 of its patterns).
+        let mut triangles = 0;
+        for signs in 0..1u16 << 12 {
+            for neighbours in [0b11_1111, 0b00_0000, 0b10_1010, 0b01_0101, 0b11_0110, 0b01_1011] {
+                // The upper neighbours' centres (bits 10, 12, 14) are never read.
+                let signs = (signs & 0x1ff) | (signs >> 9 & 1) << 9 | (signs >> 10 & 1) << 11 | (signs >> 11 & 1) << 13;
+                let (mut table, mut reference) = (Recorder::new(signs, neighbours), Recorder::new(signs, neighbours));
+                body_centred(&mut table);
+                by_tetrahedra(&mut reference);
+                assert_eq!(table.order, reference.order, "vertex order, signs {signs:#b}, neighbours {neighbours:#b}");
+                assert_eq!(table.triangles, reference.triangles, "signs {signs:#b}, neighbours {neighbours:#b}");
+                triangles += table.triangles.len();
+            }
+        }
+        assert!(triangles > 0);
+    }
+
+    #[test]
+    fn octahedron_tables_cover_every_pattern() {
+        let t = bcc_tables();
+        for a in 0..3 {
+            for pattern in 0..64 {
+                let n = t.octahedra[a][pattern].triangle_count;
+                // Uniform octahedra are empty; any other cuts at least one of its 4 tetrahedra.
+                assert_eq!(n == 0, pattern == 0 || pattern == 63, "axis {a}, pattern {pattern:#b}");
+            }
+        }
+        for f in 0..6 {
+            for pattern in 0..32 {
+                assert_eq!(t.pyramids[f][pattern].triangle_count == 0, pattern == 0 || pattern == 31);
+            }
+        }
     }
 }

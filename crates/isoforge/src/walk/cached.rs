@@ -43,38 +43,47 @@ impl Placed {
     }
 }
 
-/// A dense table of values stamped with the plane or layer they belong to.
+/// A dense table of values stamped with the plane or layer they belong to, and with the walk
+/// that wrote them: every reset starts a new generation, so a table of the same size is reused
+/// by the next walk (the next layer group) without clearing or reallocating it.
 #[derive(Debug, Clone)]
 struct Stamped<T> {
-    slots: Vec<(u32, T)>,
+    /// `(generation, stamp, value)`; generation 0 is never current.
+    slots: Vec<(u32, u32, T)>,
+    generation: u32,
 }
 
 impl<T> Default for Stamped<T> {
     fn default() -> Self {
-        Stamped { slots: Vec::new() }
+        Stamped { slots: Vec::new(), generation: 0 }
     }
 }
 
 impl<T: Copy> Stamped<T> {
     fn reset(&mut self, n: usize, empty: T) {
+        if self.slots.len() == n && self.generation < u32::MAX {
+            self.generation += 1;
+            return;
+        }
         self.slots.clear();
-        self.slots.resize(n, (u32::MAX, empty));
+        self.slots.resize(n, (0, u32::MAX, empty));
+        self.generation = 1;
     }
 
     #[inline(always)]
     fn get(&self, at: usize, stamp: u32) -> Option<T> {
-        let (s, v) = self.slots[at];
-        (s == stamp).then_some(v)
+        let (g, s, v) = self.slots[at];
+        (g == self.generation && s == stamp).then_some(v)
     }
 
     #[inline(always)]
     fn set(&mut self, at: usize, stamp: u32, v: T) {
-        self.slots[at] = (stamp, v);
+        self.slots[at] = (self.generation, stamp, v);
     }
 }
 
 /// Where a segment's vertex is kept: a table and an index in it, with the stamp to match.
-#[derive(Debug, Clone, Copy)]
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
 enum SegmentSlot {
     /// Face slots: the face's normal axis and its kind (0: low–high diagonal, 1: the other
     /// diagonal, 2: the segment between the centres on both sides), at plane or layer `stamp`.
@@ -85,40 +94,108 @@ enum SegmentSlot {
     Body { which: usize, stamp: u32, at: usize },
 }
 
-/// The segment tables (allocated on the first segment a walk names).
+/// The vertex ids of one cell's (or face's) segments, stamped as a group with the layer (plane)
+/// and the generation they belong to: a cell's segments are named together, so they share a
+/// cache line.
+#[derive(Debug, Clone, Copy)]
+#[repr(C, align(64))]
+struct Group<const N: usize> {
+    generation: u32,
+    stamp: u32,
+    ids: [VertexId; N],
+}
+
+/// Segments per cell group: centre to corner 0–7, then x-faces by kind (8–10), y-faces (11–13).
+const CELL_GROUP: usize = 14;
+/// Segments per z-face group: by kind.
+const PLANE_GROUP: usize = 3;
+
+impl<const N: usize> Group<N> {
+    const EMPTY: Self = Group { generation: 0, stamp: u32::MAX, ids: [VertexId::NONE; N] };
+
+    #[inline(always)]
+    fn get(&self, generation: u32, stamp: u32, i: usize) -> Option<VertexId> {
+        let id = self.ids[i];
+        (self.generation == generation && self.stamp == stamp && id != VertexId::NONE).then_some(id)
+    }
+
+    #[inline(always)]
+    fn set(&mut self, generation: u32, stamp: u32, i: usize, id: VertexId) {
+        if self.generation != generation || self.stamp != stamp {
+            *self = Group { generation, stamp, ids: [VertexId::NONE; N] };
+        }
+        self.ids[i] = id;
+    }
+}
+
+/// The segment tables (allocated on the first segment a walk names), reused across walks of
+/// the same box size like [`Stamped`].
 #[derive(Debug, Default)]
 struct SegmentTables {
-    /// Faces normal to z, by plane parity, then kind.
-    z_faces: [[Stamped<VertexId>; 3]; 2],
-    /// Faces normal to x and y (inside a layer), by kind.
-    x_faces: [Stamped<VertexId>; 3],
-    y_faces: [Stamped<VertexId>; 3],
-    /// Centre-to-corner segments by layer parity, then corner.
-    centre_corner: [[Stamped<VertexId>; 8]; 2],
+    generation: u32,
+    /// Per cell, by layer parity: its centre-to-corner segments and the x- and y-faces at its
+    /// low side (whose stamp is always the current layer).
+    cells: [Vec<Group<CELL_GROUP>>; 2],
+    /// Faces normal to z, by plane parity.
+    planes: [Vec<Group<PLANE_GROUP>>; 2],
     body: [Stamped<VertexId>; 4],
 }
 
 impl SegmentTables {
     fn new(n: usize) -> Self {
         let mut t = SegmentTables::default();
-        let all = t.z_faces.iter_mut().flatten().chain(t.x_faces.iter_mut()).chain(t.y_faces.iter_mut());
-        for s in all.chain(t.centre_corner.iter_mut().flatten()).chain(t.body.iter_mut()) {
-            s.reset(n, VertexId::NONE);
-        }
+        t.reset(n);
         t
     }
 
-    fn table(&mut self, slot: SegmentSlot) -> (&mut Stamped<VertexId>, u32, usize) {
+    fn reset(&mut self, n: usize) {
+        if self.cells[0].len() == n && self.generation < u32::MAX {
+            self.generation += 1;
+        } else {
+            for c in &mut self.cells {
+                c.clear();
+                c.resize(n, Group::EMPTY);
+            }
+            for p in &mut self.planes {
+                p.clear();
+                p.resize(n, Group::EMPTY);
+            }
+            self.generation = 1;
+        }
+        for b in &mut self.body {
+            b.reset(n, VertexId::NONE);
+        }
+    }
+
+    /// The vertex in `slot`, if one was made.
+    #[inline(always)]
+    fn get(&self, slot: SegmentSlot) -> Option<VertexId> {
+        let g = self.generation;
+        match slot {
+            SegmentSlot::Face { normal: 2, kind, stamp, at } => self.planes[stamp as usize % 2][at].get(g, stamp, kind),
+            SegmentSlot::Face { normal, kind, stamp, at } => {
+                self.cells[stamp as usize % 2][at].get(g, stamp, 8 + 3 * normal + kind)
+            }
+            SegmentSlot::CentreCorner { corner, stamp, at } => self.cells[stamp as usize % 2][at].get(g, stamp, corner),
+            SegmentSlot::Body { which, stamp, at } => self.body[which].get(at, stamp),
+        }
+    }
+
+    /// Keeps `id` in `slot`.
+    #[inline(always)]
+    fn set(&mut self, slot: SegmentSlot, id: VertexId) {
+        let g = self.generation;
         match slot {
             SegmentSlot::Face { normal: 2, kind, stamp, at } => {
-                (&mut self.z_faces[stamp as usize % 2][kind], stamp, at)
+                self.planes[stamp as usize % 2][at].set(g, stamp, kind, id)
             }
-            SegmentSlot::Face { normal: 0, kind, stamp, at } => (&mut self.x_faces[kind], stamp, at),
-            SegmentSlot::Face { kind, stamp, at, .. } => (&mut self.y_faces[kind], stamp, at),
+            SegmentSlot::Face { normal, kind, stamp, at } => {
+                self.cells[stamp as usize % 2][at].set(g, stamp, 8 + 3 * normal + kind, id)
+            }
             SegmentSlot::CentreCorner { corner, stamp, at } => {
-                (&mut self.centre_corner[stamp as usize % 2][corner], stamp, at)
+                self.cells[stamp as usize % 2][at].set(g, stamp, corner, id)
             }
-            SegmentSlot::Body { which, stamp, at } => (&mut self.body[which], stamp, at),
+            SegmentSlot::Body { which, stamp, at } => self.body[which].set(at, stamp, id),
         }
     }
 }
@@ -141,6 +218,9 @@ pub(crate) struct LayerCaches {
     placed: [Placed; 2],
     /// Hermite data per edge slot, like the ids (allocated on the first request).
     hermite: Option<Box<[Stamped<Hermite>; 5]>>,
+    /// Cell-centre values (offset by iso) of the current layer and the one below, by layer
+    /// parity, each computed once through `Volume::value_at` (allocated on the first request).
+    centres: Option<Box<[Stamped<f32>; 2]>>,
 }
 
 const NO_HERMITE: Hermite = Hermite { point: [f32::NAN; 3], normal: [0.0; 3] };
@@ -153,13 +233,21 @@ impl LayerCaches {
         for ids in self.x.iter_mut().chain(self.y.iter_mut()).chain(std::iter::once(&mut self.z)) {
             ids.reset(n, VertexId::NONE);
         }
-        self.segments = None;
+        // Tables a previous walk allocated are kept (a new generation), the others made on demand.
+        if let Some(t) = &mut self.segments {
+            t.reset(n);
+        }
         self.other.clear();
         if places {
             self.placed[0].reset(n);
             self.placed[1].reset(n);
         }
-        self.hermite = None;
+        for s in self.hermite.iter_mut().flat_map(|t| t.iter_mut()) {
+            s.reset(n, NO_HERMITE);
+        }
+        for s in self.centres.iter_mut().flat_map(|t| t.iter_mut()) {
+            s.reset(n, f32::NAN);
+        }
     }
 
     /// After a layer of cells: the next one (stamps make older slots stale, nothing is cleared).
@@ -200,6 +288,80 @@ impl LayerCaches {
         (ijk[1] - self.origin[1]) as usize * self.w + (ijk[0] - self.origin[0]) as usize
     }
 
+    /// The segment tables, allocated on the first request.
+    #[inline]
+    fn segment_tables(&mut self) -> &mut SegmentTables {
+        let n = self.w * self.h;
+        self.segments.get_or_insert_with(|| Box::new(SegmentTables::new(n)))
+    }
+
+    /// Index of box cell or face `(i, j)` (global), if it lies in the box.
+    #[inline(always)]
+    fn box_index(&self, i: u32, j: u32) -> Option<usize> {
+        let (i, j) = (i.wrapping_sub(self.origin[0]) as usize, j.wrapping_sub(self.origin[1]) as usize);
+        (i < self.w && j < self.h).then(|| j * self.w + i)
+    }
+
+    /// The centre table, stamp and index of cell `c`'s centre, if the table covers it (a cell of
+    /// the current layer or the one below, inside the box).
+    #[inline(always)]
+    fn centre_slot(&self, c: [u32; 3]) -> Option<(usize, u32, usize)> {
+        if c[2] != self.k && c[2].wrapping_add(1) != self.k {
+            return None;
+        }
+        Some((c[2] as usize % 2, c[2], self.box_index(c[0], c[1])?))
+    }
+
+    /// Where segment `a`–`b` of cell `ijk` (of the current layer) is kept, found from the names of
+    /// its ends alone, for the segments of body-centred splits: a centre to a corner of its cell,
+    /// a centre to the centre across a face. `None` for any other segment or one the tables do
+    /// not cover: the key then decides ([`segment_slot`](Self::segment_slot)), which gives the same
+    /// slot for every segment found here (a test checks it).
+    #[inline]
+    fn named_slot(&self, ijk: [u32; 3], a: CellPoint, b: CellPoint) -> Option<SegmentSlot> {
+        use CellPoint::{Beyond, Centre, Corner};
+        // The neighbour across face f (its index, if representable).
+        let across = |f: u8| -> Option<[u32; 3]> {
+            let mut n = ijk;
+            let x = (f / 2) as usize;
+            n[x] = if f % 2 == 0 { n[x].checked_sub(1)? } else { n[x].checked_add(1)? };
+            Some(n)
+        };
+        let centre_corner = |cell: [u32; 3], corner: u8| -> Option<SegmentSlot> {
+            if cell[2] != self.k && cell[2].wrapping_add(1) != self.k {
+                return None;
+            }
+            let at = self.box_index(cell[0], cell[1])?;
+            Some(SegmentSlot::CentreCorner { corner: corner as usize, stamp: cell[2], at })
+        };
+        match (a, b) {
+            (Centre, Corner(c)) | (Corner(c), Centre) => centre_corner(ijk, c),
+            (Beyond(f), Corner(c)) | (Corner(c), Beyond(f)) => {
+                // A corner on the shared face is the neighbour's corner with the face's axis bit flipped.
+                let bit = 1u8 << (f / 2);
+                let on_face = (c & bit != 0) == (f % 2 == 1);
+                if !on_face {
+                    return None;
+                }
+                centre_corner(across(f)?, c ^ bit)
+            }
+            (Centre, Beyond(f)) | (Beyond(f), Centre) => {
+                let normal = (f / 2) as usize;
+                let mut o = ijk;
+                if f % 2 == 1 {
+                    o[normal] = o[normal].checked_add(1)?;
+                } else {
+                    across(f)?;
+                }
+                if !(o[2] == self.k || normal == 2 && o[2] == self.k.wrapping_add(1)) {
+                    return None;
+                }
+                Some(SegmentSlot::Face { normal, kind: 2, stamp: o[2], at: self.box_index(o[0], o[1])? })
+            }
+            _ => None,
+        }
+    }
+
     /// Where segment `key` (named by a cell of the current layer) is kept, if the tables cover it.
     fn segment_slot(&self, key: &SegmentKey) -> Option<SegmentSlot> {
         let (a, b) = (key.a.map(i64::from), key.b.map(i64::from));
@@ -213,8 +375,8 @@ impl LayerCaches {
                 .then(|| j as usize * self.w + i as usize)
         };
         let k = self.k as i64;
-        let moved: Vec<usize> = (0..3).filter(|&x| d[x] != 0).collect();
-        if even(&a) && even(&b) && moved.len() == 2 && moved.iter().all(|&x| d[x] == 2) {
+        let moved = d.iter().filter(|&&x| x != 0).count();
+        if even(&a) && even(&b) && moved == 2 && d.iter().all(|&x| x == 0 || x == 2) {
             // A face diagonal: the face's normal is the axis that does not move.
             let normal = (0..3).find(|x| d[*x] == 0)?;
             let low_high = (0..3).all(|x| a[x] <= b[x]);
@@ -226,7 +388,7 @@ impl LayerCaches {
             let at = index(o[0], o[1])?;
             return Some(SegmentSlot::Face { normal, kind: usize::from(!low_high), stamp: stamp as u32, at });
         }
-        if even(&a) && even(&b) && moved.len() == 3 && d.iter().all(|&x| x == 2) {
+        if even(&a) && even(&b) && moved == 3 && d.iter().all(|&x| x == 2) {
             let cell = lo.map(|c| c / 2);
             let bottom = if a[2] < b[2] { a } else { b };
             let which = (((bottom[0] / 2 - cell[0]) as usize) | (((bottom[1] / 2 - cell[1]) as usize) << 1)) & 3;
@@ -235,9 +397,9 @@ impl LayerCaches {
             }
             return Some(SegmentSlot::Body { which, stamp: k as u32, at: index(cell[0], cell[1])? });
         }
-        if odd(&a) && odd(&b) && moved.len() == 1 && d[moved[0]] == 2 {
+        if odd(&a) && odd(&b) && moved == 1 && d.contains(&2) {
             // Between two centres: the face they share.
-            let normal = moved[0];
+            let normal = (0..3).find(|&x| d[x] != 0)?;
             let mut o = lo.map(|c| (c - 1) / 2);
             o[normal] += 1;
             if !(o[2] == k || normal == 2 && o[2] == k + 1) {
@@ -354,7 +516,33 @@ impl<V: Volume> Cell for CachedCell<'_, V> {
 
     #[inline]
     fn point_value(&mut self, p: CellPoint) -> f32 {
-        segment::point_value(self.vol, self.iso, self.ijk, &self.d, &mut self.memo, p)
+        let mut c = self.ijk;
+        match p {
+            CellPoint::Corner(corner) => return self.d[corner as usize],
+            CellPoint::Centre => {}
+            CellPoint::Beyond(f) => {
+                let x = (f / 2) as usize;
+                c[x] = if f % 2 == 0 { c[x].wrapping_sub(1) } else { c[x].wrapping_add(1) };
+            }
+        }
+        let Some((parity, stamp, at)) = self.caches.centre_slot(c) else {
+            return segment::point_value(self.vol, self.iso, self.ijk, &self.d, &mut self.memo, p);
+        };
+        let n = self.caches.w * self.caches.h;
+        let table = &mut self.caches.centres.get_or_insert_with(|| {
+            let mut t: [Stamped<f32>; 2] = Default::default();
+            for s in &mut t {
+                s.reset(n, f32::NAN);
+            }
+            Box::new(t)
+        })[parity];
+        if let Some(v) = table.get(at, stamp) {
+            return v;
+        }
+        // The same point as `segment::point_value` names (ijk + local), so the same bits.
+        let v = self.vol.value_at(c.map(|x| x as f64 + 0.5), self.iso);
+        table.set(at, stamp, v);
+        v
     }
 
     fn segment_vertex(&mut self, a: CellPoint, b: CellPoint) -> VertexId {
@@ -362,18 +550,28 @@ impl<V: Volume> Cell for CachedCell<'_, V> {
             return self.edge_vertex(e);
         }
         let (vol, iso) = (self.vol, self.iso);
-        let (key, d0, d1) = segment::cell_segment(vol, iso, self.ijk, &self.d, &mut self.memo, (a, b));
+        if let Some(slot) = self.caches.named_slot(self.ijk, a, b) {
+            // Centre segments: found without a key; the key and the end values only for a new vertex.
+            if let Some(id) = self.caches.segment_tables().get(slot) {
+                return id;
+            }
+            let ijk = self.ijk;
+            let (key, d0, d1) = segment::segment_ends(ijk, a, b, |p| self.point_value(p));
+            let id = segment::push_segment_vertex(vol, key, d0, d1, iso, self.out);
+            self.caches.segment_tables().set(slot, id);
+            return id;
+        }
+        let ijk = self.ijk;
+        let (key, d0, d1) = segment::segment_ends(ijk, a, b, |p| self.point_value(p));
         let caches = &mut *self.caches;
         match caches.segment_slot(&key) {
             Some(slot) => {
-                let n = caches.w * caches.h;
-                let tables = caches.segments.get_or_insert_with(|| Box::new(SegmentTables::new(n)));
-                let (table, stamp, at) = tables.table(slot);
-                if let Some(id) = table.get(at, stamp) {
+                let tables = caches.segment_tables();
+                if let Some(id) = tables.get(slot) {
                     return id;
                 }
                 let id = segment::push_segment_vertex(vol, key, d0, d1, iso, self.out);
-                table.set(at, stamp, id);
+                tables.set(slot, id);
                 id
             }
             None => {
@@ -427,5 +625,90 @@ impl<V: Volume> Cell for CachedCell<'_, V> {
     #[inline]
     fn push_quad(&mut self, q: [VertexId; 4]) {
         self.out.push_quad(q);
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::cube::CellPoint::{Beyond, Centre, Corner};
+    use crate::grid::{DenseGrid, Lattice};
+    use crate::mesh::Normals;
+    use crate::volume::GridVolume;
+
+    fn points() -> Vec<CellPoint> {
+        (0..8).map(Corner).chain([Centre]).chain((0..6).map(Beyond)).collect()
+    }
+
+    #[test]
+    fn named_slots_are_the_slots_of_their_keys() {
+        let mut c = LayerCaches::default();
+        // Box points i 1..=5, j 2..=5; layer 3. Cells around and outside the box too.
+        let k = 3;
+        c.reset([1, 2], 5, 4, k, false);
+        let mut named = 0;
+        for i in 0..8 {
+            for j in 0..8 {
+                let ijk = [i, j, k];
+                for a in points() {
+                    for b in points() {
+                        let Some((key, _)) = SegmentKey::of_cell(ijk, a, b) else { continue };
+                        if a == b {
+                            continue;
+                        }
+                        if let Some(slot) = c.named_slot(ijk, a, b) {
+                            assert_eq!(Some(slot), c.segment_slot(&key), "cell {ijk:?}, {a:?}–{b:?}");
+                            named += 1;
+                        }
+                    }
+                }
+            }
+        }
+        // Inside the box every centre-to-corner and centre-to-centre segment is found by name.
+        let inner = [2, 3, k];
+        for p in points().into_iter().filter(|p| *p != Centre) {
+            assert!(c.named_slot(inner, Centre, p).is_some(), "{p:?}");
+        }
+        assert!(named > 0);
+    }
+
+    #[test]
+    fn centre_table_gives_the_values_of_value_at() {
+        let dims = [6, 5, 7];
+        let mut h = 0x2545_f491_u32;
+        let g = DenseGrid::from_fn(Lattice::new(dims).unwrap(), |_| {
+            h ^= h << 13;
+            h ^= h >> 17;
+            h ^= h << 5;
+            (h % 1000) as f32 / 7.0
+        });
+        let vol = GridVolume::new(&g);
+        let iso = Iso::below(60.0);
+        let mut out = MeshBuilder::new(Normals::None);
+        let mut caches = LayerCaches::default();
+        // Twice: the second walk reuses the tables (a new generation).
+        for _ in 0..2 {
+            caches.reset([0, 0], dims[0] as usize, dims[1] as usize, 0, false);
+            for k in 0..dims[2] - 1 {
+                for j in 0..dims[1] - 1 {
+                    for i in 0..dims[0] - 1 {
+                        let ijk = [i, j, k];
+                        let mut cell = CachedCell::new(ijk, [1.0; 8], 0, &vol, iso, &mut caches, &mut out);
+                        let faces: Vec<u8> = (0..6).filter(|&f| cell.has_neighbour(f)).collect();
+                        for f in faces {
+                            let mut n = ijk.map(f64::from);
+                            n[(f / 2) as usize] += if f % 2 == 0 { -1.0 } else { 1.0 };
+                            let want = vol.value_at(n.map(|x| x + 0.5), iso);
+                            for _ in 0..2 {
+                                assert_eq!(cell.point_value(Beyond(f)).to_bits(), want.to_bits(), "{ijk:?} face {f}");
+                            }
+                        }
+                        let want = vol.value_at(ijk.map(|x| x as f64 + 0.5), iso);
+                        assert_eq!(cell.point_value(Centre).to_bits(), want.to_bits(), "{ijk:?}");
+                    }
+                }
+                caches.advance(false);
+            }
+        }
     }
 }

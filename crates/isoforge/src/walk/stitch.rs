@@ -49,7 +49,9 @@ pub fn stitch(parts: &[KeyedMesh]) -> Result<Mesh> {
 /// As [`stitch`].
 pub fn stitch_keyed(parts: &[KeyedMesh]) -> Result<KeyedMesh> {
     // PASS 1: each part's vertex → global vertex; duplicates resolve through the key map.
-    let mut first: HashMap<VertexKey, u32, BuildHasherDefault<KeyHasher>> = HashMap::default();
+    let keyed = parts.iter().map(|p| p.keys.len()).sum();
+    let mut first: HashMap<VertexKey, u32, BuildHasherDefault<KeyHasher>> =
+        HashMap::with_capacity_and_hasher(keyed, Default::default());
     let mut keys_out: Vec<(u32, VertexKey)> = Vec::new();
     let mut remap: Vec<Vec<u32>> = Vec::with_capacity(parts.len());
     let mut kept: Vec<Vec<u32>> = Vec::with_capacity(parts.len());
@@ -99,17 +101,47 @@ pub fn stitch_keyed(parts: &[KeyedMesh]) -> Result<KeyedMesh> {
     // PASS 2: copy the kept vertices and renumber the polygons.
     let with_normals =
         parts.iter().all(|p| p.mesh.normals.len() == p.mesh.positions.len() && !p.mesh.normals.is_empty());
+    // Each part writes its share of every array, in parallel when enabled.
     let mut out = Mesh::default();
-    out.positions.reserve(next as usize);
-    for (part, own) in parts.iter().zip(&kept) {
-        out.positions.extend(own.iter().map(|&v| part.mesh.positions[v as usize]));
-        if with_normals {
-            out.normals.extend(own.iter().map(|&v| part.mesh.normals[v as usize]));
-        }
+    let kept_sizes: Vec<usize> = kept.iter().map(Vec::len).collect();
+    fill_by_part(&mut out.positions, &kept_sizes, |i, dst| {
+        dst.iter_mut().zip(&kept[i]).for_each(|(d, &v)| *d = parts[i].mesh.positions[v as usize]);
+    });
+    if with_normals {
+        fill_by_part(&mut out.normals, &kept_sizes, |i, dst| {
+            dst.iter_mut().zip(&kept[i]).for_each(|(d, &v)| *d = parts[i].mesh.normals[v as usize]);
+        });
     }
-    for (part, map) in parts.iter().zip(&remap) {
-        out.triangles.extend(part.mesh.triangles.iter().map(|t| t.map(|v| map[v as usize])));
-        out.quads.extend(part.mesh.quads.iter().map(|q| q.map(|v| map[v as usize])));
-    }
+    let sizes: Vec<usize> = parts.iter().map(|p| p.mesh.triangles.len()).collect();
+    fill_by_part(&mut out.triangles, &sizes, |i, dst| {
+        let map = &remap[i];
+        dst.iter_mut().zip(&parts[i].mesh.triangles).for_each(|(d, t)| *d = t.map(|v| map[v as usize]));
+    });
+    let sizes: Vec<usize> = parts.iter().map(|p| p.mesh.quads.len()).collect();
+    fill_by_part(&mut out.quads, &sizes, |i, dst| {
+        let map = &remap[i];
+        dst.iter_mut().zip(&parts[i].mesh.quads).for_each(|(d, q)| *d = q.map(|v| map[v as usize]));
+    });
     Ok(KeyedMesh { mesh: out, keys: keys_out })
+}
+
+/// Sets `out` to the concatenation of per-part slices of `sizes`, each written by `f(part, slice)`
+/// (in parallel when enabled).
+fn fill_by_part<T: Copy + Default + Send>(out: &mut Vec<T>, sizes: &[usize], f: impl Fn(usize, &mut [T]) + Sync) {
+    out.clear();
+    out.resize(sizes.iter().sum(), T::default());
+    let mut slices = Vec::with_capacity(sizes.len());
+    let mut rest = &mut out[..];
+    for &n in sizes {
+        let (part, tail) = rest.split_at_mut(n);
+        slices.push(part);
+        rest = tail;
+    }
+    #[cfg(feature = "parallel")]
+    {
+        use rayon::prelude::*;
+        slices.into_par_iter().enumerate().for_each(|(i, s)| f(i, s));
+    }
+    #[cfg(not(feature = "parallel"))]
+    slices.into_iter().enumerate().for_each(|(i, s)| f(i, s));
 }

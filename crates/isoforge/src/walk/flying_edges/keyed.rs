@@ -10,6 +10,7 @@
 //! ```
 
 use std::sync::atomic::{AtomicU64, Ordering};
+use std::sync::Mutex;
 
 use super::bits::{case_at, cell_rows, for_each_bit, mark_active, Bits};
 use super::{cell_values, map_tasks, Passes};
@@ -44,13 +45,19 @@ impl<V: SampleSlabs + Sync, X: Extractor + Sync> Passes<'_, V, X> {
         let done = AtomicU64::new(0);
         let total = groups.len() as u64;
         let normals = if self.normals { Normals::Gradient } else { Normals::None };
+        // Caches go back to a pool after a group and serve the next one without reallocation
+        // (their slots carry a generation; nothing a group writes is seen by another).
+        let pool = Mutex::new(Vec::<LayerCaches>::new());
         let parts = map_tasks(groups, |g| {
             // Parts keep the keys stitching needs, or all of them when the walk asks for all.
             let record = if self.record == KeyRecord::All { KeyRecord::All } else { KeyRecord::Boundary(g) };
             let mut b = MeshBuilder::new(normals).with_keys(record);
             b.set_reverse_winding(self.reverse);
-            let mut caches = LayerCaches::default();
+            let mut caches = pool.lock().ok().and_then(|mut p| p.pop()).unwrap_or_default();
             let stats = self.walk_group(bits, &g, &mut caches, &mut b);
+            if let Ok(mut p) = pool.lock() {
+                p.push(caches);
+            }
             if let Some(p) = progress {
                 p.advance(done.fetch_add(1, Ordering::Relaxed) + 1, total);
             }
