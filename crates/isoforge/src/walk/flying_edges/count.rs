@@ -88,6 +88,7 @@ impl<V: SampleSlabs, X: Extractor> Passes<'_, V, X> {
             cs[0] += outside;
             cs[1] += inside;
             let parity = self.walked.parity0 + j + k;
+            let first_decision = decisions.len();
             for_each_bit(&active, |i| {
                 let case = case_at(&rows, i);
                 let n = match self.table.0[case as usize][(parity + i) % 2] {
@@ -104,6 +105,10 @@ impl<V: SampleSlabs, X: Extractor> Passes<'_, V, X> {
                 c.quads += n.quads as u32;
                 c.placed += n.placed as u32;
             });
+            if c.tris == 0 && c.quads == 0 && c.placed == 0 {
+                // The fill skips a cell row without output, so it must not see its decisions.
+                decisions.truncate(first_decision);
+            }
         }
         cs
     }

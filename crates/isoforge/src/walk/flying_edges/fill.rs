@@ -200,7 +200,7 @@ impl<V: SampleSlabs, X: Extractor> Passes<'_, V, X> {
         let mut active = vec![0u64; words];
         let mut state = FillState { t: 0, q: 0, plane_v: plane[0], next_placed: 0 };
         // Cells without a table entry, in walk order, each with its decision from the count pass
-        // (every such cell emits polygons, so no row holding one is skipped below).
+        // (rows skipped below for having no output left theirs out there too).
         let mut decided = decisions.iter();
         for j in 0..ny - 1 {
             let r = k * ny + j;
