@@ -212,6 +212,7 @@ async function start() {
   $("kind").textContent = info.kind === "demo" ? "— classic demo" : "— " + info.name.split("/").pop();
   $("kind").title = info.name ?? "";
   for (const m of info.methods || []) $("method").add(new Option(m, m));
+  if (info.method) $("method").value = info.method;
   for (const f of info.fields || []) $("field").add(new Option(f, f));
   $("demo-only").style.display = accepted.has("field") ? "" : "none";
   $("iso-box").style.display = accepted.has("iso") ? "" : "none";

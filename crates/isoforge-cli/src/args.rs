@@ -197,10 +197,10 @@ pub struct ExtractArgs {
     /// Which side of iso is inside: below (value < iso, default for files) or above.
     #[arg(long, value_name = "below|above")]
     pub inside: Option<String>,
-    /// Extraction method: mc (classic marching cubes, parallel Flying Edges on grids), mc33
-    /// (topology of the trilinear interpolant), mt5 / mt6 / mt-bcc (marching tetrahedra with 5, 6
-    /// or body-centred tetrahedra per cell).
-    #[arg(long, default_value = "mc", value_name = "mc|mc33|mt5|mt6|mt-bcc")]
+    /// Extraction method: mc33 (default: marching cubes 33, the topology of the trilinear
+    /// interpolant), mc (classic marching cubes: exactly vtkFlyingEdges3D's triangles), mt5 / mt6 /
+    /// mt-bcc (marching tetrahedra with 5, 6 or body-centred tetrahedra per cell), surface-nets.
+    #[arg(long, default_value = "mc33", value_name = "mc33|mc|mt5|mt6|mt-bcc|surface-nets")]
     pub method: String,
     /// Vertex normals: none (default, as VTK in the peer benchmarks) or gradient (unit normals
     /// from the field gradient, written to PLY and OBJ).
@@ -218,7 +218,7 @@ pub struct ExtractArgs {
     pub repeat: u32,
     /// Memory budget (suffixes K, M, G): unless the volume and the largest mesh the method can
     /// make (and its check, with --require) fit, a volume is meshed slab by slab from the file
-    /// (raw, NRRD, NIfTI, MetaImage, MRC, VTK; --method mc; binary PLY output) in O(nx·ny)
+    /// (raw, NRRD, NIfTI, MetaImage, MRC, VTK; binary PLY output) in O(nx·ny)
     /// memory, checked as it streams (4 bytes per vertex with --require).
     #[arg(long, value_name = "BYTES", allow_hyphen_values = true)]
     pub max_memory: Option<String>,
@@ -310,8 +310,8 @@ pub struct RenderArgs {
     /// Which side of iso is inside: below or above.
     #[arg(long, value_name = "below|above")]
     pub inside: Option<String>,
-    /// Extraction method for volumes and fields.
-    #[arg(long, default_value = "mc", value_name = "mc|mc33|mt5|mt6|mt-bcc")]
+    /// Extraction method for volumes and fields (as for extract).
+    #[arg(long, default_value = "mc33", value_name = "mc33|mc|mt5|mt6|mt-bcc|surface-nets")]
     pub method: String,
     /// Camera: iso (three-quarter), front or top.
     #[arg(long, default_value = "iso", value_name = "iso|front|top")]

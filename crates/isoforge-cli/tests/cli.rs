@@ -232,7 +232,19 @@ fn real_volumes_mesh_cleanly() {
         ("cthead_8bit_256x256x99.nrrd", "52.29", Some(484_602)),
     ] {
         let out = dir.path().join(format!("{name}.ply"));
-        let o = isoforge(&["extract", "-i", p(&data.join(name)), "--iso", iso, "-o", p(&out), "--normals", "none"]);
+        let o = isoforge(&[
+            "extract",
+            "-i",
+            p(&data.join(name)),
+            "--iso",
+            iso,
+            "-o",
+            p(&out),
+            "--normals",
+            "none",
+            "--method",
+            "mc",
+        ]);
         assert_eq!(o.status.code(), Some(0), "{name}: {}", stderr(&o));
         let info: serde_json::Value =
             serde_json::from_slice(&isoforge(&["info", p(&data.join(name)), "--json"]).stdout).unwrap();
@@ -754,6 +766,8 @@ fn a_ct_coloured_by_a_co_registered_volume_samples_it_trilinearly() {
         &a2,
         "--color-by",
         "second",
+        "--method",
+        "mc", // every vertex on a lattice edge (mc33's interior vertices are not)
         "-o",
         p(&out),
         "--ascii",
@@ -984,7 +998,21 @@ fn world_frames_convert_between_lps_and_ras() {
     isoforge_io::write_volume(&lps_copy, &g.with_lattice(l).unwrap()).unwrap();
     let out = dir.path().join("attr.ply");
     let attr = format!("self={}", p(&lps_copy));
-    let o = isoforge(&["extract", "-i", p(&nii), "--iso", "13.5", "--attribute", &attr, "-o", p(&out), "--ascii"]);
+    // Classic MC: every vertex on a lattice edge, where sampling is exact (not mc33's interior ones).
+    let o = isoforge(&[
+        "extract",
+        "-i",
+        p(&nii),
+        "--iso",
+        "13.5",
+        "--method",
+        "mc",
+        "--attribute",
+        &attr,
+        "-o",
+        p(&out),
+        "--ascii",
+    ]);
     assert_eq!(o.status.code(), Some(0), "{}", stderr(&o));
     let (_, rows) = ascii_ply_vertices(&out);
     assert!(rows.iter().all(|r| (r[3] - 13.5).abs() < 1e-3), "{:?}", rows.iter().find(|r| (r[3] - 13.5).abs() >= 1e-3));

@@ -162,12 +162,15 @@ fn the_viewer_serves_what_extract_writes() {
     let info = demo.json("/api/info");
     assert_eq!(info["kind"], "demo");
     assert_eq!(info["methods"].as_array().unwrap().len(), isoforge::pipeline::Method::ALL.len());
+    // The page starts on the method `view --method` chose (default: mc33, as extract).
+    assert_eq!(info["method"], "mc33");
     assert_eq!(info["fields"], serde_json::json!(["metaballs", "lines", "height"]));
     // The typed demo fields equal the catalogue's `field:` specs, through every method class.
     for (query, spec, method, iso) in [
         ("field=metaballs&n=48&t=0.25&method=mc33", "field:metaballs?n=48&t=0.25", "mc33", None),
         ("field=lines&n=32&method=mt6&iso=40", "field:lines?n=32", "mt6", Some("40")),
-        ("field=height&n=24", "field:height?n=24", "mc", None),
+        ("field=height&n=24&method=mc", "field:height?n=24", "mc", None),
+        ("field=height&n=24", "field:height?n=24", "mc33", None),
     ] {
         let got = demo.mesh(&format!("{query}&level=full"));
         assert_eq!(got.head["level"], "full");

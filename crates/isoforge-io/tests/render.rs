@@ -3,7 +3,7 @@
 
 use std::path::PathBuf;
 
-use isoforge::pipeline::{extract, Options};
+use isoforge::pipeline::{extract, Method, Options};
 use isoforge::volume::{catalog, Iso, Sampled};
 use isoforge_io::render::{render, RenderOptions, Shading, View};
 
@@ -19,7 +19,13 @@ fn scene() -> (Vec<u8>, [u32; 2]) {
     lattice = lattice.with_dims([dims[0], dims[1], dims[2] * 3 / 5]).unwrap();
     let mesh = match &b.field {
         catalog::BuiltinField::Torus(t) => {
-            extract(&Sampled::new(*t, lattice), Iso::below(0.0), &Options::default()).unwrap().mesh
+            extract(
+                &Sampled::new(*t, lattice),
+                Iso::below(0.0),
+                &Options { method: Method::MarchingCubes, ..Default::default() },
+            )
+            .unwrap()
+            .mesh
         }
         _ => unreachable!("parsed a torus"),
     };

@@ -22,7 +22,7 @@ use crate::extract::{
     Decomposition, Extractor, MarchingCubes, MarchingCubes33, MarchingTetrahedra, Masked, PointMask, SurfaceNets,
 };
 use crate::grid::{AnyGrid, DType, DenseGrid, Sample};
-use crate::mesh::{KeyRecord, Mesh, MeshBuilder, MeshSink};
+use crate::mesh::{KeyRecord, Mesh, MeshBuilder, MeshSink, WriteBehind};
 use crate::volume::catalog::Builtin;
 use crate::volume::{Field, FieldVisitor, GridVolume, Iso, Prefetch, Sampled, SlabSource, Tabulated, Volume};
 use crate::walk::{FlyingEdgesWalker, Progress, SlabWalker, StreamStats, WalkStats, Walker};
@@ -34,9 +34,10 @@ pub use crate::mesh::Normals;
 #[non_exhaustive]
 pub enum Method {
     /// Classic marching cubes ([`MarchingCubes`]): `vtkFlyingEdges3D`'s triangles.
-    #[default]
     MarchingCubes,
-    /// Marching cubes 33 ([`MarchingCubes33`]): the topology of the trilinear interpolant.
+    /// Marching cubes 33 ([`MarchingCubes33`]): the topology of the trilinear interpolant. The
+    /// default: within 1.3× of classic MC's time on the parallel walker (docs/BENCHMARKS.md §6.1).
+    #[default]
     MarchingCubes33,
     /// Marching tetrahedra, five per cell ([`MarchingTetrahedra`]).
     Tetrahedra5,
@@ -267,12 +268,17 @@ pub trait AnySlabSource:
 /// Slabs a streamed extraction reads ahead in a background thread ([`Prefetch`]).
 pub const PREFETCH_SLABS: usize = 4;
 
+/// Batches of a streamed mesh copied and waiting for the sink's thread (see [`extract_streamed`]).
+pub const WRITE_BEHIND_BATCHES: usize = 4;
+
 /// Extracts a volume that arrives slab by slab (larger than memory), handing the mesh to `sink`
 /// as it is produced, in O(nx·ny) memory. Every method; no mask or range.
 ///
 /// Unless [`Options::threads`] is `Some(1)` (or the machine has one core), the slabs are read
-/// (decoded) [`PREFETCH_SLABS`] ahead by a background thread ([`Prefetch`]) while the walker
-/// works on the current ones; the mesh is the same either way.
+/// (decoded) [`PREFETCH_SLABS`] ahead by a background thread ([`Prefetch`]) and the batches are
+/// written behind by another ([`WriteBehind`], [`WRITE_BEHIND_BATCHES`] in flight) while the
+/// walker works on the current slab; the mesh, and the order `sink` receives it in, are the same
+/// either way.
 ///
 /// # Errors
 /// As [`extract`]; [`Error::External`] from the source or the sink.
@@ -280,7 +286,7 @@ pub fn extract_streamed<R: AnySlabSource + Send>(
     src: &mut R,
     iso: Iso,
     opts: &Options,
-    sink: &mut dyn MeshSink,
+    sink: &mut (dyn MeshSink + Send),
     progress: Option<&dyn Progress>,
 ) -> Result<StreamStats> {
     let dims = <R as SlabSource<u8>>::lattice(src).dims();
@@ -306,7 +312,7 @@ pub fn extract_streamed<R: AnySlabSource + Send>(
         src: &mut (dyn SlabSource<S> + Send),
         iso: Iso,
         opts: &Options,
-        sink: &mut dyn MeshSink,
+        sink: &mut (dyn MeshSink + Send),
         progress: Option<&dyn Progress>,
     ) -> Result<StreamStats> {
         let walk = |src: &mut dyn SlabSource<S>, sink: &mut dyn MeshSink| {
@@ -322,7 +328,12 @@ pub fn extract_streamed<R: AnySlabSource + Send>(
         };
         let cores = || std::thread::available_parallelism().map_or(1, |n| n.get());
         if opts.threads.unwrap_or_else(cores) >= 2 {
-            std::thread::scope(|s| walk(&mut Prefetch::spawn(s, src, PREFETCH_SLABS), sink))
+            std::thread::scope(|s| {
+                let mut behind = WriteBehind::spawn(s, sink, WRITE_BEHIND_BATCHES);
+                let stats = walk(&mut Prefetch::spawn(s, src, PREFETCH_SLABS), &mut behind)?;
+                behind.finish().map_err(Error::External)?;
+                Ok(stats)
+            })
         } else {
             walk(src, sink)
         }

@@ -61,7 +61,9 @@ fn golden_integer_grid_5() {
 
 #[test]
 fn golden_torus_8() {
+    // Classic MC (the golden predates mc33 as the default).
     let b = catalog::parse("torus?n=8").unwrap();
-    let out = isoforge::pipeline::extract_builtin(&b, b.iso, &Default::default(), None).unwrap();
+    let mc = isoforge::pipeline::Options { method: isoforge::pipeline::Method::MarchingCubes, ..Default::default() };
+    let out = isoforge::pipeline::extract_builtin(&b, b.iso, &mc, None).unwrap();
     golden("torus_n8", &out.mesh);
 }

@@ -258,16 +258,17 @@ impl Viewer {
     fn info(&self) -> Value {
         let methods: Vec<&str> = Method::ALL.iter().map(|m| m.name()).collect();
         let parameters = self.accepted();
+        let method = self.base.options.method.name();
         match &self.shown {
             Shown::Demo => json!({
-                "kind": "demo", "parameters": parameters, "methods": methods,
+                "kind": "demo", "parameters": parameters, "methods": methods, "method": method,
                 "fields": Classic::ALL.map(|c| c.name()), "iso": isoforge::volume::classic::CLASSIC_ISO,
                 "n": {"min": MIN_N, "max": MAX_N, "default": 40}
             }),
             Shown::Volume { name, grid } => {
                 let h = self.histogram.as_ref();
                 json!({
-                    "kind": "volume", "name": name, "parameters": parameters, "methods": methods,
+                    "kind": "volume", "name": name, "parameters": parameters, "methods": methods, "method": method,
                     "dims": grid.lattice().dims(), "inside": self.base.inside.unwrap_or_default().name(),
                     "range": h.map(|h| [h.min, h.max]), "histogram": h.map(|h| h.counts.clone()),
                     "iso": h.map(|h| h.surface_iso()), "preview_step": preview_step(grid.lattice().num_points()),

@@ -108,7 +108,8 @@ mod tests {
                 1.0
             }
         });
-        let m = crate::pipeline::extract(&GridVolume::new(&g), Iso::below(0.0), &Default::default()).unwrap().mesh;
+        let mc = crate::pipeline::Options { method: crate::pipeline::Method::MarchingCubes, ..Default::default() };
+        let m = crate::pipeline::extract(&GridVolume::new(&g), Iso::below(0.0), &mc).unwrap().mesh;
         assert_eq!(crate::topo::check(&m).components.len(), 1);
         // The complement: the two outside corners are cut apart, each capped by its own piece.
         let g = DenseGrid::from_fn(Lattice::new([2, 2, 2]).unwrap(), |p| {
@@ -118,7 +119,7 @@ mod tests {
                 -1.0
             }
         });
-        let m = crate::pipeline::extract(&GridVolume::new(&g), Iso::below(0.0), &Default::default()).unwrap().mesh;
+        let m = crate::pipeline::extract(&GridVolume::new(&g), Iso::below(0.0), &mc).unwrap().mesh;
         assert_eq!(crate::topo::check(&m).components.len(), 2);
     }
 
