@@ -3,7 +3,7 @@
 //!
 //! ```text
 //!   reader thread:  buffer ← free (or a new one, at most `depth`) → src.read_slab(buffer) → full
-//!   walker:         full → copy into the walker's ring → buffer back to free
+//!   walker:         full → swapped into the walker's ring (`take_slab`) → its old buffer back to free
 //! ```
 //! At most `depth` slabs are in flight (decoded and not yet taken, or being decoded). The thread
 //! lives in a [`std::thread::scope`], so it borrows the source; it stops at the first error (sent
@@ -81,6 +81,24 @@ impl<S: Sample> SlabSource<S> for Prefetch<'_, S> {
     }
 
     fn read_slab(&mut self, out: &mut [S]) -> Result<(), ExternalError> {
+        let buf = self.next(out.len())?;
+        out.copy_from_slice(&buf);
+        self.recycle(buf);
+        Ok(())
+    }
+
+    /// Swaps the decoded buffer in (no copy); `slab`'s old buffer goes back to the reader.
+    fn take_slab(&mut self, slab: &mut Vec<S>) -> Result<(), ExternalError> {
+        let mut buf = self.next(slab.len())?;
+        std::mem::swap(slab, &mut buf);
+        self.recycle(buf);
+        Ok(())
+    }
+}
+
+impl<S> Prefetch<'_, S> {
+    /// The next decoded slab, checked to hold `len` samples.
+    fn next(&mut self, len: usize) -> Result<Vec<S>, ExternalError> {
         let k = self.taken;
         if k >= self.slabs {
             return Err(format!("slab {k} asked of a volume of {} slabs", self.slabs).into());
@@ -91,19 +109,19 @@ impl<S: Sample> SlabSource<S> for Prefetch<'_, S> {
                 return Err(format!("the reading thread stopped before slab {k} (this is a bug, please report)").into())
             }
         };
-        if out.len() != buf.len() {
-            return Err(format!(
-                "slab {k}: {} samples asked, {} read (this is a bug, please report)",
-                out.len(),
-                buf.len()
-            )
-            .into());
+        if len != buf.len() {
+            return Err(
+                format!("slab {k}: {len} samples asked, {} read (this is a bug, please report)", buf.len()).into()
+            );
         }
-        out.copy_from_slice(&buf);
         self.taken += 1;
+        Ok(buf)
+    }
+
+    /// Hands a slab-sized buffer back to the reading thread.
+    fn recycle(&self, buf: Vec<S>) {
         // The thread may have finished (every slab sent): the buffer is then simply dropped.
         let _ = self.free.send(buf);
-        Ok(())
     }
 }
 
@@ -155,6 +173,32 @@ mod tests {
                 assert_eq!(out, std::array::from_fn(|i| k * 1000 + i as u32), "slab {k}");
             }
             let e = p.read_slab(&mut out).unwrap_err().to_string();
+            assert!(e.contains("slab 40 asked of a volume of 40 slabs"), "{e}");
+        });
+        assert_eq!(reads.load(Ordering::SeqCst), 40);
+    }
+
+    #[test]
+    fn taking_slabs_swaps_buffers_and_gives_the_same_slabs() {
+        let reads = AtomicUsize::new(0);
+        let mut src = counter(40, None, &reads);
+        std::thread::scope(|s| {
+            let mut p = Prefetch::spawn(s, &mut src, 3);
+            let (mut slab, mut out) = (vec![0u32; 6], [0u32; 6]);
+            for k in 0..40 {
+                // Alternating: a swap (the buffer changes hands) and a copy.
+                if k % 2 == 0 {
+                    let before = slab.as_ptr();
+                    p.take_slab(&mut slab).unwrap();
+                    assert_ne!(slab.as_ptr(), before, "slab {k}: swapped, not copied");
+                    assert_eq!(slab, (0..6).map(|i| k * 1000 + i).collect::<Vec<_>>(), "slab {k}");
+                } else {
+                    p.read_slab(&mut out).unwrap();
+                    assert_eq!(out, std::array::from_fn(|i| k * 1000 + i as u32), "slab {k}");
+                }
+            }
+            let mut short = vec![0u32; 5];
+            let e = p.take_slab(&mut short).unwrap_err().to_string();
             assert!(e.contains("slab 40 asked of a volume of 40 slabs"), "{e}");
         });
         assert_eq!(reads.load(Ordering::SeqCst), 40);

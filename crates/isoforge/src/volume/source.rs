@@ -13,4 +13,13 @@ pub trait SlabSource<S> {
     /// # Errors
     /// Whatever reading the slab fails with.
     fn read_slab(&mut self, out: &mut [S]) -> std::result::Result<(), ExternalError>;
+    /// Makes `slab` (of nx·ny samples) the next slab: [`read_slab`](Self::read_slab) into it,
+    /// unless the source holds the slab in a buffer of its own and swaps buffers instead of
+    /// copying ([`Prefetch`](super::Prefetch) does). `slab` keeps its length either way.
+    ///
+    /// # Errors
+    /// As [`read_slab`](Self::read_slab).
+    fn take_slab(&mut self, slab: &mut Vec<S>) -> std::result::Result<(), ExternalError> {
+        self.read_slab(slab)
+    }
 }

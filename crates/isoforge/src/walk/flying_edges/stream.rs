@@ -156,7 +156,7 @@ impl FlyingEdgesWalker<'_> {
         let external = |e: ExternalError| Error::External(e);
         // Reads slab k into the ring and classifies it into the bit window.
         let load = |k: usize, ring: &mut SlabRing<S>, bits: &mut Bits, src: &mut dyn SlabSource<S>| -> Result<()> {
-            src.read_slab(&mut ring.slabs[k % RING]).map_err(external)?;
+            src.take_slab(&mut ring.slabs[k % RING]).map_err(external)?;
             let at = (k * ny - bits.row0) * words;
             classify::classify_plane(&*ring, &bx, k as u32, iso, &mut bits.data[at..at + ny * words]);
             Ok(())
