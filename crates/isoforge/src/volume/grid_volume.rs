@@ -197,6 +197,10 @@ impl<S: Sample> SampleSlabs for GridVolume<'_, S> {
         &self.grid.data()[k * n..(k + 1) * n]
     }
 
+    fn centres_from_samples(&self) -> bool {
+        true
+    }
+
     fn block_bounds(&self) -> Option<&BlockBounds> {
         self.bounds
     }

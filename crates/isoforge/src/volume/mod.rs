@@ -173,6 +173,13 @@ pub trait SampleSlabs: Volume {
     fn block_bounds(&self) -> Option<&crate::grid::BlockBounds> {
         None
     }
+    /// Whether [`Volume::value_at`] at a cell's centre is the trilinear interpolant of these
+    /// samples: `iso.offset` of the sum, in `f64` and corner order (x fastest), of each corner's
+    /// sample times 1/8. A walker may then compute centre values from the samples it reads,
+    /// bit for bit as `value_at` would. False unless the volume promises it (fields are not).
+    fn centres_from_samples(&self) -> bool {
+        false
+    }
 }
 
 impl<V: Volume + ?Sized> Volume for &V {

@@ -312,6 +312,34 @@ impl LayerCaches {
         Some((c[2] as usize % 2, c[2], self.box_index(c[0], c[1])?))
     }
 
+    /// The centre table, allocated on the first request.
+    #[inline]
+    fn centre_tables(&mut self) -> &mut [Stamped<f32>; 2] {
+        let n = self.w * self.h;
+        self.centres.get_or_insert_with(|| {
+            let mut t: [Stamped<f32>; 2] = Default::default();
+            for s in &mut t {
+                s.reset(n, f32::NAN);
+            }
+            Box::new(t)
+        })
+    }
+
+    /// Keeps the centre value of cell `c` (global index, of the current layer or the one below)
+    /// computed by `value` unless the table has it or does not cover the cell. `value` must give
+    /// the bits [`Volume::value_at`] gives at the centre (offset by the walk's iso): a walker that
+    /// reads the samples computes it without the generic path ([`SampleSlabs::centres_from_samples`]).
+    ///
+    /// [`SampleSlabs::centres_from_samples`]: crate::volume::SampleSlabs::centres_from_samples
+    #[inline]
+    pub(crate) fn keep_centre(&mut self, c: [u32; 3], value: impl FnOnce() -> f32) {
+        let Some((parity, stamp, at)) = self.centre_slot(c) else { return };
+        let table = &mut self.centre_tables()[parity];
+        if table.get(at, stamp).is_none() {
+            table.set(at, stamp, value());
+        }
+    }
+
     /// Where segment `a`–`b` of cell `ijk` (of the current layer) is kept, found from the names of
     /// its ends alone, for the segments of body-centred splits: a centre to a corner of its cell,
     /// a centre to the centre across a face. `None` for any other segment or one the tables do
@@ -528,14 +556,7 @@ impl<V: Volume> Cell for CachedCell<'_, V> {
         let Some((parity, stamp, at)) = self.caches.centre_slot(c) else {
             return segment::point_value(self.vol, self.iso, self.ijk, &self.d, &mut self.memo, p);
         };
-        let n = self.caches.w * self.caches.h;
-        let table = &mut self.caches.centres.get_or_insert_with(|| {
-            let mut t: [Stamped<f32>; 2] = Default::default();
-            for s in &mut t {
-                s.reset(n, f32::NAN);
-            }
-            Box::new(t)
-        })[parity];
+        let table = &mut self.caches.centre_tables()[parity];
         if let Some(v) = table.get(at, stamp) {
             return v;
         }

@@ -13,12 +13,13 @@ use std::sync::atomic::{AtomicU64, Ordering};
 use std::sync::Mutex;
 
 use super::bits::{case_at, cell_rows, for_each_bit, mark_active, Bits};
-use super::{cell_values, map_tasks, Passes};
+use super::{cell_values, map_tasks, Passes, PointBox};
 use crate::cube::CellRange;
 use crate::error::Result;
 use crate::extract::Extractor;
+use crate::grid::Sample;
 use crate::mesh::{KeyRecord, MeshBuilder, Normals};
-use crate::volume::SampleSlabs;
+use crate::volume::{Iso, SampleSlabs};
 use crate::walk::cached::{CachedCell, LayerCaches};
 use crate::walk::stitch::{stitch_keyed, KeyedMesh};
 use crate::walk::{wants_cell, Progress, WalkStats};
@@ -111,6 +112,9 @@ impl<V: SampleSlabs + Sync, X: Extractor + Sync> Passes<'_, V, X> {
         let [nx, ny, _] = bx.dims;
         let places = X::PLACES_VERTICES;
         let uniform_too = self.x.visits_uniform_cells();
+        // Extractors that sample cell centres (those that visit uniform cells) read each visited
+        // cell's and its lower neighbours' centres: from the samples when the volume allows.
+        let centres = uniform_too && self.vol.centres_from_samples();
         let mut stats = WalkStats::default();
         let mut active = vec![0u64; bits.words];
         let k = (gk - bx.lo[2]) as usize;
@@ -149,6 +153,9 @@ impl<V: SampleSlabs + Sync, X: Extractor + Sync> Passes<'_, V, X> {
                     return;
                 }
                 let l = [i, j, k];
+                if centres {
+                    self.keep_centres(l, caches);
+                }
                 let d = cell_values(self.vol, bx, self.iso, l);
                 let mut cell = CachedCell::new(bx.global(l), d, case, self.vol, self.iso, caches, out);
                 if places {
@@ -187,5 +194,91 @@ impl<V: SampleSlabs + Sync, X: Extractor + Sync> Passes<'_, V, X> {
             }
         }
         stats
+    }
+
+    /// Keeps in `caches` the centre values of box cell `l` and of the box cells below it on each
+    /// axis (what the body-centred split reads), computed from the samples.
+    #[inline]
+    fn keep_centres(&self, l: [usize; 3], caches: &mut LayerCaches) {
+        let bx = &self.bx;
+        caches.keep_centre(bx.global(l), || centre_value(self.vol, bx, self.iso, l));
+        for a in 0..3 {
+            if l[a] > 0 {
+                let mut n = l;
+                n[a] -= 1;
+                caches.keep_centre(bx.global(n), || centre_value(self.vol, bx, self.iso, n));
+            }
+        }
+    }
+}
+
+/// The offset value at the centre of box-local cell `[i, j, k]`, from its corners' samples with
+/// the arithmetic of the trilinear interpolant (`crate::grid::blend`: weight 1/8 each, summed in
+/// `f64` in corner order): the bits `Volume::value_at` gives there for volumes whose
+/// [`centres_from_samples`](SampleSlabs::centres_from_samples) holds.
+#[inline]
+fn centre_value<V: SampleSlabs>(vol: &V, bx: &PointBox, iso: Iso, [i, j, k]: [usize; 3]) -> f32 {
+    let z = bx.lo[2] + k as u32;
+    let (s0, s1) = (vol.slab(z), vol.slab(z + 1));
+    let (a, b) = (bx.in_slab(i, j), bx.in_slab(i, j + 1));
+    let mut acc = 0.0f64;
+    for at in [s0[a], s0[a + 1], s0[b], s0[b + 1], s1[a], s1[a + 1], s1[b], s1[b + 1]] {
+        acc += 0.125 * at.to_f64();
+    }
+    iso.offset(acc)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::grid::{DenseGrid, Lattice};
+    use crate::volume::{GridVolume, Volume};
+
+    /// Random samples of type `S` on `dims` points.
+    fn grid<S: Sample>(dims: [u32; 3], f: impl Fn(u32) -> S) -> DenseGrid<S> {
+        let mut h = 0x9e37_79b9_u32;
+        DenseGrid::from_fn(Lattice::new(dims).unwrap(), |_| {
+            h ^= h << 13;
+            h ^= h >> 17;
+            h ^= h << 5;
+            f(h)
+        })
+    }
+
+    /// `centre_value` gives `value_at`'s bits at every cell centre, on whole grids and windows.
+    fn check<S: Sample>(g: &DenseGrid<S>, iso: Iso) {
+        let dims = g.lattice().dims();
+        let whole = GridVolume::new(g);
+        // A window of the samples with points 1.. on each axis, in the same global lattice.
+        let sub = DenseGrid::from_fn(Lattice::new(dims.map(|d| d - 1)).unwrap(), |p| g.get(p.map(|x| x + 1)));
+        let window = GridVolume::window(&sub, [1; 3], g.lattice().clone()).unwrap();
+        let mut checked = 0;
+        for (vol, first) in [(&whole, [0u32; 3]), (&window, [1; 3])] {
+            let cells = CellRange { lo: first, hi: dims.map(|d| d - 1) };
+            let bx = PointBox::of(vol, first, &cells).unwrap();
+            for k in 0..bx.dims[2] - 1 {
+                for j in 0..bx.dims[1] - 1 {
+                    for i in 0..bx.dims[0] - 1 {
+                        let c = bx.global([i, j, k]);
+                        let want = vol.value_at(c.map(|x| x as f64 + 0.5), iso);
+                        let got = centre_value(vol, &bx, iso, [i, j, k]);
+                        assert_eq!(got.to_bits(), want.to_bits(), "cell {c:?} from {first:?}");
+                        checked += 1;
+                    }
+                }
+            }
+        }
+        assert!(checked > 0);
+    }
+
+    #[test]
+    fn centres_from_samples_are_those_of_value_at() {
+        let floats = grid([7, 6, 5], |h| (h % 100_000) as f32 / 77.0 - 400.0);
+        check(&floats, Iso::below(150.3));
+        check(&floats, Iso::above(-3.0));
+        let shorts = grid([6, 7, 5], |h| (h % 4096) as i16 - 1024);
+        check(&shorts, Iso::below(988.37));
+        check(&shorts, Iso::above(0.5));
+        assert!(GridVolume::new(&floats).centres_from_samples());
     }
 }

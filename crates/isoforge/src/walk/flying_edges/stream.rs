@@ -92,6 +92,9 @@ impl<S: Sample> SampleSlabs for SlabRing<S> {
     fn slab(&self, k: u32) -> &[S] {
         &self.slabs[k as usize % RING][..self.slab_len]
     }
+    fn centres_from_samples(&self) -> bool {
+        true
+    }
 }
 
 /// What the passes of a streamed walk share, but the window.
