@@ -44,13 +44,13 @@ pub use stream::StreamStats;
 use self::bits::Bits;
 use self::count::{CaseCounts, RowCount};
 use self::families::Walked;
-use self::fill::{RowTable, SlabOut};
+use self::fill::{RowTable, SlabSlots};
 use super::{range_of, Progress, WalkStats, Walker};
 use crate::cube::{CellRange, VertexKey};
 use crate::error::{Error, Result};
 use crate::extract::{Counting, Extractor};
 use crate::grid::Sample;
-use crate::mesh::{huge_vec, KeyRecord, Mesh, MeshBuilder};
+use crate::mesh::{huge_capacity, huge_vec, KeyRecord, Mesh, MeshBuilder};
 use crate::volume::{Iso, SampleSlabs};
 
 /// The parallel walker for sampled grids (and streamed slabs): see the module documentation.
@@ -233,20 +233,25 @@ impl<V: SampleSlabs + Sync, X: Extractor + Sync> Passes<'_, V, X> {
         let mut stats = WalkStats { cells: self.range.num_cells(), ..Default::default() };
         stats.cells_outside = cell_stats.iter().map(|c| c.0[0]).sum();
         stats.cells_inside = cell_stats.iter().map(|c| c.0[1]).sum();
-        // PASS 3: prefix sums; exact allocation.
+        // PASS 3: prefix sums; exact allocation, left uninitialised (the fill writes every slot).
         let table = RowTable::prefix(counts)?;
         let [v, t, q] = table.totals();
+        let nv = if self.normals { v } else { 0 };
         let mut mesh = Mesh {
-            positions: huge_vec(v, [0.0; 3]),
-            normals: if self.normals { huge_vec(v, [0.0; 3]) } else { Vec::new() },
-            triangles: huge_vec(t, [0; 3]),
-            quads: vec![[0; 4]; q],
+            positions: huge_capacity(v),
+            normals: huge_capacity(nv),
+            triangles: huge_capacity(t),
+            quads: Vec::with_capacity(q),
         };
-        // PASS 4: fill, one task per slab, each owning its slices of the output.
+        // PASS 4: fill, one task per slab, each owning its slots of the output.
         let mut tasks = Vec::with_capacity(nz);
         {
-            let (mut pos, mut nrm, mut tri, mut qua) =
-                (&mut mesh.positions[..], &mut mesh.normals[..], &mut mesh.triangles[..], &mut mesh.quads[..]);
+            let (mut pos, mut nrm, mut tri, mut qua) = (
+                &mut mesh.positions.spare_capacity_mut()[..v],
+                &mut mesh.normals.spare_capacity_mut()[..nv],
+                &mut mesh.triangles.spare_capacity_mut()[..t],
+                &mut mesh.quads.spare_capacity_mut()[..q],
+            );
             for k in 0..nz {
                 let [dv, dt, dq] = table.plane_sizes(k, ny);
                 let (p, rest) = pos.split_at_mut(dv);
@@ -260,7 +265,7 @@ impl<V: SampleSlabs + Sync, X: Extractor + Sync> Passes<'_, V, X> {
                 tasks.push((
                     k,
                     &cell_stats[k].1,
-                    SlabOut { positions: p, normals: n, triangles: tr, quads: qu, keys: Vec::new() },
+                    SlabSlots { positions: p, normals: n, triangles: tr, quads: qu, keys: Vec::new() },
                 ));
             }
         }
@@ -272,6 +277,16 @@ impl<V: SampleSlabs + Sync, X: Extractor + Sync> Passes<'_, V, X> {
             }
             slab.keys
         });
+        // SAFETY: the slabs' slots partition the first v, nv, t and q slots of the four buffers
+        // (split in order above), and `fill_plane` returned for every slab, which it does only
+        // after writing each slot of its slab (asserted row by row; a panic propagates out of
+        // `map_tasks` before this point), so those slots are initialised.
+        unsafe {
+            mesh.positions.set_len(v);
+            mesh.normals.set_len(nv);
+            mesh.triangles.set_len(t);
+            mesh.quads.set_len(q);
+        }
         out.set_assembled(mesh, keys.concat());
         Ok(stats)
     }
