@@ -26,12 +26,13 @@ pub(super) struct RowTable {
 }
 
 impl RowTable {
-    /// PASS 3: running sums over all rows.
+    /// PASS 3: running sums over all rows, in `base`'s buffer (its contents dropped).
     ///
     /// # Errors
     /// [`Error::Limit`] past `u32` vertex indices.
-    pub(super) fn prefix(counts: Vec<RowCount>) -> Result<Self> {
-        let mut base = Vec::with_capacity(counts.len() + 1);
+    pub(super) fn prefix(counts: Vec<RowCount>, mut base: Vec<[u64; 3]>) -> Result<Self> {
+        base.clear();
+        base.reserve(counts.len() + 1);
         let mut acc = [0u64; 3];
         for c in &counts {
             base.push(acc);
@@ -67,6 +68,11 @@ impl RowTable {
             *last = acc;
         }
         check_vertices(acc[0])
+    }
+
+    /// The buffers of the counts and of the sums, for reuse.
+    pub(super) fn into_parts(self) -> (Vec<RowCount>, Vec<[u64; 3]>) {
+        (self.counts, self.base)
     }
 
     /// Vertices, triangles and quads of all rows.
