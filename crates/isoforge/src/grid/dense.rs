@@ -104,11 +104,8 @@ impl<S: Sample> DenseGrid<S> {
         // Blocks tested without an early exit (a loop the compiler vectorises), then the first
         // failing block searched: a whole-volume scan at memory speed.
         const BLOCK: usize = 256;
-        let (b, block) = self
-            .data
-            .chunks(BLOCK)
-            .enumerate()
-            .find(|(_, c)| !c.iter().fold(true, |ok, v| ok & v.is_finite()))?;
+        let (b, block) =
+            self.data.chunks(BLOCK).enumerate().find(|(_, c)| !c.iter().fold(true, |ok, v| ok & v.is_finite()))?;
         let lin = b * BLOCK + block.iter().position(|v| !v.is_finite())?;
         Some(NonFinite { ijk: self.lattice.ijk(lin), value: self.data[lin].to_f64() })
     }

@@ -440,7 +440,10 @@ mod tests {
         });
         let grids = [small, wavy];
         let fresh: Vec<(Mesh, Mesh)> = std::thread::scope(|s| {
-            grids.iter().map(|g| s.spawn(|| (walk(g, &MarchingCubes), walk(g, &MarchingCubes33)))).collect::<Vec<_>>()
+            grids
+                .iter()
+                .map(|g| s.spawn(|| (walk(g, &MarchingCubes), walk(g, &MarchingCubes33))))
+                .collect::<Vec<_>>()
                 .into_iter()
                 .map(|h| h.join().unwrap())
                 .collect()
