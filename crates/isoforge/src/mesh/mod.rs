@@ -175,24 +175,41 @@ impl Mesh {
 /// the first write, so filling faults in 2 MiB pages instead of 4 KiB ones (page faults were 15 %
 /// of a 5-million-triangle extraction). Advisory: a plain `vec!` off Linux or for small sizes.
 pub fn huge_vec<T: Copy>(n: usize, zero: T) -> Vec<T> {
-    #[allow(unused_mut)]
     let mut v = vec![zero; n];
+    advise_huge(&mut v);
+    v
+}
+
+/// An empty vector with room for exactly `n` elements, backed by huge pages as [`huge_vec`], its
+/// memory left uninitialised: for an output whose every slot is written once (through
+/// [`Vec::spare_capacity_mut`]) before `set_len`. Memory the allocator hands back from a freed
+/// block is then written once, by the producer, instead of zeroed first (calloc's memset, with
+/// its page faults) and written again.
+pub fn huge_capacity<T>(n: usize) -> Vec<T> {
+    let mut v = Vec::with_capacity(n);
+    advise_huge(&mut v);
+    v
+}
+
+/// Asks the kernel to back the 2 MiB-aligned part of `v`'s buffer (its capacity) with huge pages.
+fn advise_huge<T>(v: &mut Vec<T>) {
     #[cfg(target_os = "linux")]
     {
         const HUGE: usize = 2 << 20;
-        let bytes = std::mem::size_of_val(v.as_slice());
+        let bytes = v.capacity() * std::mem::size_of::<T>();
         let start = v.as_mut_ptr() as usize;
         let aligned = start.next_multiple_of(HUGE);
         let len = (start + bytes).saturating_sub(aligned) / HUGE * HUGE;
         if len > 0 {
-            // SAFETY: [aligned, aligned + len) lies inside `v`'s buffer, which we own;
+            // SAFETY: [aligned, aligned + len) lies inside `v`'s allocation, which we own;
             // MADV_HUGEPAGE only changes how the kernel backs those pages, never their contents.
             unsafe {
                 libc::madvise(aligned as *mut libc::c_void, len, libc::MADV_HUGEPAGE);
             }
         }
     }
-    v
+    #[cfg(not(target_os = "linux"))]
+    let _ = v;
 }
 
 /// Whether vertices get normals written to the output.

@@ -2,6 +2,7 @@
 //! extractor through [`FillCell`], polygons land at their precomputed offsets.
 
 use std::cell::OnceCell;
+use std::mem::MaybeUninit;
 
 use super::bits::{case_at, cell_rows, for_each_bit, mark_active, Bits, RowMasks};
 use super::count::RowCount;
@@ -25,12 +26,13 @@ pub(super) struct RowTable {
 }
 
 impl RowTable {
-    /// PASS 3: running sums over all rows.
+    /// PASS 3: running sums over all rows, in `base`'s buffer (its contents dropped).
     ///
     /// # Errors
     /// [`Error::Limit`] past `u32` vertex indices.
-    pub(super) fn prefix(counts: Vec<RowCount>) -> Result<Self> {
-        let mut base = Vec::with_capacity(counts.len() + 1);
+    pub(super) fn prefix(counts: Vec<RowCount>, mut base: Vec<[u64; 3]>) -> Result<Self> {
+        base.clear();
+        base.reserve(counts.len() + 1);
         let mut acc = [0u64; 3];
         for c in &counts {
             base.push(acc);
@@ -68,6 +70,11 @@ impl RowTable {
         check_vertices(acc[0])
     }
 
+    /// The buffers of the counts and of the sums, for reuse.
+    pub(super) fn into_parts(self) -> (Vec<RowCount>, Vec<[u64; 3]>) {
+        (self.counts, self.base)
+    }
+
     /// Vertices, triangles and quads of all rows.
     pub(super) fn totals(&self) -> [usize; 3] {
         self.base[self.base.len() - 1].map(|x| x as usize)
@@ -97,7 +104,20 @@ fn check_vertices(n: u64) -> Result<()> {
     Ok(())
 }
 
-/// One slab's share of the output: its vertices, triangles and quads, and the keys it records.
+/// Where PASS 4 writes one slab's vertices, triangles and quads (each slot exactly once, at its
+/// counted offset) and the keys it records.
+pub(super) trait FillOut {
+    fn set_position(&mut self, at: usize, p: [f32; 3]);
+    fn set_normal(&mut self, at: usize, n: [f32; 3]);
+    fn set_triangle(&mut self, at: usize, t: [u32; 3]);
+    fn set_quad(&mut self, at: usize, q: [u32; 4]);
+    /// Vertices, triangles and quads of the slab.
+    fn sizes(&self) -> [usize; 3];
+    fn keys(&mut self) -> &mut Vec<(u32, VertexKey)>;
+}
+
+/// One slab's share of the output in initialised buffers: its vertices, triangles and quads, and
+/// the keys it records.
 pub(super) struct SlabOut<'a> {
     pub(super) positions: &'a mut [[f32; 3]],
     /// Empty when normals are off.
@@ -107,20 +127,89 @@ pub(super) struct SlabOut<'a> {
     pub(super) keys: Vec<(u32, VertexKey)>,
 }
 
+/// One slab's share of the final mesh as uninitialised slots (no zeroing pass before the fill
+/// writes them): [`fill_plane`](Passes::fill_plane) asserts that it wrote every one.
+pub(super) struct SlabSlots<'a> {
+    pub(super) positions: &'a mut [MaybeUninit<[f32; 3]>],
+    /// Empty when normals are off.
+    pub(super) normals: &'a mut [MaybeUninit<[f32; 3]>],
+    pub(super) triangles: &'a mut [MaybeUninit<[u32; 3]>],
+    pub(super) quads: &'a mut [MaybeUninit<[u32; 4]>],
+    pub(super) keys: Vec<(u32, VertexKey)>,
+}
+
+impl FillOut for SlabOut<'_> {
+    #[inline(always)]
+    fn set_position(&mut self, at: usize, p: [f32; 3]) {
+        self.positions[at] = p;
+    }
+    #[inline(always)]
+    fn set_normal(&mut self, at: usize, n: [f32; 3]) {
+        self.normals[at] = n;
+    }
+    #[inline(always)]
+    fn set_triangle(&mut self, at: usize, t: [u32; 3]) {
+        self.triangles[at] = t;
+    }
+    #[inline(always)]
+    fn set_quad(&mut self, at: usize, q: [u32; 4]) {
+        self.quads[at] = q;
+    }
+    fn sizes(&self) -> [usize; 3] {
+        [self.positions.len(), self.triangles.len(), self.quads.len()]
+    }
+    fn keys(&mut self) -> &mut Vec<(u32, VertexKey)> {
+        &mut self.keys
+    }
+}
+
+impl FillOut for SlabSlots<'_> {
+    #[inline(always)]
+    fn set_position(&mut self, at: usize, p: [f32; 3]) {
+        self.positions[at].write(p);
+    }
+    #[inline(always)]
+    fn set_normal(&mut self, at: usize, n: [f32; 3]) {
+        self.normals[at].write(n);
+    }
+    #[inline(always)]
+    fn set_triangle(&mut self, at: usize, t: [u32; 3]) {
+        self.triangles[at].write(t);
+    }
+    #[inline(always)]
+    fn set_quad(&mut self, at: usize, q: [u32; 4]) {
+        self.quads[at].write(q);
+    }
+    fn sizes(&self) -> [usize; 3] {
+        [self.positions.len(), self.triangles.len(), self.quads.len()]
+    }
+    fn keys(&mut self) -> &mut Vec<(u32, VertexKey)> {
+        &mut self.keys
+    }
+}
+
 /// Rows of look-ahead for the sample prefetch (enough to cover memory latency on sparse rows).
 const PREFETCH_ROWS: usize = 2;
 
 impl<V: SampleSlabs, X: Extractor> Passes<'_, V, X> {
     /// PASS 4 for box plane `k`: the vertices of its rows, then the polygons of its cell rows;
     /// `decisions` are the count pass's for the cells it counted from their values, in walk order.
-    pub(super) fn fill_plane(
+    ///
+    /// Every slot of `out` is written exactly once: vertices in row order, each row from its
+    /// counted first vertex, polygons in walk order from the slab's first. This is asserted as it
+    /// goes (a compare per row), as [`SlabSlots`] relies on it.
+    ///
+    /// # Panics
+    /// When the counts and the fill disagree (an internal error).
+    pub(super) fn fill_plane<O: FillOut>(
         &self,
         bits: &Bits,
         table: &RowTable,
         k: usize,
         decisions: &[Decision],
-        out: &mut SlabOut,
+        out: &mut O,
     ) {
+        let [out_vertices, out_triangles, out_quads] = out.sizes();
         let bx = &self.bx;
         let [nx, ny, nz] = bx.dims;
         let words = bits.words;
@@ -150,6 +239,7 @@ impl<V: SampleSlabs, X: Extractor> Passes<'_, V, X> {
                 self.prefetch_row(bits, k, j + PREFETCH_ROWS, s0, s1, &mut ymask);
             }
             let r = k * ny + j;
+            assert_eq!(plane[0] + out_v as u64, table.base(r)[0], "internal: row {r} starts off its count");
             if !has_crossings(r) {
                 out_v += table.count(r).placed as usize;
                 continue;
@@ -179,20 +269,21 @@ impl<V: SampleSlabs, X: Extractor> Passes<'_, V, X> {
                         }
                         VertexKey::Cell { .. } => unreachable!("families name edges and segments"),
                     };
-                    out.positions[out_v] = p;
+                    out.set_position(out_v, p);
                     if let Some(n) = n {
-                        out.normals[out_v] = n;
+                        out.set_normal(out_v, n);
                     }
                     if recording && self.records(&key) {
-                        out.keys.push(((plane[0] + out_v as u64) as u32, key));
+                        out.keys().push(((plane[0] + out_v as u64) as u32, key));
                     }
                     out_v += 1;
                 });
             }
             out_v += table.count(r).placed as usize;
         }
-        debug_assert_eq!(out_v, out.positions.len());
+        assert_eq!(out_v, out_vertices, "internal: slab {k} vertices off their count");
         if k + 1 >= nz {
+            assert_eq!([out_triangles, out_quads], [0, 0], "internal: polygons counted past the last layer");
             return;
         }
         // Polygons of the cell rows of layer k.
@@ -229,7 +320,7 @@ impl<V: SampleSlabs, X: Extractor> Passes<'_, V, X> {
                     // The extractor's table: the cell's triangles without a `Cell`.
                     for t in table {
                         let (a, b, c) = (ids[t[0] as usize], ids[t[1] as usize], ids[t[2] as usize]);
-                        out.triangles[state.t] = if self.reverse { [a, c, b] } else { [a, b, c] };
+                        out.set_triangle(state.t, if self.reverse { [a, c, b] } else { [a, b, c] });
                         state.t += 1;
                     }
                     return;
@@ -250,12 +341,16 @@ impl<V: SampleSlabs, X: Extractor> Passes<'_, V, X> {
                 debug_assert!(decision.is_some(), "fewer decisions than counted cells");
                 self.x.process_decided(&mut cell, decision.unwrap_or_default());
             });
+            assert_eq!(
+                state.next_placed,
+                table.base(r)[0] + c.vertices() as u64,
+                "internal: row {r} placed vertices off their count"
+            );
         }
         debug_assert!(decided.next().is_none(), "more decisions than counted cells");
-        debug_assert_eq!(state.t, out.triangles.len());
-        debug_assert_eq!(state.q, out.quads.len());
+        assert_eq!([state.t, state.q], [out_triangles, out_quads], "internal: slab {k} polygons off their count");
         // Placed vertices sit between their rows' edge vertices but were keyed after them.
-        out.keys.sort_unstable_by_key(|&(id, _)| id);
+        out.keys().sort_unstable_by_key(|&(id, _)| id);
     }
 
     /// Prefetches the samples that row (j, k)'s crossings will read: rows (j, k), (j + 1, k) and
@@ -321,7 +416,7 @@ struct FillState {
 
 /// A cell of the fill pass: edge vertex ids by rank (computed once per cell), polygons and placed
 /// vertices written at their counted offsets.
-struct FillCell<'a, 'o, V, X> {
+struct FillCell<'a, V, X, O> {
     p: &'a Passes<'a, V, X>,
     l: [usize; 3],
     ijk: [u32; 3],
@@ -331,11 +426,11 @@ struct FillCell<'a, 'o, V, X> {
     /// Vertex ids of the crossed cell segments.
     ids: [u32; CELL_SEGMENTS],
     placed: u8,
-    out: &'a mut SlabOut<'o>,
+    out: &'a mut O,
     state: &'a mut FillState,
 }
 
-impl<V: SampleSlabs, X: Extractor> Cell for FillCell<'_, '_, V, X> {
+impl<V: SampleSlabs, X: Extractor, O: FillOut> Cell for FillCell<'_, V, X, O> {
     #[inline]
     fn ijk(&self) -> [u32; 3] {
         self.ijk
@@ -397,14 +492,14 @@ impl<V: SampleSlabs, X: Extractor> Cell for FillCell<'_, '_, V, X> {
         let at = (id - self.state.plane_v) as usize;
         let p = [0, 1, 2].map(|a| self.ijk[a] as f64 + local[a] as f64);
         let w = self.p.vol.lattice().to_world(p);
-        self.out.positions[at] = [w[0] as f32, w[1] as f32, w[2] as f32];
+        self.out.set_position(at, [w[0] as f32, w[1] as f32, w[2] as f32]);
         if self.p.normals {
             let g = (self.p.vol.gradient_at(p) * self.p.iso.sign()).normalize_or_zero();
-            self.out.normals[at] = g.to_array();
+            self.out.set_normal(at, g.to_array());
         }
         let key = VertexKey::Cell { ijk: self.ijk, n };
         if self.p.records(&key) {
-            self.out.keys.push((id as u32, key));
+            self.out.keys().push((id as u32, key));
         }
         VertexId(id as u32)
     }
@@ -417,14 +512,14 @@ impl<V: SampleSlabs, X: Extractor> Cell for FillCell<'_, '_, V, X> {
     #[inline(always)]
     fn push_triangle(&mut self, t: [VertexId; 3]) {
         let t = if self.p.reverse { [t[0].0, t[2].0, t[1].0] } else { [t[0].0, t[1].0, t[2].0] };
-        self.out.triangles[self.state.t] = t;
+        self.out.set_triangle(self.state.t, t);
         self.state.t += 1;
     }
 
     #[inline]
     fn push_quad(&mut self, q: [VertexId; 4]) {
         let q = if self.p.reverse { [q[0].0, q[3].0, q[2].0, q[1].0] } else { q.map(|v| v.0) };
-        self.out.quads[self.state.q] = q;
+        self.out.set_quad(self.state.q, q);
         self.state.q += 1;
     }
 }

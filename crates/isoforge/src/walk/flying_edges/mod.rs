@@ -44,13 +44,13 @@ pub use stream::StreamStats;
 use self::bits::Bits;
 use self::count::{CaseCounts, RowCount};
 use self::families::Walked;
-use self::fill::{RowTable, SlabOut};
+use self::fill::{RowTable, SlabSlots};
 use super::{range_of, Progress, WalkStats, Walker};
 use crate::cube::{CellRange, VertexKey};
 use crate::error::{Error, Result};
 use crate::extract::{Counting, Extractor};
 use crate::grid::Sample;
-use crate::mesh::{huge_vec, KeyRecord, Mesh, MeshBuilder};
+use crate::mesh::{huge_capacity, huge_vec, KeyRecord, Mesh, MeshBuilder};
 use crate::volume::{Iso, SampleSlabs};
 
 /// The parallel walker for sampled grids (and streamed slabs): see the module documentation.
@@ -207,23 +207,86 @@ fn walk_in_memory<V: SampleSlabs + Sync, X: Extractor + Sync>(
     // PASS 1: classify every row.
     let [_, ny, nz] = bx.dims;
     let words = bx.words();
-    let mut bits = Bits { words, row0: 0, data: huge_vec(ny * nz * words, 0u64) };
+    let mut scratch = Scratch::take();
+    let mut bits = Bits { words, row0: 0, data: scratch.sized_bits(ny * nz * words) };
     for_each_chunk(&mut bits.data, ny * words, |k, plane| {
         classify::classify_plane(vol, &bx, bx.lo[2] + k as u32, iso, plane);
     });
-    match x.counting() {
-        Counting::Known => p.counted(&bits, out, w.progress),
+    let walked = match x.counting() {
+        Counting::Known => p.counted(&bits, out, w.progress, &mut scratch),
         Counting::Unknown => p.keyed(&bits, out, w.progress),
+    };
+    scratch.bits = bits.data;
+    scratch.keep();
+    walked
+}
+
+/// The buffers of an in-memory walk that do not outlive it (bit rows, row counts and their
+/// running sums), kept by the thread between walks up to [`Scratch::KEEP_BYTES`]: a repeated
+/// extraction reuses them instead of having fresh pages faulted in and zeroed. No pass reads
+/// what it has not written in the same walk (classify writes every word of every bit row, count
+/// every row count, the prefix every sum), so they are never cleared.
+#[derive(Default)]
+struct Scratch {
+    bits: Vec<u64>,
+    counts: Vec<RowCount>,
+    base: Vec<[u64; 3]>,
+}
+
+thread_local! {
+    static SCRATCH: std::cell::Cell<Scratch> = std::cell::Cell::new(Scratch::default());
+}
+
+impl Scratch {
+    /// Largest scratch a thread keeps between walks (a 512³ walk needs 32 MiB).
+    const KEEP_BYTES: usize = 64 << 20;
+
+    /// This thread's buffers (empty the first time, or while a walk holds them).
+    fn take() -> Self {
+        SCRATCH.with(|s| s.take())
+    }
+
+    /// Gives the buffers back to the thread, unless they are larger than it keeps.
+    fn keep(self) {
+        let bytes = self.bits.capacity() * std::mem::size_of::<u64>()
+            + self.counts.capacity() * std::mem::size_of::<RowCount>()
+            + self.base.capacity() * std::mem::size_of::<[u64; 3]>();
+        if bytes <= Self::KEEP_BYTES {
+            SCRATCH.with(|s| s.set(self));
+        }
+    }
+
+    /// `n` words of bit rows, with whatever they held (huge pages when newly allocated).
+    fn sized_bits(&mut self, n: usize) -> Vec<u64> {
+        let mut v = std::mem::take(&mut self.bits);
+        if v.capacity() < n {
+            v = huge_vec(n, 0);
+        }
+        v.resize(n, 0);
+        v
+    }
+
+    /// `n` row counts, with whatever they held.
+    fn sized_counts(&mut self, n: usize) -> Vec<RowCount> {
+        let mut v = std::mem::take(&mut self.counts);
+        v.resize(n, RowCount::default());
+        v
     }
 }
 
 impl<V: SampleSlabs + Sync, X: Extractor + Sync> Passes<'_, V, X> {
     /// PASS 2–4 for extractors whose output is counted in advance.
-    fn counted(&self, bits: &Bits, out: &mut MeshBuilder, progress: Option<&dyn Progress>) -> Result<WalkStats> {
+    fn counted(
+        &self,
+        bits: &Bits,
+        out: &mut MeshBuilder,
+        progress: Option<&dyn Progress>,
+        scratch: &mut Scratch,
+    ) -> Result<WalkStats> {
         let [_, ny, nz] = self.bx.dims;
         let rows = ny * nz;
-        // PASS 2: count.
-        let mut counts = vec![RowCount::default(); rows];
+        // PASS 2: count (every row's count is written: `count_plane` starts each from zero).
+        let mut counts = scratch.sized_counts(rows);
         // Per plane: all-outside and all-inside cells, and the decisions of cells counted from
         // their values (handed back to the extractor in the fill).
         let mut cell_stats = vec![([0u64; 2], Vec::new()); nz];
@@ -233,20 +296,25 @@ impl<V: SampleSlabs + Sync, X: Extractor + Sync> Passes<'_, V, X> {
         let mut stats = WalkStats { cells: self.range.num_cells(), ..Default::default() };
         stats.cells_outside = cell_stats.iter().map(|c| c.0[0]).sum();
         stats.cells_inside = cell_stats.iter().map(|c| c.0[1]).sum();
-        // PASS 3: prefix sums; exact allocation.
-        let table = RowTable::prefix(counts)?;
+        // PASS 3: prefix sums; exact allocation, left uninitialised (the fill writes every slot).
+        let table = RowTable::prefix(counts, std::mem::take(&mut scratch.base))?;
         let [v, t, q] = table.totals();
+        let nv = if self.normals { v } else { 0 };
         let mut mesh = Mesh {
-            positions: huge_vec(v, [0.0; 3]),
-            normals: if self.normals { huge_vec(v, [0.0; 3]) } else { Vec::new() },
-            triangles: huge_vec(t, [0; 3]),
-            quads: vec![[0; 4]; q],
+            positions: huge_capacity(v),
+            normals: huge_capacity(nv),
+            triangles: huge_capacity(t),
+            quads: Vec::with_capacity(q),
         };
-        // PASS 4: fill, one task per slab, each owning its slices of the output.
+        // PASS 4: fill, one task per slab, each owning its slots of the output.
         let mut tasks = Vec::with_capacity(nz);
         {
-            let (mut pos, mut nrm, mut tri, mut qua) =
-                (&mut mesh.positions[..], &mut mesh.normals[..], &mut mesh.triangles[..], &mut mesh.quads[..]);
+            let (mut pos, mut nrm, mut tri, mut qua) = (
+                &mut mesh.positions.spare_capacity_mut()[..v],
+                &mut mesh.normals.spare_capacity_mut()[..nv],
+                &mut mesh.triangles.spare_capacity_mut()[..t],
+                &mut mesh.quads.spare_capacity_mut()[..q],
+            );
             for k in 0..nz {
                 let [dv, dt, dq] = table.plane_sizes(k, ny);
                 let (p, rest) = pos.split_at_mut(dv);
@@ -260,7 +328,7 @@ impl<V: SampleSlabs + Sync, X: Extractor + Sync> Passes<'_, V, X> {
                 tasks.push((
                     k,
                     &cell_stats[k].1,
-                    SlabOut { positions: p, normals: n, triangles: tr, quads: qu, keys: Vec::new() },
+                    SlabSlots { positions: p, normals: n, triangles: tr, quads: qu, keys: Vec::new() },
                 ));
             }
         }
@@ -272,7 +340,18 @@ impl<V: SampleSlabs + Sync, X: Extractor + Sync> Passes<'_, V, X> {
             }
             slab.keys
         });
+        // SAFETY: the slabs' slots partition the first v, nv, t and q slots of the four buffers
+        // (split in order above), and `fill_plane` returned for every slab, which it does only
+        // after writing each slot of its slab (asserted row by row; a panic propagates out of
+        // `map_tasks` before this point), so those slots are initialised.
+        unsafe {
+            mesh.positions.set_len(v);
+            mesh.normals.set_len(nv);
+            mesh.triangles.set_len(t);
+            mesh.quads.set_len(q);
+        }
         out.set_assembled(mesh, keys.concat());
+        (scratch.counts, scratch.base) = table.into_parts();
         Ok(stats)
     }
 }
@@ -325,4 +404,57 @@ fn map_tasks<T: Send, R: Send>(tasks: Vec<T>, f: impl Fn(T) -> R + Sync + Send) 
     }
     #[cfg(not(feature = "parallel"))]
     tasks.into_iter().map(f).collect()
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::extract::{MarchingCubes, MarchingCubes33};
+    use crate::grid::{DenseGrid, Lattice};
+    use crate::mesh::Normals;
+    use crate::volume::GridVolume;
+
+    fn walk<X: Extractor + Sync>(g: &DenseGrid<f32>, x: &X) -> Mesh {
+        let mut out = MeshBuilder::new(Normals::Gradient);
+        FlyingEdgesWalker::new().walk(&GridVolume::new(g), Iso::below(0.0), x, &mut out).unwrap();
+        out.finish().unwrap()
+    }
+
+    fn ball(dims: [u32; 3], r: f32) -> DenseGrid<f32> {
+        DenseGrid::from_fn(Lattice::new(dims).unwrap(), move |p| {
+            let c = dims.map(|n| (n - 1) as f32 / 2.0);
+            (0..3).map(|a| (p[a] as f32 - c[a]).powi(2)).sum::<f32>().sqrt() - r
+        })
+    }
+
+    /// A walk reuses the scratch that earlier walks left on its thread (bit rows, row counts and
+    /// sums of other sizes and contents, never cleared) and makes the very mesh a walk on a fresh
+    /// thread makes.
+    #[test]
+    fn scratch_left_by_earlier_walks_changes_nothing() {
+        let big = ball([41, 38, 35], 15.0);
+        let small = ball([9, 12, 7], 3.5);
+        // Rows of 70 points: two words per bit row, the second one partly past the row.
+        let wavy = DenseGrid::from_fn(Lattice::new([70, 6, 9]).unwrap(), |p| {
+            (p[0] as f32 * 0.3).sin() + (p[1] as f32 * 0.9).cos() * (p[2] as f32 * 0.5).sin()
+        });
+        let grids = [small, wavy];
+        let fresh: Vec<(Mesh, Mesh)> = std::thread::scope(|s| {
+            grids
+                .iter()
+                .map(|g| s.spawn(|| (walk(g, &MarchingCubes), walk(g, &MarchingCubes33))))
+                .collect::<Vec<_>>()
+                .into_iter()
+                .map(|h| h.join().unwrap())
+                .collect()
+        });
+        assert!(fresh.iter().all(|(m, _)| m.num_triangles() > 0));
+        for (g, (mc, mc33)) in grids.iter().zip(&fresh) {
+            walk(&big, &MarchingCubes);
+            assert_eq!(&walk(g, &MarchingCubes), mc);
+            walk(&big, &MarchingCubes33);
+            assert_eq!(&walk(g, &MarchingCubes33), mc33);
+            assert_eq!(&walk(g, &MarchingCubes), mc, "twice in a row");
+        }
+    }
 }
