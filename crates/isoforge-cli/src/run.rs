@@ -762,7 +762,7 @@ pub fn demo(c: &DemoConfig) -> Result<Outcome> {
             "isoforge demo: the classic three-metaball field (charges 0.5, 1, 1.5; iso 48) on a {0}x{0}x{0} lattice",
             c.n
         );
-        println!("method:      marching cubes, extraction {:.3} s", seconds);
+        println!("method:      {}, extraction {:.3} s", c.request.options.method.name(), seconds);
         println!("output:      {}", c.output.display());
         print!("{}", report::mesh_text(&rep));
     }
