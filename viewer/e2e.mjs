@@ -6,7 +6,7 @@
 // and saves screenshots. The CTs are skipped with a message when ../shared/data is absent.
 //   ISOFORGE=target/release/isoforge CHROMIUM=/usr/bin/chromium node viewer/e2e.mjs
 import { spawn, execFileSync } from "node:child_process";
-import { mkdirSync, mkdtempSync, readFileSync, existsSync } from "node:fs";
+import { mkdirSync, mkdtempSync, readFileSync, existsSync, rmSync } from "node:fs";
 import { tmpdir } from "node:os";
 import path from "node:path";
 import puppeteer from "puppeteer-core";
@@ -23,6 +23,7 @@ const children = [];
 function fail(msg) {
   console.error("e2e: FAILED: " + msg);
   for (const c of children) c.kill();
+  rmSync(scratch, { recursive: true, force: true });
   process.exit(1);
 }
 
@@ -193,6 +194,7 @@ try {
 } finally {
   await browser.close();
   for (const c of children) c.kill();
+  rmSync(scratch, { recursive: true, force: true });
 }
 console.log(JSON.stringify(results, null, 1));
 console.log("e2e: ok");

@@ -4,6 +4,7 @@ use std::path::Path;
 use std::time::Instant;
 
 use anyhow::{anyhow, bail, Context, Result};
+use isoforge::extract::Counting;
 use isoforge::grid::{AnyGrid, Histogram, Sample, IDENTITY};
 use isoforge::mesh::{ExternalError, MeshBatch, MeshSink, Normals};
 use isoforge::pipeline::{self, Extraction, Method};
@@ -48,6 +49,9 @@ pub fn load(input: &InputConfig) -> Result<Loaded> {
 struct Budget {
     bytes: u64,
     method: Method,
+    /// The walk grows per-slab meshes and stitches them (uncounted methods, any mask): about
+    /// twice the mesh at its peak.
+    grows: bool,
     normals: bool,
     /// `--require`: the in-memory check must fit too.
     check: bool,
@@ -179,7 +183,7 @@ fn in_memory_estimate(reader: &VolumeReader, b: &Budget) -> u64 {
     let points = l.num_points();
     let cells = l.dims().iter().map(|&d| u64::from(d.saturating_sub(1))).product::<u64>();
     let ((per_point, per_cell), growth) =
-        if b.method == Method::MarchingCubes { (MC_MESH, 1) } else { (ANY_METHOD_MESH, 2) };
+        (if b.method == Method::MarchingCubes { MC_MESH } else { ANY_METHOD_MESH }, if b.grows { 2 } else { 1 });
     let (vertices, triangles) = (per_point.saturating_mul(points), per_cell.saturating_mul(cells));
     let vertex_bytes = if b.normals { 24 } else { 12 };
     let mesh =
@@ -314,6 +318,7 @@ pub fn extract(c: &ExtractConfig) -> Result<Outcome> {
     let budget = c.max_memory.map(|bytes| Budget {
         bytes,
         method: r.options.method,
+        grows: r.options.method.counting() == Counting::Unknown || c.mask.is_some(),
         normals: r.options.normals == Normals::Gradient,
         check: !c.require.is_empty(),
     });

@@ -161,5 +161,6 @@ proptest! {
         let q = dir.join("y.nii");
         std::fs::write(&q, &nii).unwrap();
         let _ = read_any(&q);
+        std::fs::remove_dir_all(&dir).unwrap();
     }
 }

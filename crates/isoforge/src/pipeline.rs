@@ -19,7 +19,8 @@ pub use request::{NoSurface, ParseError, Region, Request, Roi};
 use crate::cube::{CellRange, VertexKey};
 use crate::error::{Error, Result};
 use crate::extract::{
-    Decomposition, Extractor, MarchingCubes, MarchingCubes33, MarchingTetrahedra, Masked, PointMask, SurfaceNets,
+    Counting, Decomposition, Extractor, MarchingCubes, MarchingCubes33, MarchingTetrahedra, Masked, PointMask,
+    SurfaceNets,
 };
 use crate::grid::{AnyGrid, DType, DenseGrid, Sample};
 use crate::mesh::{KeyRecord, Mesh, MeshBuilder, MeshSink, WriteBehind};
@@ -83,6 +84,20 @@ impl Method {
     pub fn parse(s: &str) -> Option<Method> {
         Method::ALL.into_iter().find(|m| m.name() == s)
     }
+
+    /// Whether the method's output is counted before it is made ([`Counting::Known`]): the
+    /// Flying Edges walker then allocates the mesh exactly once, where uncounted methods (and any
+    /// masked one) grow per-slab meshes and stitch them, briefly holding about twice the mesh.
+    pub fn counting(self) -> Counting {
+        struct Ask;
+        impl ExtractorVisitor for Ask {
+            type Output = Counting;
+            fn visit<X: Extractor + Sync>(self, x: X) -> Counting {
+                x.counting()
+            }
+        }
+        with_extractor(self, Ask)
+    }
 }
 
 /// Extraction options.
@@ -122,7 +137,28 @@ impl Extraction {
     }
 }
 
-/// The one place a method becomes an extractor: runs `method` (masked if asked) with `walker`.
+/// What to do with a method's extractor: [`with_extractor`] calls `visit` with it.
+pub trait ExtractorVisitor {
+    /// The result.
+    type Output;
+    /// Called with the method's extractor.
+    fn visit<X: Extractor + Sync>(self, x: X) -> Self::Output;
+}
+
+/// The one place a method becomes an extractor: calls `v` with `method`'s extractor.
+pub fn with_extractor<Vis: ExtractorVisitor>(method: Method, v: Vis) -> Vis::Output {
+    let tetrahedra = |decomposition| MarchingTetrahedra { decomposition };
+    match method {
+        Method::MarchingCubes => v.visit(MarchingCubes),
+        Method::MarchingCubes33 => v.visit(MarchingCubes33),
+        Method::Tetrahedra5 => v.visit(tetrahedra(Decomposition::Five)),
+        Method::Tetrahedra6 => v.visit(tetrahedra(Decomposition::Six)),
+        Method::TetrahedraBcc => v.visit(tetrahedra(Decomposition::BodyCentred)),
+        Method::SurfaceNets => v.visit(SurfaceNets),
+    }
+}
+
+/// Runs `opts.method` (masked if asked) with `walker`.
 ///
 /// # Errors
 /// As the walker's [`Walker::walk`].
@@ -133,29 +169,24 @@ pub fn run<V: ?Sized, W: Walker<V>>(
     opts: &Options,
     out: &mut MeshBuilder,
 ) -> Result<WalkStats> {
-    fn go<V: ?Sized, W: Walker<V>, X: Extractor + Sync>(
-        w: &mut W,
-        vol: &V,
+    struct Run<'a, V: ?Sized, W> {
+        walker: &'a mut W,
+        vol: &'a V,
         iso: Iso,
-        x: X,
-        mask: Option<&PointMask>,
-        out: &mut MeshBuilder,
-    ) -> Result<WalkStats> {
-        match mask {
-            None => w.walk(vol, iso, &x, out),
-            Some(mask) => w.walk(vol, iso, &Masked { inner: x, mask }, out),
+        mask: Option<&'a PointMask>,
+        out: &'a mut MeshBuilder,
+    }
+    impl<V: ?Sized, W: Walker<V>> ExtractorVisitor for Run<'_, V, W> {
+        type Output = Result<WalkStats>;
+        fn visit<X: Extractor + Sync>(self, x: X) -> Result<WalkStats> {
+            match self.mask {
+                None => self.walker.walk(self.vol, self.iso, &x, self.out),
+                Some(mask) => self.walker.walk(self.vol, self.iso, &Masked { inner: x, mask }, self.out),
+            }
         }
     }
-    let tetrahedra = |decomposition| MarchingTetrahedra { decomposition };
     let mask = opts.mask.as_deref();
-    match opts.method {
-        Method::MarchingCubes => go(walker, vol, iso, MarchingCubes, mask, out),
-        Method::MarchingCubes33 => go(walker, vol, iso, MarchingCubes33, mask, out),
-        Method::Tetrahedra5 => go(walker, vol, iso, tetrahedra(Decomposition::Five), mask, out),
-        Method::Tetrahedra6 => go(walker, vol, iso, tetrahedra(Decomposition::Six), mask, out),
-        Method::TetrahedraBcc => go(walker, vol, iso, tetrahedra(Decomposition::BodyCentred), mask, out),
-        Method::SurfaceNets => go(walker, vol, iso, SurfaceNets, mask, out),
-    }
+    with_extractor(opts.method, Run { walker, vol, iso, mask, out })
 }
 
 fn check(iso: Iso, opts: &Options, dims: [u32; 3]) -> Result<()> {
@@ -494,6 +525,16 @@ pub fn extract_builtin(b: &Builtin, iso: Iso, opts: &Options, progress: Option<&
 mod tests {
     use super::*;
     use crate::grid::Lattice;
+
+    /// The counted methods are the ones the Flying Edges walker allocates exactly for: the
+    /// table-driven and value-counted ones; the body-centred tetrahedra and surface nets name
+    /// segments or neighbours' vertices.
+    #[test]
+    fn counting_is_that_of_the_methods_extractor() {
+        let counted: Vec<Method> = Method::ALL.into_iter().filter(|m| m.counting() == Counting::Known).collect();
+        assert_eq!(counted, [Method::MarchingCubes, Method::MarchingCubes33, Method::Tetrahedra5, Method::Tetrahedra6]);
+        assert_eq!(Method::SurfaceNets.counting(), SurfaceNets.counting());
+    }
 
     /// Two labels side by side in a 6×4×4 volume: one closed surface each, merged into one mesh
     /// whose triangles carry their label, with indices offset past the earlier surfaces.
