@@ -13,7 +13,7 @@
 use super::bits::Bits;
 use super::count::CaseCounts;
 use super::families::Walked;
-use super::fill::{RowTable, SlabOut};
+use super::fill::{RowTable, SlabSlots};
 use super::{classify, FlyingEdgesWalker, Passes, PointBox};
 use crate::cube::{CellRange, EdgeKey};
 use crate::error::{Error, Result};
@@ -192,24 +192,27 @@ impl FlyingEdgesWalker<'_> {
                         next_decisions.clear();
                     }
                     rows.restart(k * ny, start)?;
-                    // PASS 4 for slab k, into reused buffers sized from the counts.
+                    // PASS 4 for slab k, into reused buffers sized from the counts, left
+                    // uninitialised: the fill writes every slot (asserted row by row).
                     let [dv, dt, dq] = rows.plane_sizes(k, ny);
-                    pos.clear();
-                    pos.resize(dv, [0.0f32; 3]);
-                    nrm.clear();
-                    nrm.resize(if normals == Normals::Gradient { dv } else { 0 }, [0.0f32; 3]);
-                    tri.clear();
-                    tri.resize(dt, [0u32; 3]);
-                    qua.clear();
-                    qua.resize(dq, [0u32; 4]);
-                    let mut slab = SlabOut {
-                        positions: &mut pos,
-                        normals: &mut nrm,
-                        triangles: &mut tri,
-                        quads: &mut qua,
+                    let nv = if normals == Normals::Gradient { dv } else { 0 };
+                    let mut slab = SlabSlots {
+                        positions: spare(&mut pos, dv),
+                        normals: spare(&mut nrm, nv),
+                        triangles: spare(&mut tri, dt),
+                        quads: spare(&mut qua, dq),
                         keys: Vec::new(),
                     };
                     ctx.on(&ring).fill_plane(&bits, &rows, k, &decisions, &mut slab);
+                    // SAFETY: `fill_plane` returned, which it does only after writing every slot
+                    // of `slab` (the first dv, nv, dt and dq of the four buffers, cleared and
+                    // reserved by `spare`); a panic there propagates before this point.
+                    unsafe {
+                        pos.set_len(dv);
+                        nrm.set_len(nv);
+                        tri.set_len(dt);
+                        qua.set_len(dq);
+                    }
                     sink.push(MeshBatch { positions: &pos, normals: &nrm, triangles: &tri, quads: &qua })
                         .map_err(external)?;
                     out.vertices += dv as u64;
@@ -261,4 +264,11 @@ impl FlyingEdgesWalker<'_> {
         out.walk.cells = range.num_cells();
         Ok(out)
     }
+}
+
+/// The first `n` slots of `v`, emptied first: room the fill writes before `set_len`.
+fn spare<T>(v: &mut Vec<T>, n: usize) -> &mut [std::mem::MaybeUninit<T>] {
+    v.clear();
+    v.reserve(n);
+    &mut v.spare_capacity_mut()[..n]
 }
