@@ -19,7 +19,7 @@ use crate::cube::{CellRange, EdgeKey};
 use crate::error::{Error, Result};
 use crate::extract::{Counting, Extractor};
 use crate::grid::{Lattice, Sample};
-use crate::mesh::{ExternalError, KeyRecord, MeshBatch, MeshBuilder, MeshSink, Normals};
+use crate::mesh::{ExternalError, KeyRecord, MeshBuilder, MeshSink, Normals, OwnedBatch};
 use crate::volume::{Iso, SampleSlabs, SlabSource, Volume};
 use crate::walk::cached::LayerCaches;
 use crate::walk::WalkStats;
@@ -181,7 +181,8 @@ impl FlyingEdgesWalker<'_> {
                 let cs = ctx.on(&ring).count_plane(&bits, 0, &mut rows.counts[..ny], &mut decisions);
                 out.walk.cells_outside += cs[0];
                 out.walk.cells_inside += cs[1];
-                let (mut pos, mut nrm, mut tri, mut qua) = (Vec::new(), Vec::new(), Vec::new(), Vec::new());
+                // The batch's buffers: handed to the sink, which may give others back (no copy).
+                let mut batch = OwnedBatch::default();
                 for k in 0..nz {
                     if k + 1 < nz {
                         let cs = ctx.on(&ring).count_plane(&bits, k + 1, &mut rows.counts[ny..], &mut next_decisions);
@@ -197,10 +198,10 @@ impl FlyingEdgesWalker<'_> {
                     let [dv, dt, dq] = rows.plane_sizes(k, ny);
                     let nv = if normals == Normals::Gradient { dv } else { 0 };
                     let mut slab = SlabSlots {
-                        positions: spare(&mut pos, dv),
-                        normals: spare(&mut nrm, nv),
-                        triangles: spare(&mut tri, dt),
-                        quads: spare(&mut qua, dq),
+                        positions: spare(&mut batch.positions, dv),
+                        normals: spare(&mut batch.normals, nv),
+                        triangles: spare(&mut batch.triangles, dt),
+                        quads: spare(&mut batch.quads, dq),
                         keys: Vec::new(),
                     };
                     ctx.on(&ring).fill_plane(&bits, &rows, k, &decisions, &mut slab);
@@ -208,13 +209,12 @@ impl FlyingEdgesWalker<'_> {
                     // of `slab` (the first dv, nv, dt and dq of the four buffers, cleared and
                     // reserved by `spare`); a panic there propagates before this point.
                     unsafe {
-                        pos.set_len(dv);
-                        nrm.set_len(nv);
-                        tri.set_len(dt);
-                        qua.set_len(dq);
+                        batch.positions.set_len(dv);
+                        batch.normals.set_len(nv);
+                        batch.triangles.set_len(dt);
+                        batch.quads.set_len(dq);
                     }
-                    sink.push(MeshBatch { positions: &pos, normals: &nrm, triangles: &tri, quads: &qua })
-                        .map_err(external)?;
+                    sink.push_owned(&mut batch).map_err(external)?;
                     out.vertices += dv as u64;
                     out.triangles += dt as u64;
                     out.quads += dq as u64;
