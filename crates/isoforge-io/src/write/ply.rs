@@ -79,17 +79,29 @@ fn write_vertices(
 fn write_faces<const N: usize>(w: &mut dyn Write, faces: &[[u32; N]], buf: &mut Vec<u8>) -> io::Result<()> {
     for chunk in faces.chunks(FACES_PER_WRITE) {
         buf.clear();
-        buf.reserve(chunk.len() * (1 + 4 * N));
-        for f in chunk {
-            buf.push(N as u8);
-            for v in f {
-                buf.extend_from_slice(&(*v as i32).to_le_bytes());
-            }
-        }
+        pack_faces(buf, chunk);
         w.write_all(buf)?;
     }
     Ok(())
 }
+
+/// Appends polygons to `buf` as binary `uchar N, int × N` records (fixed-size records written in
+/// place, no per-byte pushes).
+fn pack_faces<const N: usize>(buf: &mut Vec<u8>, faces: &[[u32; N]]) {
+    let record = 1 + 4 * N;
+    let at = buf.len();
+    buf.resize(at + faces.len() * record, 0);
+    for (r, f) in buf[at..].chunks_exact_mut(record).zip(faces) {
+        r[0] = N as u8;
+        for (b, v) in r[1..].chunks_exact_mut(4).zip(f) {
+            b.copy_from_slice(&(*v as i32).to_le_bytes());
+        }
+    }
+}
+
+/// Bytes of packed faces a [`PlyStream`] gathers before writing them (straight to the file,
+/// past its buffered writer).
+const FACE_BYTES_PER_WRITE: usize = 1 << 20;
 
 /// Writes `mesh` as PLY with extra vertex properties: `red green blue` (uchar) for colours, then
 /// one `float NAME` per scalar attribute. Triangles come first, then quads (4-gons), in one
@@ -191,6 +203,8 @@ pub struct PlyStream<'a> {
     faces: io::BufWriter<TempFile>,
     /// Reused packing buffer.
     buf: Vec<u8>,
+    /// Faces packed but not yet written (written in pieces of [`FACE_BYTES_PER_WRITE`]).
+    faces_packed: Vec<u8>,
     normals: bool,
     vertices: u64,
     triangles: u64,
@@ -245,6 +259,7 @@ impl<'a> PlyStream<'a> {
             verts: io::BufWriter::with_capacity(1 << 20, verts),
             faces: io::BufWriter::with_capacity(1 << 20, faces),
             buf: Vec::new(),
+            faces_packed: Vec::new(),
             normals,
             vertices: 0,
             triangles: 0,
@@ -264,8 +279,14 @@ impl<'a> PlyStream<'a> {
             return Err(io::Error::other("normals given to a stream created without them, or missing"));
         }
         write_vertices(&mut self.verts, positions, normals, &mut self.buf)?;
-        write_faces(&mut self.faces, triangles, &mut self.buf)?;
-        write_faces(&mut self.faces, quads, &mut self.buf)?;
+        // Faces are packed into one buffer across batches and written from it directly (the
+        // buffered writer would copy them once more).
+        pack_faces(&mut self.faces_packed, triangles);
+        pack_faces(&mut self.faces_packed, quads);
+        if self.faces_packed.len() >= FACE_BYTES_PER_WRITE {
+            self.faces.write_all(&self.faces_packed)?;
+            self.faces_packed.clear();
+        }
         self.vertices += positions.len() as u64;
         self.triangles += (triangles.len() + quads.len()) as u64;
         Ok(())
@@ -288,6 +309,7 @@ impl<'a> PlyStream<'a> {
                 usize::try_from(self.triangles).map_err(|_| too_many())?,
             );
             main.write_all(header(v, f, self.normals, &MeshData::default(), false).as_bytes())?;
+            self.faces.write_all(&self.faces_packed)?;
             for part in [&mut self.verts, &mut self.faces] {
                 part.flush()?;
                 let scratch = part.get_mut();
