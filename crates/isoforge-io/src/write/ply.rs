@@ -310,12 +310,21 @@ impl<'a> PlyStream<'a> {
             );
             main.write_all(header(v, f, self.normals, &MeshData::default(), false).as_bytes())?;
             self.faces.write_all(&self.faces_packed)?;
-            for part in [&mut self.verts, &mut self.faces] {
-                part.flush()?;
-                let scratch = part.get_mut();
-                scratch.seek(SeekFrom::Start(0))?;
-                io::copy(scratch.file_mut(), main.file_mut())?;
-            }
+            self.verts.flush()?;
+            self.faces.flush()?;
+            // Vertices after the header, faces after the vertices: both lengths are known, so
+            // the two copies run at once (the walk is over; the second core is free).
+            let at = main.file_mut().stream_position()?;
+            let (verts, faces) = (self.verts.get_mut().file_mut(), self.faces.get_mut().file_mut());
+            let (vlen, flen) = (verts.metadata()?.len(), faces.metadata()?.len());
+            let out: &std::fs::File = main.file_mut();
+            let (verts, faces): (&std::fs::File, &std::fs::File) = (verts, faces);
+            std::thread::scope(|s| {
+                let tail = s.spawn(|| copy_at(faces, out, at + vlen, flen));
+                let head = copy_at(verts, out, at, vlen);
+                head.and(tail.join().unwrap_or_else(|_| Err(io::Error::other("copying the faces panicked"))))
+            })?;
+            main.file_mut().seek(SeekFrom::Start(at + vlen + flen))?;
             Ok(())
         })();
         written.map_err(io_err)?;
@@ -325,6 +334,47 @@ impl<'a> PlyStream<'a> {
         }
         Ok((self.vertices, self.triangles))
     }
+}
+
+/// Copies the first `len` bytes of `from` into `to` at offset `at` (neither file's position is
+/// used or moved): in the kernel (`copy_file_range`) where it can, else through a buffer.
+fn copy_at(from: &std::fs::File, to: &std::fs::File, at: u64, len: u64) -> io::Result<()> {
+    let mut done = 0u64;
+    #[cfg(target_os = "linux")]
+    {
+        use std::os::fd::AsRawFd;
+        while done < len {
+            let (mut off_in, mut off_out) = ((done) as libc::loff_t, (at + done) as libc::loff_t);
+            let want = usize::try_from(len - done).unwrap_or(usize::MAX).min(1 << 30);
+            // SAFETY: both descriptors are open files borrowed for the call; the offsets are
+            // locals the kernel updates; no memory of ours is read or written.
+            let n =
+                unsafe { libc::copy_file_range(from.as_raw_fd(), &mut off_in, to.as_raw_fd(), &mut off_out, want, 0) };
+            if n > 0 {
+                done += n as u64;
+                continue;
+            }
+            if n == 0 {
+                return Err(io::Error::new(io::ErrorKind::UnexpectedEof, "a scratch file ended early"));
+            }
+            let e = io::Error::last_os_error();
+            match e.raw_os_error() {
+                Some(libc::EINTR) => continue,
+                // Not supported between these files: copy through a buffer below.
+                Some(libc::ENOSYS | libc::EXDEV | libc::EINVAL | libc::EOPNOTSUPP | libc::EBADF) => break,
+                _ => return Err(e),
+            }
+        }
+    }
+    use std::os::unix::fs::FileExt;
+    let mut buf = vec![0u8; (1 << 20).min(len.saturating_sub(done)) as usize];
+    while done < len {
+        let n = buf.len().min((len - done) as usize);
+        from.read_exact_at(&mut buf[..n], done)?;
+        to.write_all_at(&buf[..n], at + done)?;
+        done += n as u64;
+    }
+    Ok(())
 }
 
 impl isoforge::mesh::MeshSink for PlyStream<'_> {
