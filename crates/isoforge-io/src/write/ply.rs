@@ -79,17 +79,29 @@ fn write_vertices(
 fn write_faces<const N: usize>(w: &mut dyn Write, faces: &[[u32; N]], buf: &mut Vec<u8>) -> io::Result<()> {
     for chunk in faces.chunks(FACES_PER_WRITE) {
         buf.clear();
-        buf.reserve(chunk.len() * (1 + 4 * N));
-        for f in chunk {
-            buf.push(N as u8);
-            for v in f {
-                buf.extend_from_slice(&(*v as i32).to_le_bytes());
-            }
-        }
+        pack_faces(buf, chunk);
         w.write_all(buf)?;
     }
     Ok(())
 }
+
+/// Appends polygons to `buf` as binary `uchar N, int × N` records (fixed-size records written in
+/// place, no per-byte pushes).
+fn pack_faces<const N: usize>(buf: &mut Vec<u8>, faces: &[[u32; N]]) {
+    let record = 1 + 4 * N;
+    let at = buf.len();
+    buf.resize(at + faces.len() * record, 0);
+    for (r, f) in buf[at..].chunks_exact_mut(record).zip(faces) {
+        r[0] = N as u8;
+        for (b, v) in r[1..].chunks_exact_mut(4).zip(f) {
+            b.copy_from_slice(&(*v as i32).to_le_bytes());
+        }
+    }
+}
+
+/// Bytes of packed faces a [`PlyStream`] gathers before writing them (straight to the file,
+/// past its buffered writer).
+const FACE_BYTES_PER_WRITE: usize = 1 << 20;
 
 /// Writes `mesh` as PLY with extra vertex properties: `red green blue` (uchar) for colours, then
 /// one `float NAME` per scalar attribute. Triangles come first, then quads (4-gons), in one
@@ -191,6 +203,8 @@ pub struct PlyStream<'a> {
     faces: io::BufWriter<TempFile>,
     /// Reused packing buffer.
     buf: Vec<u8>,
+    /// Faces packed but not yet written (written in pieces of [`FACE_BYTES_PER_WRITE`]).
+    faces_packed: Vec<u8>,
     normals: bool,
     vertices: u64,
     triangles: u64,
@@ -245,6 +259,7 @@ impl<'a> PlyStream<'a> {
             verts: io::BufWriter::with_capacity(1 << 20, verts),
             faces: io::BufWriter::with_capacity(1 << 20, faces),
             buf: Vec::new(),
+            faces_packed: Vec::new(),
             normals,
             vertices: 0,
             triangles: 0,
@@ -264,8 +279,14 @@ impl<'a> PlyStream<'a> {
             return Err(io::Error::other("normals given to a stream created without them, or missing"));
         }
         write_vertices(&mut self.verts, positions, normals, &mut self.buf)?;
-        write_faces(&mut self.faces, triangles, &mut self.buf)?;
-        write_faces(&mut self.faces, quads, &mut self.buf)?;
+        // Faces are packed into one buffer across batches and written from it directly (the
+        // buffered writer would copy them once more).
+        pack_faces(&mut self.faces_packed, triangles);
+        pack_faces(&mut self.faces_packed, quads);
+        if self.faces_packed.len() >= FACE_BYTES_PER_WRITE {
+            self.faces.write_all(&self.faces_packed)?;
+            self.faces_packed.clear();
+        }
         self.vertices += positions.len() as u64;
         self.triangles += (triangles.len() + quads.len()) as u64;
         Ok(())
@@ -288,12 +309,22 @@ impl<'a> PlyStream<'a> {
                 usize::try_from(self.triangles).map_err(|_| too_many())?,
             );
             main.write_all(header(v, f, self.normals, &MeshData::default(), false).as_bytes())?;
-            for part in [&mut self.verts, &mut self.faces] {
-                part.flush()?;
-                let scratch = part.get_mut();
-                scratch.seek(SeekFrom::Start(0))?;
-                io::copy(scratch.file_mut(), main.file_mut())?;
-            }
+            self.faces.write_all(&self.faces_packed)?;
+            self.verts.flush()?;
+            self.faces.flush()?;
+            // Vertices after the header, faces after the vertices: both lengths are known, so
+            // the two copies run at once (the walk is over; the second core is free).
+            let at = main.file_mut().stream_position()?;
+            let (verts, faces) = (self.verts.get_mut().file_mut(), self.faces.get_mut().file_mut());
+            let (vlen, flen) = (verts.metadata()?.len(), faces.metadata()?.len());
+            let out: &std::fs::File = main.file_mut();
+            let (verts, faces): (&std::fs::File, &std::fs::File) = (verts, faces);
+            std::thread::scope(|s| {
+                let tail = s.spawn(|| copy_at(faces, out, at + vlen, flen));
+                let head = copy_at(verts, out, at, vlen);
+                head.and(tail.join().unwrap_or_else(|_| Err(io::Error::other("copying the faces panicked"))))
+            })?;
+            main.file_mut().seek(SeekFrom::Start(at + vlen + flen))?;
             Ok(())
         })();
         written.map_err(io_err)?;
@@ -303,6 +334,47 @@ impl<'a> PlyStream<'a> {
         }
         Ok((self.vertices, self.triangles))
     }
+}
+
+/// Copies the first `len` bytes of `from` into `to` at offset `at` (neither file's position is
+/// used or moved): in the kernel (`copy_file_range`) where it can, else through a buffer.
+fn copy_at(from: &std::fs::File, to: &std::fs::File, at: u64, len: u64) -> io::Result<()> {
+    let mut done = 0u64;
+    #[cfg(target_os = "linux")]
+    {
+        use std::os::fd::AsRawFd;
+        while done < len {
+            let (mut off_in, mut off_out) = ((done) as libc::loff_t, (at + done) as libc::loff_t);
+            let want = usize::try_from(len - done).unwrap_or(usize::MAX).min(1 << 30);
+            // SAFETY: both descriptors are open files borrowed for the call; the offsets are
+            // locals the kernel updates; no memory of ours is read or written.
+            let n =
+                unsafe { libc::copy_file_range(from.as_raw_fd(), &mut off_in, to.as_raw_fd(), &mut off_out, want, 0) };
+            if n > 0 {
+                done += n as u64;
+                continue;
+            }
+            if n == 0 {
+                return Err(io::Error::new(io::ErrorKind::UnexpectedEof, "a scratch file ended early"));
+            }
+            let e = io::Error::last_os_error();
+            match e.raw_os_error() {
+                Some(libc::EINTR) => continue,
+                // Not supported between these files: copy through a buffer below.
+                Some(libc::ENOSYS | libc::EXDEV | libc::EINVAL | libc::EOPNOTSUPP | libc::EBADF) => break,
+                _ => return Err(e),
+            }
+        }
+    }
+    use std::os::unix::fs::FileExt;
+    let mut buf = vec![0u8; (1 << 20).min(len.saturating_sub(done)) as usize];
+    while done < len {
+        let n = buf.len().min((len - done) as usize);
+        from.read_exact_at(&mut buf[..n], done)?;
+        to.write_all_at(&buf[..n], at + done)?;
+        done += n as u64;
+    }
+    Ok(())
 }
 
 impl isoforge::mesh::MeshSink for PlyStream<'_> {

@@ -7,7 +7,7 @@
 pub mod colormap;
 mod sink;
 
-pub use sink::{ExternalError, MeshBatch, MeshSink, WriteBehind};
+pub use sink::{ExternalError, MeshBatch, MeshSink, OwnedBatch, WriteBehind};
 
 use crate::cube::{CellRange, VertexKey};
 use crate::error::{Error, Result};

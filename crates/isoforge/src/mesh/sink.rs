@@ -26,6 +26,16 @@ pub trait MeshSink {
     /// # Errors
     /// Whatever writing fails with.
     fn push(&mut self, batch: MeshBatch<'_>) -> std::result::Result<(), ExternalError>;
+
+    /// Takes the next batch in buffers the caller owns: a sink that keeps batches may take the
+    /// buffers themselves and leave others in their place (emptied or holding stale data; the
+    /// caller clears them before reuse), instead of copying. By default, [`push`](MeshSink::push).
+    ///
+    /// # Errors
+    /// Whatever writing fails with.
+    fn push_owned(&mut self, batch: &mut OwnedBatch) -> std::result::Result<(), ExternalError> {
+        self.push(batch.batch())
+    }
 }
 
 /// A [`MeshSink`] written behind the walk: each batch is copied into a recycled buffer and handed
@@ -48,13 +58,18 @@ pub struct WriteBehind<'scope> {
     thread: Option<std::thread::ScopedJoinHandle<'scope, Result<(), ExternalError>>>,
 }
 
-/// A batch's data, owned (the buffers [`WriteBehind`] recycles).
+/// A batch's data, owned: what a walker fills and hands over with [`MeshSink::push_owned`], and
+/// the buffers [`WriteBehind`] recycles.
 #[derive(Debug, Default)]
-struct OwnedBatch {
-    positions: Vec<[f32; 3]>,
-    normals: Vec<[f32; 3]>,
-    triangles: Vec<[u32; 3]>,
-    quads: Vec<[u32; 4]>,
+pub struct OwnedBatch {
+    /// New vertices' positions.
+    pub positions: Vec<[f32; 3]>,
+    /// Their normals (empty when off).
+    pub normals: Vec<[f32; 3]>,
+    /// New triangles.
+    pub triangles: Vec<[u32; 3]>,
+    /// New quads.
+    pub quads: Vec<[u32; 4]>,
 }
 
 impl OwnedBatch {
@@ -69,7 +84,8 @@ impl OwnedBatch {
         copy(&mut self.quads, b.quads);
     }
 
-    fn batch(&self) -> MeshBatch<'_> {
+    /// The batch these buffers hold.
+    pub fn batch(&self) -> MeshBatch<'_> {
         MeshBatch { positions: &self.positions, normals: &self.normals, triangles: &self.triangles, quads: &self.quads }
     }
 }
@@ -122,28 +138,45 @@ impl<'scope> WriteBehind<'scope> {
 
 impl MeshSink for WriteBehind<'_> {
     fn push(&mut self, batch: MeshBatch<'_>) -> Result<(), ExternalError> {
-        // A recycled buffer, else a new one while fewer than `depth` exist, else wait for one;
-        // the channels fail only when the writer has stopped, i.e. on its error.
-        let mut b = match self.free.try_recv() {
-            Ok(b) => b,
+        let mut b = self.free_buffer()?;
+        b.set(batch);
+        self.send(b)
+    }
+
+    /// Sends the caller's buffers themselves to the writer (no copy) and leaves a recycled set
+    /// (stale contents) or an empty one in their place.
+    fn push_owned(&mut self, batch: &mut OwnedBatch) -> Result<(), ExternalError> {
+        let mut b = self.free_buffer()?;
+        std::mem::swap(&mut b, batch);
+        self.send(b)
+    }
+}
+
+impl WriteBehind<'_> {
+    /// A recycled buffer, else a new one while fewer than `depth` exist, else waits for one;
+    /// the channels fail only when the writer has stopped, i.e. on its error.
+    fn free_buffer(&mut self) -> Result<OwnedBatch, ExternalError> {
+        match self.free.try_recv() {
+            Ok(b) => Ok(b),
             Err(_) if self.made < self.depth => {
                 self.made += 1;
-                OwnedBatch::default()
+                Ok(OwnedBatch::default())
             }
             Err(_) => match self.free.recv() {
-                Ok(b) => b,
-                Err(_) => return self.stopped(),
+                Ok(b) => Ok(b),
+                Err(_) => self.stopped().map(|()| OwnedBatch::default()),
             },
-        };
-        b.set(batch);
+        }
+    }
+
+    /// Hands a full buffer to the writer.
+    fn send(&mut self, b: OwnedBatch) -> Result<(), ExternalError> {
         match self.full.as_ref().map(|f| f.send(b)) {
             Some(Ok(())) => Ok(()),
             _ => self.stopped(),
         }
     }
-}
 
-impl WriteBehind<'_> {
     /// The writer stopped early: its error.
     fn stopped(&mut self) -> Result<(), ExternalError> {
         self.full = None;
@@ -184,6 +217,29 @@ mod tests {
             for k in 0..200 {
                 let (p, t) = batch_data(k);
                 w.push(MeshBatch { positions: &p, normals: &[], triangles: &t, quads: &[] }).unwrap();
+            }
+            w.finish().unwrap();
+        });
+        assert_eq!(rec.got.len(), 200);
+        for (k, (x, t)) in rec.got.iter().enumerate() {
+            assert_eq!((*x, t), (k as f32, &batch_data(k as u32).1), "batch {k}");
+        }
+    }
+
+    /// Owned batches reach the writer in order and unchanged, whatever buffers come back.
+    #[test]
+    fn owned_batches_arrive_in_order_and_complete() {
+        let mut rec = Record::default();
+        std::thread::scope(|s| {
+            let mut w = WriteBehind::spawn(s, &mut rec, 2);
+            let mut own = OwnedBatch::default();
+            for k in 0..200 {
+                let (p, t) = batch_data(k);
+                own.positions.clear();
+                own.positions.extend_from_slice(&p);
+                own.triangles.clear();
+                own.triangles.extend_from_slice(&t);
+                w.push_owned(&mut own).unwrap();
             }
             w.finish().unwrap();
         });

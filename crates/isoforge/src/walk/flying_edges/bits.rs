@@ -160,6 +160,34 @@ pub(super) fn mark_active(rows: [&[u64]; 4], cells: usize, active: &mut [u64]) -
     (outside, inside)
 }
 
+/// [`mark_active`] fused with the edge counts of row A (cells `nx - 1`, points `nx`): marks the
+/// active cells of cell row `rows` in `active` and returns the crossed x-, y- and z-edges
+/// starting in row A (the popcounts of [`Walked::mask`] for `X`, `Y`, `Z`) and the all-outside
+/// and all-inside cell counts, in one pass over the four rows' words.
+pub(super) fn count_edges_and_mark(rows: [&[u64]; 4], nx: usize, active: &mut [u64]) -> ([u32; 3], u64, u64) {
+    let [a, b, c, e] = rows;
+    let words = a.len();
+    let cells = nx - 1;
+    let column = |w: usize| (a[w] ^ b[w]) | (a[w] ^ c[w]) | (a[w] ^ e[w]);
+    let (mut v, mut outside, mut inside) = ([0u32; 3], 0u64, 0u64);
+    let mut d = column(0);
+    for w in 0..words {
+        let (next_d, next_a) = if w + 1 < words { (column(w + 1), a[w + 1]) } else { (0, 0) };
+        let (cm, pm) = (cell_mask(w, cells), cell_mask(w, nx));
+        let x = (a[w] ^ ((a[w] >> 1) | (next_a << 63))) & cm;
+        v[0] += x.count_ones();
+        v[1] += ((a[w] ^ b[w]) & pm).count_ones();
+        v[2] += ((a[w] ^ c[w]) & pm).count_ones();
+        let act = (d | (d >> 1) | (next_d << 63) | x) & cm;
+        active[w] = act;
+        let idle = !act & cm;
+        inside += (idle & a[w]).count_ones() as u64;
+        outside += (idle & !a[w]).count_ones() as u64;
+        d = next_d;
+    }
+    (v, outside, inside)
+}
+
 /// For each cell segment (edges 0–11, face diagonals 12–17, the main diagonal 18): the mask
 /// slot holding its row's crossings (see [`RowMasks`]) and the offset of its row point from the
 /// cell's i.
@@ -235,6 +263,60 @@ impl RowMasks {
         walked: &Walked,
         table: &RowTable,
     ) {
+        if walked.edges_only() {
+            self.load_edges(bits, r, dims, table);
+        } else {
+            self.load_families(bits, r, [j, k], dims, walked, table);
+        }
+    }
+
+    /// [`load`](RowMasks::load) for walks of axis edges only (slots 0–7), all eight masks and
+    /// their ranks in one pass over the four rows' words. Every row of a cell row has its x-edges,
+    /// and rows A, C their y-edges and A, B their z-edges, so no mask is missing.
+    fn load_edges(&mut self, bits: &Bits, r: usize, dims: [usize; 3], table: &RowTable) {
+        let [nx, ny, _] = dims;
+        let [a, b, c, e] = cell_rows(bits, r, ny);
+        let words = a.len();
+        let mut acc = [0u32; 8];
+        for w in 0..words {
+            let (cm, pm) = (cell_mask(w, nx - 1), cell_mask(w, nx));
+            let next = |x: &[u64]| (x[w] >> 1) | if w + 1 < words { x[w + 1] << 63 } else { 0 };
+            let m = [
+                (a[w] ^ next(a)) & cm,
+                (b[w] ^ next(b)) & cm,
+                (c[w] ^ next(c)) & cm,
+                (e[w] ^ next(e)) & cm,
+                (a[w] ^ b[w]) & pm,
+                (c[w] ^ e[w]) & pm,
+                (a[w] ^ c[w]) & pm,
+                (b[w] ^ e[w]) & pm,
+            ];
+            for s in 0..8 {
+                let slot = &mut self.masks[s];
+                slot.mask[w] = m[s];
+                slot.before[w] = acc[s];
+                acc[s] += m[s].count_ones();
+            }
+        }
+        let rows = [r, r + 1, r + ny, r + ny + 1];
+        for (slot, &(f, q)) in SLOT_SOURCE[..8].iter().enumerate() {
+            let row = rows[q];
+            self.base[slot] = table.base(row)[0] as u32 + table.count(row).before(f);
+        }
+        self.loaded = Some(r);
+    }
+
+    /// [`load`](RowMasks::load) for any families, row by row (rows B and E slid from the
+    /// previous cell row when it was loaded last).
+    fn load_families(
+        &mut self,
+        bits: &Bits,
+        r: usize,
+        [j, k]: [usize; 2],
+        dims: [usize; 3],
+        walked: &Walked,
+        table: &RowTable,
+    ) {
         let ny = dims[1];
         let rows = [(r, [j, k]), (r + 1, [j + 1, k]), (r + ny, [j, k + 1]), (r + ny + 1, [j + 1, k + 1])];
         // The row before in the same plane was loaded last: its rows B and E are this one's A and C.
@@ -264,5 +346,97 @@ impl RowMasks {
     pub(super) fn id(&self, s: u8, i: usize) -> u32 {
         let (slot, off) = SEGMENT_SLOT[s as usize];
         self.base[slot as usize] + self.masks[slot as usize].rank(i + off as usize)
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::extract::Segments;
+
+    /// The fused load of axis-edge masks equals the family-by-family one (masks, ranks, bases).
+    #[test]
+    fn fused_edge_load_equals_the_family_load() {
+        let walked = Walked::new(Segments { diagonals: None, main_diagonal: false }, [0; 3]);
+        for nx in [2usize, 5, 64, 65, 150, 192] {
+            let words = nx.div_ceil(64);
+            let (ny, nz) = (4, 3);
+            let mut data = rows(nx as u64 * 31, ny * nz * words);
+            for row in data.chunks_mut(words) {
+                mask_tail(row, nx);
+            }
+            let bits = Bits { words, row0: 0, data };
+            let dims = [nx, ny, nz];
+            let mut counts = vec![crate::walk::flying_edges::count::RowCount::default(); ny * nz];
+            for (i, c) in counts.iter_mut().enumerate() {
+                c.v = [i as u32 % 5, 3 * i as u32 % 7, i as u32 % 2, 0, 0, 0, 0];
+            }
+            let table = RowTable::prefix(counts, Vec::new()).unwrap();
+            let (mut fused, mut by_family) = (RowMasks::new(words), RowMasks::new(words));
+            for k in 0..nz - 1 {
+                for j in 0..ny - 1 {
+                    let r = k * ny + j;
+                    fused.load_edges(&bits, r, dims, &table);
+                    by_family.load_families(&bits, r, [j, k], dims, &walked, &table);
+                    for s in 0..8 {
+                        assert_eq!(fused.masks[s].mask, by_family.masks[s].mask, "nx {nx} row {r} slot {s}");
+                        assert_eq!(fused.masks[s].before, by_family.masks[s].before, "nx {nx} row {r} slot {s}");
+                        assert_eq!(fused.base[s], by_family.base[s], "nx {nx} row {r} slot {s}");
+                    }
+                }
+            }
+        }
+    }
+
+    /// A xorshift stream of words, biased towards runs (as bit rows of a surface are).
+    fn rows(seed: u64, n: usize) -> Vec<u64> {
+        let mut s = seed | 1;
+        (0..n)
+            .map(|_| {
+                s ^= s << 13;
+                s ^= s >> 7;
+                s ^= s << 17;
+                if s % 3 == 0 {
+                    s
+                } else if s % 3 == 1 {
+                    !0
+                } else {
+                    0
+                }
+            })
+            .collect()
+    }
+
+    /// The fused pass gives the counts and active cells of `Walked::mask` + `popcount` +
+    /// `mark_active`, for rows of 1 to 3 words, full and partial.
+    #[test]
+    fn fused_edge_counts_equal_the_separate_passes() {
+        let walked = Walked::new(Segments { diagonals: None, main_diagonal: false }, [0; 3]);
+        for nx in [2usize, 5, 63, 64, 65, 127, 128, 150, 192] {
+            let words = nx.div_ceil(64);
+            let (ny, nz) = (3, 3);
+            for seed in 1..40u64 {
+                let mut data = rows(seed * 7919 + nx as u64, ny * nz * words);
+                for row in data.chunks_mut(words) {
+                    mask_tail(row, nx); // classify clears the bits past the row
+                }
+                let bits = Bits { words, row0: 0, data };
+                let dims = [nx, ny, nz];
+                let (j, k) = (seed as usize % 2, (seed as usize / 2) % 2);
+                let r = k * ny + j;
+                let rows = [bits.row(r), bits.row(r + 1), bits.row(r + ny), bits.row(r + ny + 1)];
+                let mut mask = vec![0u64; words];
+                let want: [u32; 3] = std::array::from_fn(|f| {
+                    assert!(walked.mask(f, &bits, r, [j, k], dims, &mut mask));
+                    popcount(&mask)
+                });
+                let mut active = vec![0u64; words];
+                let (outside, inside) = mark_active(rows, nx - 1, &mut active);
+                let mut fused = vec![!0u64; words];
+                let got = count_edges_and_mark(rows, nx, &mut fused);
+                assert_eq!(got, (want, outside, inside), "nx {nx} seed {seed}");
+                assert_eq!(fused, active, "nx {nx} seed {seed}");
+            }
+        }
     }
 }

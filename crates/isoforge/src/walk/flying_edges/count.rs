@@ -1,7 +1,7 @@
 //! PASS 2: every row → its crossed segments of each family (popcounts of XORed bit rows); every
 //! cell row → the polygons and placed vertices of its active cells (the extractor's counts).
 
-use super::bits::{case_at, cell_rows, for_each_bit, mark_active, popcount, uniform_block, Bits};
+use super::bits::{case_at, cell_rows, count_edges_and_mark, for_each_bit, mark_active, popcount, uniform_block, Bits};
 use super::families::FAMILIES;
 use super::{cell_values, Passes};
 use crate::extract::{CellCounts, Decision, Extractor};
@@ -75,18 +75,29 @@ impl<V: SampleSlabs, X: Extractor> Passes<'_, V, X> {
                 }
                 continue;
             }
-            for f in 0..FAMILIES {
-                if self.walked.has(f) && self.walked.mask(f, bits, r, [j, k], bx.dims, &mut mask) {
-                    c.v[f] = popcount(&mask);
+            let rows = if cells_here && self.walked.edges_only() {
+                // Axis edges only, and the row has all three: counts and active cells in one pass.
+                let rows = cell_rows(bits, r, ny);
+                let (v, outside, inside) = count_edges_and_mark(rows, nx, &mut active);
+                c.v[..3].copy_from_slice(&v);
+                cs[0] += outside;
+                cs[1] += inside;
+                rows
+            } else {
+                for f in 0..FAMILIES {
+                    if self.walked.has(f) && self.walked.mask(f, bits, r, [j, k], bx.dims, &mut mask) {
+                        c.v[f] = popcount(&mask);
+                    }
                 }
-            }
-            if !cells_here {
-                continue;
-            }
-            let rows = cell_rows(bits, r, ny);
-            let (outside, inside) = mark_active(rows, nx - 1, &mut active);
-            cs[0] += outside;
-            cs[1] += inside;
+                if !cells_here {
+                    continue;
+                }
+                let rows = cell_rows(bits, r, ny);
+                let (outside, inside) = mark_active(rows, nx - 1, &mut active);
+                cs[0] += outside;
+                cs[1] += inside;
+                rows
+            };
             let parity = self.walked.parity0 + j + k;
             let first_decision = decisions.len();
             for_each_bit(&active, |i| {

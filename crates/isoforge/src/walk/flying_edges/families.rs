@@ -76,6 +76,12 @@ impl Walked {
         }
     }
 
+    /// Whether only the axis edges are numbered (no diagonals): marching cubes and the like.
+    #[inline(always)]
+    pub(super) fn edges_only(&self) -> bool {
+        self.segments.diagonals.is_none() && !self.segments.main_diagonal
+    }
+
     /// The bits of the row (j, k) whose point has an odd coordinate sum.
     #[inline]
     fn odd_bits(&self, j: usize, k: usize) -> u64 {

@@ -116,19 +116,8 @@ pub(super) trait FillOut {
     fn keys(&mut self) -> &mut Vec<(u32, VertexKey)>;
 }
 
-/// One slab's share of the output in initialised buffers: its vertices, triangles and quads, and
-/// the keys it records.
-pub(super) struct SlabOut<'a> {
-    pub(super) positions: &'a mut [[f32; 3]],
-    /// Empty when normals are off.
-    pub(super) normals: &'a mut [[f32; 3]],
-    pub(super) triangles: &'a mut [[u32; 3]],
-    pub(super) quads: &'a mut [[u32; 4]],
-    pub(super) keys: Vec<(u32, VertexKey)>,
-}
-
-/// One slab's share of the final mesh as uninitialised slots (no zeroing pass before the fill
-/// writes them): [`fill_plane`](Passes::fill_plane) asserts that it wrote every one.
+/// One slab's share of the output (of the final mesh in memory, of a reused batch when
+/// streaming) as uninitialised slots (no zeroing pass before the fill writes them): [`fill_plane`](Passes::fill_plane) asserts that it wrote every one.
 pub(super) struct SlabSlots<'a> {
     pub(super) positions: &'a mut [MaybeUninit<[f32; 3]>],
     /// Empty when normals are off.
@@ -136,31 +125,6 @@ pub(super) struct SlabSlots<'a> {
     pub(super) triangles: &'a mut [MaybeUninit<[u32; 3]>],
     pub(super) quads: &'a mut [MaybeUninit<[u32; 4]>],
     pub(super) keys: Vec<(u32, VertexKey)>,
-}
-
-impl FillOut for SlabOut<'_> {
-    #[inline(always)]
-    fn set_position(&mut self, at: usize, p: [f32; 3]) {
-        self.positions[at] = p;
-    }
-    #[inline(always)]
-    fn set_normal(&mut self, at: usize, n: [f32; 3]) {
-        self.normals[at] = n;
-    }
-    #[inline(always)]
-    fn set_triangle(&mut self, at: usize, t: [u32; 3]) {
-        self.triangles[at] = t;
-    }
-    #[inline(always)]
-    fn set_quad(&mut self, at: usize, q: [u32; 4]) {
-        self.quads[at] = q;
-    }
-    fn sizes(&self) -> [usize; 3] {
-        [self.positions.len(), self.triangles.len(), self.quads.len()]
-    }
-    fn keys(&mut self) -> &mut Vec<(u32, VertexKey)> {
-        &mut self.keys
-    }
 }
 
 impl FillOut for SlabSlots<'_> {

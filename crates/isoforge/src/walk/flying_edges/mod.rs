@@ -427,6 +427,85 @@ mod tests {
         })
     }
 
+    /// Marching cubes through `process`, with counts off by `extra` triangles per active cell:
+    /// the fill must notice (its per-row and per-slab checks guard the uninitialised output).
+    struct Miscounted {
+        extra: i32,
+    }
+
+    impl Extractor for Miscounted {
+        fn process<C: crate::walk::Cell>(&self, cell: &mut C) {
+            MarchingCubes.process(cell)
+        }
+        fn counting(&self) -> Counting {
+            Counting::Known
+        }
+        fn counts(
+            &self,
+            case: u8,
+            _ijk: [u32; 3],
+            _values: impl FnOnce() -> [f32; 8],
+        ) -> (crate::extract::CellCounts, crate::extract::Decision) {
+            let n = MarchingCubes.case_triangles(case, false).map_or(0, |t| t.len() as i32);
+            let counts = crate::extract::CellCounts { triangles: (n + self.extra).max(0) as u16, ..Default::default() };
+            (counts, Default::default())
+        }
+    }
+
+    /// The slabs of a grid, in order.
+    struct Slabs<'g> {
+        grid: &'g DenseGrid<f32>,
+        next: usize,
+    }
+
+    impl crate::volume::SlabSource<f32> for Slabs<'_> {
+        fn lattice(&self) -> &Lattice {
+            self.grid.lattice()
+        }
+        fn read_slab(&mut self, out: &mut [f32]) -> std::result::Result<(), crate::mesh::ExternalError> {
+            out.copy_from_slice(&self.grid.data()[self.next * out.len()..(self.next + 1) * out.len()]);
+            self.next += 1;
+            Ok(())
+        }
+    }
+
+    /// Output slots are uninitialised until the fill writes them: counts the fill does not meet
+    /// (too many or too few polygons) stop the walk with a panic, in memory and streamed,
+    /// instead of handing out unwritten slots; honest counts make the mesh of `MarchingCubes`.
+    #[test]
+    fn a_fill_that_misses_its_counts_panics_in_memory_and_streamed() {
+        let g = ball([14, 13, 12], 4.5);
+        let stream = |x: &Miscounted| {
+            let mut sink = crate::mesh::Mesh::default();
+            struct Keep<'m>(&'m mut Mesh);
+            impl crate::mesh::MeshSink for Keep<'_> {
+                fn push(
+                    &mut self,
+                    b: crate::mesh::MeshBatch<'_>,
+                ) -> std::result::Result<(), crate::mesh::ExternalError> {
+                    self.0.positions.extend_from_slice(b.positions);
+                    self.0.normals.extend_from_slice(b.normals);
+                    self.0.triangles.extend_from_slice(b.triangles);
+                    Ok(())
+                }
+            }
+            let mut src = Slabs { grid: &g, next: 0 };
+            FlyingEdgesWalker::new()
+                .stream(&mut src, Iso::below(0.0), x, Normals::Gradient, &mut Keep(&mut sink))
+                .map(|_| sink)
+        };
+        let honest = Miscounted { extra: 0 };
+        assert_eq!(walk(&g, &honest), walk(&g, &MarchingCubes));
+        assert_eq!(stream(&honest).unwrap(), walk(&g, &MarchingCubes));
+        for extra in [1, -1] {
+            let x = Miscounted { extra };
+            let in_memory = std::panic::catch_unwind(std::panic::AssertUnwindSafe(|| walk(&g, &x)));
+            assert!(in_memory.is_err(), "in memory, {extra:+} triangles per cell");
+            let streamed = std::panic::catch_unwind(std::panic::AssertUnwindSafe(|| stream(&x)));
+            assert!(streamed.is_err(), "streamed, {extra:+} triangles per cell");
+        }
+    }
+
     /// A walk reuses the scratch that earlier walks left on its thread (bit rows, row counts and
     /// sums of other sizes and contents, never cleared) and makes the very mesh a walk on a fresh
     /// thread makes.

@@ -13,13 +13,13 @@
 use super::bits::Bits;
 use super::count::CaseCounts;
 use super::families::Walked;
-use super::fill::{RowTable, SlabOut};
+use super::fill::{RowTable, SlabSlots};
 use super::{classify, FlyingEdgesWalker, Passes, PointBox};
 use crate::cube::{CellRange, EdgeKey};
 use crate::error::{Error, Result};
 use crate::extract::{Counting, Extractor};
 use crate::grid::{Lattice, Sample};
-use crate::mesh::{ExternalError, KeyRecord, MeshBatch, MeshBuilder, MeshSink, Normals};
+use crate::mesh::{ExternalError, KeyRecord, MeshBuilder, MeshSink, Normals, OwnedBatch};
 use crate::volume::{Iso, SampleSlabs, SlabSource, Volume};
 use crate::walk::cached::LayerCaches;
 use crate::walk::WalkStats;
@@ -181,7 +181,8 @@ impl FlyingEdgesWalker<'_> {
                 let cs = ctx.on(&ring).count_plane(&bits, 0, &mut rows.counts[..ny], &mut decisions);
                 out.walk.cells_outside += cs[0];
                 out.walk.cells_inside += cs[1];
-                let (mut pos, mut nrm, mut tri, mut qua) = (Vec::new(), Vec::new(), Vec::new(), Vec::new());
+                // The batch's buffers: handed to the sink, which may give others back (no copy).
+                let mut batch = OwnedBatch::default();
                 for k in 0..nz {
                     if k + 1 < nz {
                         let cs = ctx.on(&ring).count_plane(&bits, k + 1, &mut rows.counts[ny..], &mut next_decisions);
@@ -192,26 +193,28 @@ impl FlyingEdgesWalker<'_> {
                         next_decisions.clear();
                     }
                     rows.restart(k * ny, start)?;
-                    // PASS 4 for slab k, into reused buffers sized from the counts.
+                    // PASS 4 for slab k, into reused buffers sized from the counts, left
+                    // uninitialised: the fill writes every slot (asserted row by row).
                     let [dv, dt, dq] = rows.plane_sizes(k, ny);
-                    pos.clear();
-                    pos.resize(dv, [0.0f32; 3]);
-                    nrm.clear();
-                    nrm.resize(if normals == Normals::Gradient { dv } else { 0 }, [0.0f32; 3]);
-                    tri.clear();
-                    tri.resize(dt, [0u32; 3]);
-                    qua.clear();
-                    qua.resize(dq, [0u32; 4]);
-                    let mut slab = SlabOut {
-                        positions: &mut pos,
-                        normals: &mut nrm,
-                        triangles: &mut tri,
-                        quads: &mut qua,
+                    let nv = if normals == Normals::Gradient { dv } else { 0 };
+                    let mut slab = SlabSlots {
+                        positions: spare(&mut batch.positions, dv),
+                        normals: spare(&mut batch.normals, nv),
+                        triangles: spare(&mut batch.triangles, dt),
+                        quads: spare(&mut batch.quads, dq),
                         keys: Vec::new(),
                     };
                     ctx.on(&ring).fill_plane(&bits, &rows, k, &decisions, &mut slab);
-                    sink.push(MeshBatch { positions: &pos, normals: &nrm, triangles: &tri, quads: &qua })
-                        .map_err(external)?;
+                    // SAFETY: `fill_plane` returned, which it does only after writing every slot
+                    // of `slab` (the first dv, nv, dt and dq of the four buffers, cleared and
+                    // reserved by `spare`); a panic there propagates before this point.
+                    unsafe {
+                        batch.positions.set_len(dv);
+                        batch.normals.set_len(nv);
+                        batch.triangles.set_len(dt);
+                        batch.quads.set_len(dq);
+                    }
+                    sink.push_owned(&mut batch).map_err(external)?;
                     out.vertices += dv as u64;
                     out.triangles += dt as u64;
                     out.quads += dq as u64;
@@ -261,4 +264,11 @@ impl FlyingEdgesWalker<'_> {
         out.walk.cells = range.num_cells();
         Ok(out)
     }
+}
+
+/// The first `n` slots of `v`, emptied first: room the fill writes before `set_len`.
+fn spare<T>(v: &mut Vec<T>, n: usize) -> &mut [std::mem::MaybeUninit<T>] {
+    v.clear();
+    v.reserve(n);
+    &mut v.spare_capacity_mut()[..n]
 }
