@@ -70,7 +70,11 @@ impl Extractor for MarchingCubes33 {
         }
         // The values decide: what `general` makes, without making it.
         let d = values();
-        let topo = CellTopology::of(&d);
+        let topo = CellTopology::of_case(case, &d);
+        if topo.n_tubes == 0 {
+            // Every loop a disk: the skeleton's counts (most value-decided cells).
+            return (topo.skeleton.disks, topo.decision());
+        }
         let mut counts = CellCounts::default();
         let mut in_tube = [false; MAX_LOOPS];
         for &(a, b) in &topo.tubes[..topo.n_tubes] {
@@ -81,13 +85,9 @@ impl Extractor for MarchingCubes33 {
             counts.placed += c.placed;
         }
         for l in (0..topo.n_loops()).filter(|&l| !in_tube[l]) {
-            let n = topo.loop_edges(l).len() as u16;
-            if topo.visits_a_face_twice(l) {
-                counts.triangles += n;
-                counts.placed += 1;
-            } else {
-                counts.triangles += n - 2;
-            }
+            let c = topo.skeleton.disk_counts(l);
+            counts.triangles += c.triangles;
+            counts.placed += c.placed;
         }
         (counts, topo.decision())
     }
@@ -107,10 +107,7 @@ impl Extractor for MarchingCubes33 {
     fn process_decided<C: Cell>(&self, cell: &mut C, decision: Decision) {
         match self.case_triangles(cell.case(), false) {
             Some(_) => self.process(cell),
-            None => {
-                let d = *cell.values();
-                self.triangulate(cell, &d, &CellTopology::of_decision(decision));
-            }
+            None => self.triangulate(cell, &CellTopology::of_decision(decision)),
         }
     }
 }
@@ -120,12 +117,16 @@ impl MarchingCubes33 {
     /// where the case decides).
     fn general<C: Cell>(&self, cell: &mut C) {
         let d = *cell.values();
-        self.triangulate(cell, &d, &CellTopology::of(&d));
+        self.triangulate(cell, &CellTopology::of(&d));
     }
 
-    /// Triangulates a cell of values `d` and topology `topo`: a band per tunnel, a disk per
-    /// other loop.
-    fn triangulate<C: Cell>(&self, cell: &mut C, d: &[f32; 8], topo: &CellTopology) {
+    /// Triangulates a cell of topology `topo`: a band per tunnel, a disk per other loop. The
+    /// values are read only where the geometry needs them (bands, centroids); a cell of disks
+    /// without a centroid is a fan per loop, as in the case table.
+    fn triangulate<C: Cell>(&self, cell: &mut C, topo: &CellTopology) {
+        let needs_values = topo.n_tubes > 0 || topo.skeleton.twice != 0;
+        let d = if needs_values { *cell.values() } else { [0.0; 8] };
+        let d = &d;
         let mut ids = [VertexId::NONE; 12];
         let mut id = |cell: &mut C, e: u8| {
             if ids[e as usize] == VertexId::NONE {
@@ -255,7 +256,11 @@ impl CellTopology {
     /// deciders (a table lookup), then the tunnels its interior makes (the slice sweep, only for
     /// a class with several patches on the cell's surface).
     pub(crate) fn of(d: &[f32; 8]) -> Self {
-        let case = crate::cube::case_of(d);
+        Self::of_case(crate::cube::case_of(d), d)
+    }
+
+    /// [`of`](CellTopology::of) for a cell of known `case`.
+    fn of_case(case: u8, d: &[f32; 8]) -> Self {
         let faces = &skeletons().faces[case as usize];
         // PASS 1: the deciders of the case's ambiguous faces select the skeleton.
         let mut bits = 0usize;
@@ -268,7 +273,8 @@ impl CellTopology {
         let mut t = CellTopology { skeleton, index, tubes: [(0, 0); 2], n_tubes: 0 };
         for (class, patches) in skeleton.classes.iter().enumerate() {
             let n = patches.n as usize;
-            if n < 2 {
+            if n < 2 || !patches.may_tube {
+                // One patch, or no pair of loops a tunnel could join: the interior adds nothing.
                 continue;
             }
             let mut interior = interior_components(d, class == 0);
@@ -276,7 +282,7 @@ impl CellTopology {
             for i in 0..n {
                 for j in i + 1..n {
                     let (p, q) = (patches.roots[i] as usize, patches.roots[j] as usize);
-                    if interior.find(p) != interior.find(q) || joined.find(i) == joined.find(j) {
+                    if !interior.joined(p, q) || joined.find(i) == joined.find(j) {
                         continue;
                     }
                     let [l0, l1] = patches.tube_loops[i][j];
@@ -336,6 +342,8 @@ struct Skeleton {
     n_loops: u8,
     /// Bit l: loop l crosses one face twice.
     twice: u8,
+    /// What the loops make when each spans a disk (no tunnel): a fan, or a centroid fan.
+    disks: CellCounts,
     /// The patches of the inside class, then of the outside class, when a tunnel can join two.
     classes: [ClassPatches; 2],
 }
@@ -349,11 +357,24 @@ struct ClassPatches {
     roots: [u8; 4],
     /// For patches i < j: the loops bounding them that a tunnel joins (`NO_LOOP`: none).
     tube_loops: [[[u8; 2]; 4]; 4],
+    /// Whether some pair has such loops (else the interior need not be swept).
+    may_tube: bool,
 }
 
 impl Skeleton {
     fn loop_edges(&self, l: usize) -> &[u8] {
         &self.edges[self.start[l] as usize..self.start[l + 1] as usize]
+    }
+
+    /// What loop `l` makes as a disk: a fan from its first vertex, or around a centroid when it
+    /// crosses a face twice.
+    fn disk_counts(&self, l: usize) -> CellCounts {
+        let n = self.loop_edges(l).len() as u16;
+        if self.twice >> l & 1 == 1 {
+            CellCounts { triangles: n, placed: 1, ..Default::default() }
+        } else {
+            CellCounts { triangles: n - 2, ..Default::default() }
+        }
     }
 
     /// The skeleton of `case` when the saddle of each ambiguous face `f` is inside iff bit `f` of
@@ -409,6 +430,7 @@ impl Skeleton {
             start: [0; MAX_LOOPS + 1],
             n_loops: 0,
             twice: 0,
+            disks: CellCounts::default(),
             classes: [ClassPatches::default(); 2],
         };
         let mut seen = [false; 12];
@@ -438,6 +460,11 @@ impl Skeleton {
             }
             t.n_loops += 1;
             t.start[t.n_loops as usize] = n;
+        }
+        for l in 0..t.n_loops as usize {
+            let c = t.disk_counts(l);
+            t.disks.triangles += c.triangles;
+            t.disks.placed += c.placed;
         }
         if t.n_loops < 2 {
             return t;
@@ -477,6 +504,7 @@ impl Skeleton {
                     }
                     if let Some((l0, l1, _)) = best {
                         cp.tube_loops[i][j] = [l0 as u8, l1 as u8];
+                        cp.may_tube = true;
                     }
                 }
             }
@@ -559,7 +587,7 @@ const ROOT_MERGE: f64 = 1e-9;
 /// with ties outside, the outside class is closed, and two outside regions touching at one point
 /// (a slice saddle reaching iso without crossing it, a double root) are joined there only, as a
 /// face saddle exactly at iso joins the outside corners. Integer data makes these ties (issue 10).
-fn interior_components(d: &[f32; 8], class_inside: bool) -> UnionFind<[u32; 8]> {
+fn interior_components(d: &[f32; 8], class_inside: bool) -> Interior {
     let member = |v: f64| (v < 0.0) == class_inside;
     let b: [f64; 4] = [0, 1, 2, 3].map(|c| d[c] as f64);
     let top: [f64; 4] = [4, 5, 6, 7].map(|c| d[c] as f64);
@@ -703,16 +731,23 @@ fn interior_components(d: &[f32; 8], class_inside: bool) -> UnionFind<[u32; 8]> 
         }
         last = e;
     }
-    let mut out = UnionFind::<[u32; 8]>::fixed();
-    let corner_node = |c: usize| if c < 4 { c } else { 4 * (ns - 1) + c - 4 };
-    for c0 in 0..8 {
-        for c1 in c0 + 1..8 {
-            if member(d[c0] as f64) && member(d[c1] as f64) && uf.find(corner_node(c0)) == uf.find(corner_node(c1)) {
-                out.union(c0, c1);
-            }
-        }
+    Interior { uf, top: 4 * (ns - 1) }
+}
+
+/// The connectivity [`interior_components`] found: slice corners over the samples.
+struct Interior {
+    uf: UnionFind<[u32; 4 * (2 * 6 + 3)]>,
+    /// Node of the top slice's corner 0.
+    top: usize,
+}
+
+impl Interior {
+    /// Whether cell corners `a` and `b`, both of the swept class, are connected in the cell.
+    fn joined(&mut self, a: usize, b: usize) -> bool {
+        let node = |c: usize| if c < 4 { c } else { self.top + c - 4 };
+        let (na, nb) = (node(a), node(b));
+        self.uf.find(na) == self.uf.find(nb)
     }
-    out
 }
 
 /// Cell coordinates of the crossing on edge `e` (linear in the corner values).
