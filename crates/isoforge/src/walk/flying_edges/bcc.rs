@@ -30,22 +30,22 @@
 use super::bits::{case_at, cell_rows, for_each_bit, mark_active, mask_tail, popcount, Bits};
 use super::families::{X, Y, Z};
 use super::fill::FillOut;
-use super::keyed::centre_value;
 use super::fill::{SlabOut, SlabSlots};
+use super::keyed::centre_value;
 use super::stream::{Ctx, SlabRing, StreamStats};
-use crate::mesh::{MeshBatch, MeshSink};
 use super::{for_each_chunk, for_each_chunk_with, map_tasks, Passes, PointBox};
-use crate::mesh::{huge_capacity, huge_vec, Mesh};
-use crate::walk::{Progress, WalkStats};
-use std::sync::atomic::{AtomicU64, Ordering};
 use crate::cube::{CellPoint, VertexKey, FACE_CORNERS};
 use crate::error::{Error, Result};
 use crate::extract::{BodyCentredTables, Extractor};
 use crate::grid::Sample;
 use crate::mesh::MeshBuilder;
+use crate::mesh::{huge_capacity, huge_vec, Mesh};
+use crate::mesh::{MeshBatch, MeshSink};
 use crate::volume::SampleSlabs;
 use crate::walk::segment;
 use crate::walk::{edge_crossing, edge_normal};
+use crate::walk::{Progress, WalkStats};
+use std::sync::atomic::{AtomicU64, Ordering};
 
 /// Centre → corner c: family `CC + c`.
 const CC: usize = 3;
@@ -518,7 +518,9 @@ impl<V: SampleSlabs, X: Extractor> Passes<'_, V, X> {
                             }
                         };
                         let value = |p: CellPoint| match p {
-                            CellPoint::Corner(c) => sample([(c & 1) as usize, (c >> 1 & 1) as usize, (c >> 2) as usize]),
+                            CellPoint::Corner(c) => {
+                                sample([(c & 1) as usize, (c >> 1 & 1) as usize, (c >> 2) as usize])
+                            }
                             CellPoint::Centre => centre([i, j, k]),
                             CellPoint::Beyond(f) => {
                                 let mut l = [i, j, k];
@@ -762,8 +764,13 @@ impl<X: Extractor + Sync> Ctx<'_, X> {
             nrm.resize(if self.normals { dv } else { 0 }, [0.0f32; 3]);
             tri.clear();
             tri.resize(dt, [0u32; 3]);
-            let mut slab =
-                SlabOut { positions: &mut pos, normals: &mut nrm, triangles: &mut tri, quads: &mut [], keys: Vec::new() };
+            let mut slab = SlabOut {
+                positions: &mut pos,
+                normals: &mut nrm,
+                triangles: &mut tri,
+                quads: &mut [],
+                keys: Vec::new(),
+            };
             let b = Bcc { t, centres: &centres };
             self.on(ring).bcc_fill_plane(&b, bits, &table, k, &mut slab);
             sink.push(MeshBatch { positions: &pos, normals: &nrm, triangles: &tri, quads: &[] })
