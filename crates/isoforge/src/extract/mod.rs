@@ -33,7 +33,7 @@ pub use masked::{Masked, PointMask};
 pub use mc33::MarchingCubes33;
 pub use squares::{marching_squares, Polyline, Saddle};
 pub use surface_nets::SurfaceNets;
-pub use tetrahedra::{Decomposition, MarchingTetrahedra};
+pub use tetrahedra::{BodyCentredTables, Decomposition, MarchingTetrahedra};
 
 use crate::cube::{cell_segment, CellPoint, CubeEdge, Diagonals};
 use crate::mesh::VertexId;
@@ -137,6 +137,13 @@ pub trait Extractor {
     fn process_decided<C: Cell>(&self, cell: &mut C, decision: Decision) {
         let _ = decision;
         self.process(cell);
+    }
+
+    /// For the body-centred tetrahedra: their split tabulated per solid, so a walker whose
+    /// volume gives cell centres from its samples can count and fill them itself (the Flying
+    /// Edges walker's counted path) instead of stitching keyed meshes. `None` by default.
+    fn body_centred(&self) -> Option<&'static BodyCentredTables> {
+        None
     }
 
     /// Whether walkers must also call [`process`](Extractor::process) for cells whose eight

@@ -129,6 +129,10 @@ impl Extractor for MarchingTetrahedra {
         }
     }
 
+    fn body_centred(&self) -> Option<&'static BodyCentredTables> {
+        (self.decomposition == Decomposition::BodyCentred).then(BodyCentredTables::get)
+    }
+
     fn visits_uniform_cells(&self) -> bool {
         // A cell whose corners agree can still hold a crossing on its centre segments (a field
         // centre of the other class, or the neighbour's centre in an octahedron it owns).
@@ -245,6 +249,108 @@ fn bcc_tables() -> &'static BccTables {
             std::array::from_fn(|pattern| SolidProbe::run(&pyramid_points(f), &solid_tetrahedra(f, false), pattern))
         }),
     })
+}
+
+/// Number of the segments a body-centred cell's solids can cross, as the counted walk numbers
+/// them ([`BodyCentredTables`]):
+///
+/// ```text
+///   0–11   the cell's edges (CubeEdge)
+///   12–19  centre → corner c                                  (12 + c)
+///   20–31  centre across lower face 2a → corner c of that face (20 + 4a + q: q = c without bit a)
+///   32–34  centre → centre across lower face 2a               (32 + a)
+///   35–40  diagonal FACE_CORNERS[f][0]–[2] of boundary face f  (35 + f)
+/// ```
+pub(crate) const BCC_SEGMENTS: usize = 41;
+
+/// The two points of body-centred segment `s` (see [`BCC_SEGMENTS`]).
+pub(crate) fn bcc_segment_points(s: u8) -> [CellPoint; 2] {
+    match s {
+        0..=11 => crate::cube::EDGE_CORNERS[s as usize].map(Corner),
+        12..=19 => [Centre, Corner(s - 12)],
+        20..=31 => {
+            let (a, q) = ((s - 20) / 4, (s - 20) % 4);
+            // Insert a zero bit at position a into q.
+            let low = q & ((1 << a) - 1);
+            let c = low | (q >> a) << (a + 1);
+            [Beyond(2 * a), Corner(c)]
+        }
+        32..=34 => [Centre, Beyond(2 * (s - 32))],
+        _ => {
+            let f = FACE_CORNERS[(s - 35) as usize];
+            [Corner(f[0]), Corner(f[2])]
+        }
+    }
+}
+
+/// The body-centred segment joining `p` and `q` (either order).
+fn bcc_segment_of(p: CellPoint, q: CellPoint) -> u8 {
+    (0..BCC_SEGMENTS as u8)
+        .find(|&s| {
+            let [a, b] = bcc_segment_points(s);
+            [a, b] == [p, q] || [b, a] == [p, q]
+        })
+        .expect("a body-centred solid names only numbered segments")
+}
+
+/// One solid (octahedron or boundary pyramid) for one sign pattern, in [`BCC_SEGMENTS`] numbers:
+/// its crossed segments in the order the split first names them, and its triangles on them.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub struct BccSolid {
+    pub(crate) segments: [u8; 12],
+    pub(crate) segment_count: u8,
+    pub(crate) triangles: [[u8; 3]; 8],
+    pub(crate) triangle_count: u8,
+}
+
+/// The body-centred split tabulated for walkers that count (the Flying Edges walker's counted
+/// path): per solid and sign pattern the triangles on numbered segments ([`BCC_SEGMENTS`]), and
+/// the triangle count of every cell away from the lattice's boundary.
+#[derive(Debug)]
+pub struct BodyCentredTables {
+    /// By lower face axis, then pattern: bit 0 centre, 1 centre beyond, 2–5 the face's corners
+    /// in [`FACE_CORNERS`] order.
+    pub(crate) octahedra: [[BccSolid; 64]; 3],
+    /// By face, then pattern: bit 0 centre, 1–4 the face's corners.
+    pub(crate) pyramids: [[BccSolid; 32]; 6],
+    /// Triangles of a cell with all six neighbours, by `case | centre << 8 | beyond x, y, z << 9..`.
+    pub(crate) interior: [u8; 4096],
+    /// For each face and case, the face's corners' signs as bits in [`FACE_CORNERS`] order.
+    pub(crate) face_case: [[u8; 256]; 6],
+}
+
+impl BodyCentredTables {
+    /// The tables, built once from [`bcc_tables`].
+    pub(crate) fn get() -> &'static Self {
+        static TABLES: std::sync::OnceLock<BodyCentredTables> = std::sync::OnceLock::new();
+        TABLES.get_or_init(|| {
+            let t = bcc_tables();
+            let convert = |s: &SolidCase| {
+                let mut segments = [0u8; 12];
+                for (o, &[p, q]) in segments.iter_mut().zip(&s.segments[..s.segment_count as usize]) {
+                    *o = bcc_segment_of(s.points[p as usize], s.points[q as usize]);
+                }
+                BccSolid {
+                    segments,
+                    segment_count: s.segment_count,
+                    triangles: s.triangles,
+                    triangle_count: s.triangle_count,
+                }
+            };
+            let octahedra = std::array::from_fn(|a| std::array::from_fn(|p| convert(&t.octahedra[a][p])));
+            let pyramids = std::array::from_fn(|f| std::array::from_fn(|p| convert(&t.pyramids[f][p])));
+            let interior = std::array::from_fn(|x| {
+                let (case, centre) = (x & 0xff, x >> 8 & 1);
+                (0..3)
+                    .map(|a| {
+                        let pattern = centre | (x >> (9 + a) & 1) << 1 | (FACE_CASE[2 * a][case] as usize) << 2;
+                        t.octahedra[a][pattern].triangle_count
+                    })
+                    .sum()
+            });
+            BodyCentredTables { octahedra, pyramids, interior, face_case: FACE_CASE }
+        })
+    }
 }
 
 /// Emits one solid's tabulated triangles through `cell`.
@@ -539,6 +645,66 @@ mod tests {
             }
         }
         assert!(triangles > 0);
+    }
+
+    /// The body-centred split as the counted walk applies it: per face, the solid's table entry in
+    /// numbered segments (`BodyCentredTables`), each segment resolved to its two points.
+    fn by_numbered_tables(cell: &mut Recorder) -> usize {
+        let t = BodyCentredTables::get();
+        let case = cell.case();
+        let centre = usize::from(cell.point_value(Centre) < 0.0);
+        let mut interior = 0;
+        for f in 0..6u8 {
+            let corners = t.face_case[f as usize][case as usize] as usize;
+            let solid = if !cell.has_neighbour(f) {
+                &t.pyramids[f as usize][centre | corners << 1]
+            } else if f % 2 == 0 {
+                let beyond = usize::from(cell.point_value(Beyond(f)) < 0.0);
+                interior |= beyond << (9 + f / 2);
+                &t.octahedra[(f / 2) as usize][centre | beyond << 1 | corners << 2]
+            } else {
+                continue;
+            };
+            let ids: Vec<VertexId> = solid.segments[..solid.segment_count as usize]
+                .iter()
+                .map(|&s| {
+                    let [p, q] = bcc_segment_points(s);
+                    cell.segment_vertex(p, q)
+                })
+                .collect();
+            for tri in &solid.triangles[..solid.triangle_count as usize] {
+                cell.push_triangle(tri.map(|s| ids[s as usize]));
+            }
+        }
+        case as usize | centre << 8 | interior
+    }
+
+    #[test]
+    fn numbered_body_centred_tables_equal_the_split() {
+        let t = BodyCentredTables::get();
+        let mut triangles = 0;
+        for signs in 0..1u16 << 12 {
+            for neighbours in [0b11_1111, 0b00_0000, 0b10_1010, 0b01_0101, 0b11_0110, 0b01_1011] {
+                let signs = (signs & 0x1ff) | (signs >> 9 & 1) << 9 | (signs >> 10 & 1) << 11 | (signs >> 11 & 1) << 13;
+                let (mut table, mut reference) = (Recorder::new(signs, neighbours), Recorder::new(signs, neighbours));
+                let index = by_numbered_tables(&mut table);
+                by_tetrahedra(&mut reference);
+                assert_eq!(table.order, reference.order, "vertex order, signs {signs:#b}, neighbours {neighbours:#b}");
+                assert_eq!(table.triangles, reference.triangles, "signs {signs:#b}, neighbours {neighbours:#b}");
+                if neighbours == 0b11_1111 {
+                    assert_eq!(t.interior[index] as usize, table.triangles.len(), "interior count {index:#x}");
+                }
+                triangles += table.triangles.len();
+            }
+        }
+        assert!(triangles > 0);
+        // Every numbered segment names two distinct points, and no two name the same pair.
+        let mut seen = std::collections::HashSet::new();
+        for s in 0..BCC_SEGMENTS as u8 {
+            let [p, q] = bcc_segment_points(s);
+            assert_ne!(p, q);
+            assert!(seen.insert((p.doubled().min(q.doubled()), p.doubled().max(q.doubled()))), "segment {s}");
+        }
     }
 
     #[test]

@@ -217,7 +217,7 @@ impl<V: SampleSlabs + Sync, X: Extractor + Sync> Passes<'_, V, X> {
 /// `f64` in corner order): the bits `Volume::value_at` gives there for volumes whose
 /// [`centres_from_samples`](SampleSlabs::centres_from_samples) holds.
 #[inline]
-fn centre_value<V: SampleSlabs>(vol: &V, bx: &PointBox, iso: Iso, [i, j, k]: [usize; 3]) -> f32 {
+pub(super) fn centre_value<V: SampleSlabs>(vol: &V, bx: &PointBox, iso: Iso, [i, j, k]: [usize; 3]) -> f32 {
     let z = bx.lo[2] + k as u32;
     let (s0, s1) = (vol.slab(z), vol.slab(z + 1));
     let (a, b) = (bx.in_slab(i, j), bx.in_slab(i, j + 1));

@@ -29,6 +29,7 @@
 //! and hands each slab's vertices and polygons to a [`MeshSink`](crate::mesh::MeshSink): a volume
 //! larger than memory in O(nx·ny) memory, with the same output.
 
+mod bcc;
 mod bits;
 mod classify;
 mod count;
@@ -212,9 +213,10 @@ fn walk_in_memory<V: SampleSlabs + Sync, X: Extractor + Sync>(
     for_each_chunk(&mut bits.data, ny * words, |k, plane| {
         classify::classify_plane(vol, &bx, bx.lo[2] + k as u32, iso, plane);
     });
-    let walked = match x.counting() {
-        Counting::Known => p.counted(&bits, out, w.progress, &mut scratch),
-        Counting::Unknown => p.keyed(&bits, out, w.progress),
+    let walked = match (x.counting(), x.body_centred()) {
+        (_, Some(t)) if bcc::applies(vol, &bx, &range) => p.bcc_counted(t, &bits, out, w.progress),
+        (Counting::Known, _) => p.counted(&bits, out, w.progress, &mut scratch),
+        (Counting::Unknown, _) => p.keyed(&bits, out, w.progress),
     };
     scratch.bits = bits.data;
     scratch.keep();

@@ -42,7 +42,7 @@ const RING: usize = 5;
 
 /// Five consecutive slabs k − 2 … k + 2 of a streamed volume, slab k in slot k mod 5; indices
 /// are global, so crossings and normals are computed exactly as on the whole grid.
-struct SlabRing<S> {
+pub(super) struct SlabRing<S> {
     slabs: [Vec<S>; RING],
     slab_len: usize,
     lattice: Lattice,
@@ -98,19 +98,19 @@ impl<S: Sample> SampleSlabs for SlabRing<S> {
 }
 
 /// What the passes of a streamed walk share, but the window.
-struct Ctx<'a, X> {
+pub(super) struct Ctx<'a, X> {
     x: &'a X,
     iso: Iso,
-    bx: PointBox,
+    pub(super) bx: PointBox,
     table: &'a CaseCounts,
     walked: Walked,
     crossed: &'a [[u32; 2]; 256],
     range: CellRange,
-    normals: bool,
+    pub(super) normals: bool,
 }
 
 impl<'a, X> Ctx<'a, X> {
-    fn on<'r, S: Sample>(&'r self, ring: &'r SlabRing<S>) -> Passes<'r, SlabRing<S>, X> {
+    pub(super) fn on<'r, S: Sample>(&'r self, ring: &'r SlabRing<S>) -> Passes<'r, SlabRing<S>, X> {
         Passes {
             vol: ring,
             x: self.x,
@@ -231,6 +231,11 @@ impl FlyingEdgesWalker<'_> {
                         p.advance(k as u64 + 1, nz as u64);
                     }
                 }
+            }
+            Counting::Unknown if x.body_centred().is_some() => {
+                let t = x.body_centred().expect("checked");
+                let mut load = |k: usize, ring: &mut SlabRing<S>, bits: &mut Bits| load(k, ring, bits, &mut *src);
+                ctx.bcc_stream(t, &mut ring, &mut bits, &mut load, sink, progress, &mut out)?;
             }
             Counting::Unknown => {
                 let mut caches = LayerCaches::default();

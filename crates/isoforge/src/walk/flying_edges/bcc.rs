@@ -1,0 +1,798 @@
+//! The counted path for the body-centred tetrahedra (`mt-bcc`): the same passes as the table fast
+//! path of MC, mt5 and mt6, with one more bit plane (cell centres) and more segment families.
+//!
+//! ```text
+//!   PASS 1b centres  every cell row → one bit per cell (centre inside): the corners' class where
+//!                    they agree (a grid's centre lies between its corners), else the centre's
+//!                    value from the samples (the trilinear interpolant's bits, `centre_value`)
+//!   PASS 2 count     every row (j, k) → crossings of its families, popcounts of XORed bit rows:
+//!                      X Y Z        lattice edges from the row's points (as for MC)
+//!                      CC0 … CC7    centre of cell (i, j, k) → its corner c
+//!                      CCX CCY CCZ  centre of cell (i, j, k) → centre across its lower face
+//!                      BD0 … BD5    diagonal of boundary face f of the cell (pyramid split)
+//!                    every cell row → its triangles: the octahedra around its lower faces (two
+//!                    centres + the face's corners: 6 sign bits) and the pyramids on its faces on
+//!                    the lattice boundary (centre + corners: 5 bits), by table (`BodyCentredTables`)
+//!   PASS 3 prefix    running sums per row; PASS 4 fill: vertices by rank, triangles from the
+//!                    tables with each crossed segment's id = its row's base + its rank
+//! ```
+//! Every segment of every solid is owned by exactly one row, so each crossing is one vertex, and
+//! the numbering depends on the lattice alone: the same mesh for every thread count, and a
+//! stream (a window of slabs) makes it array for array. The triangles are those of
+//! [`MarchingTetrahedra`](crate::extract::MarchingTetrahedra)'s `process` on every cell (the
+//! keyed path and the other walkers), in cell order, with the same vertices bit for bit (the
+//! shared `edge_crossing` and `walk::segment` routines, centres from the samples).
+//!
+//! Taken for whole-lattice walks of volumes whose centres come from their samples and lie between
+//! their corners (grids, the streaming window); ranges (chunks, keys at their boundary) and
+//! tabulated fields take the keyed path.
+
+use super::bits::{case_at, cell_rows, for_each_bit, mark_active, mask_tail, popcount, Bits};
+use super::families::{X, Y, Z};
+use super::fill::FillOut;
+use super::fill::{SlabOut, SlabSlots};
+use super::keyed::centre_value;
+use super::stream::{Ctx, SlabRing, StreamStats};
+use super::{for_each_chunk, for_each_chunk_with, map_tasks, Passes, PointBox};
+use crate::cube::{CellPoint, VertexKey, FACE_CORNERS};
+use crate::error::{Error, Result};
+use crate::extract::{BodyCentredTables, Extractor};
+use crate::grid::Sample;
+use crate::mesh::MeshBuilder;
+use crate::mesh::{huge_capacity, huge_vec, Mesh};
+use crate::mesh::{MeshBatch, MeshSink};
+use crate::volume::SampleSlabs;
+use crate::walk::segment;
+use crate::walk::{edge_crossing, edge_normal};
+use crate::walk::{Progress, WalkStats};
+use std::sync::atomic::{AtomicU64, Ordering};
+
+/// Centre → corner c: family `CC + c`.
+const CC: usize = 3;
+/// Centre → centre across the lower face on axis a: family `CCL + a`.
+const CCL: usize = 11;
+/// Diagonal of boundary face f: family `BD + f`.
+const BD: usize = 14;
+/// Families a row numbers, in this order.
+pub(super) const BCC_FAMILIES: usize = 20;
+
+/// Counts of one row: crossings per family, and the triangles of the cell row starting at it.
+#[derive(Clone, Copy, Default, Debug)]
+pub(super) struct BccRow {
+    pub(super) v: [u32; BCC_FAMILIES],
+    pub(super) tris: u32,
+}
+
+impl BccRow {
+    #[inline]
+    fn vertices(&self) -> u32 {
+        self.v.iter().sum()
+    }
+    #[inline]
+    fn before(&self, f: usize) -> u32 {
+        self.v[..f].iter().sum()
+    }
+}
+
+/// Row counts and each row's first vertex and triangle, for box rows `row0 ..` (all rows in
+/// memory, a window of planes when streaming).
+pub(super) struct BccTable {
+    pub(super) counts: Vec<BccRow>,
+    /// `[vertex, triangle]` before each row; one more entry holds the running total.
+    base: Vec<[u64; 2]>,
+    pub(super) row0: usize,
+}
+
+impl BccTable {
+    pub(super) fn new(rows: usize) -> Self {
+        BccTable { counts: vec![BccRow::default(); rows], base: vec![[0; 2]; rows + 1], row0: 0 }
+    }
+
+    /// Recomputes the running sums from `start` (the bases of row `row0`).
+    ///
+    /// # Errors
+    /// [`Error::Limit`] past `u32` vertex indices.
+    pub(super) fn restart(&mut self, row0: usize, start: [u64; 2]) -> Result<()> {
+        self.row0 = row0;
+        let mut acc = start;
+        for (b, c) in self.base.iter_mut().zip(&self.counts) {
+            *b = acc;
+            acc[0] += c.vertices() as u64;
+            acc[1] += c.tris as u64;
+        }
+        if let Some(last) = self.base.last_mut() {
+            *last = acc;
+        }
+        if acc[0] > MeshBuilder::MAX_VERTICES {
+            return Err(Error::Limit { what: "mesh vertices", requested: acc[0], allowed: MeshBuilder::MAX_VERTICES });
+        }
+        Ok(())
+    }
+
+    #[inline(always)]
+    fn count(&self, r: usize) -> BccRow {
+        self.counts[r - self.row0]
+    }
+
+    #[inline(always)]
+    pub(super) fn base(&self, r: usize) -> [u64; 2] {
+        self.base[r - self.row0]
+    }
+
+    /// Vertices and triangles of the `ny` rows of box plane `k`.
+    pub(super) fn plane_sizes(&self, k: usize, ny: usize) -> [usize; 2] {
+        let (a, b) = (self.base(k * ny), self.base((k + 1) * ny));
+        [(b[0] - a[0]) as usize, (b[1] - a[1]) as usize]
+    }
+}
+
+/// Rows of a cell's ranked masks, relative to its cell row A = (j, k).
+#[derive(Clone, Copy)]
+enum Src {
+    A,
+    B,
+    C,
+    E,
+    /// (j − 1, k)
+    Below,
+    /// (j, k − 1)
+    Under,
+}
+
+/// Mask slots of a cell row: `(family, row)`.
+const SLOT_SOURCE: [(usize, Src); SLOTS] = {
+    use Src::*;
+    let mut t = [(0usize, A); SLOTS];
+    t[0] = (X, A);
+    t[1] = (X, B);
+    t[2] = (X, C);
+    t[3] = (X, E);
+    t[4] = (Y, A);
+    t[5] = (Y, C);
+    t[6] = (Z, A);
+    t[7] = (Z, B);
+    let mut c = 0;
+    while c < 8 {
+        t[8 + c] = (CC + c, A);
+        c += 1;
+    }
+    // The lower y neighbour's corners 2, 3, 6, 7 and the lower z neighbour's 4, 5, 6, 7.
+    let y = [2, 3, 6, 7];
+    let mut q = 0;
+    while q < 4 {
+        t[16 + q] = (CC + y[q], Below);
+        t[20 + q] = (CC + 4 + q, Under);
+        q += 1;
+    }
+    let mut a = 0;
+    while a < 3 {
+        t[24 + a] = (CCL + a, A);
+        a += 1;
+    }
+    let mut f = 0;
+    while f < 6 {
+        t[27 + f] = (BD + f, A);
+        f += 1;
+    }
+    t
+};
+const SLOTS: usize = 33;
+
+/// For each numbered segment (`BCC_SEGMENTS` in extract/tetrahedra.rs): its mask slot and the
+/// offset of its owner from the cell's i.
+const SEGMENT_SLOT: [(u8, i8); 41] = {
+    let mut t = [(0u8, 0i8); 41];
+    let mut e = 0;
+    while e < 12 {
+        let (lo, hi) = ((e & 1) as u8, ((e >> 1) & 1) as u8);
+        t[e] = match e / 4 {
+            0 => (lo + 2 * hi, 0),
+            1 => (4 + hi, lo as i8),
+            _ => (6 + hi, lo as i8),
+        };
+        e += 1;
+    }
+    let mut c = 0;
+    while c < 8 {
+        t[12 + c] = (8 + c as u8, 0);
+        c += 1;
+    }
+    let mut a = 0;
+    while a < 3 {
+        let mut q = 0;
+        while q < 4 {
+            // Corner c of the face (c without bit a is q), the neighbour's corner n = c | 1 << a.
+            let low = q & ((1 << a) - 1);
+            let c = low | (q >> a) << (a + 1);
+            let n = c | 1 << a;
+            t[20 + 4 * a + q] = match a {
+                0 => (8 + n as u8, -1),
+                1 => (16 + [0, 0, 0, 1, 0, 0, 2, 3][n] as u8, 0),
+                _ => (20 + (n - 4) as u8, 0),
+            };
+            q += 1;
+        }
+        a += 1;
+    }
+    let mut a = 0;
+    while a < 3 {
+        t[32 + a] = (24 + a as u8, 0);
+        a += 1;
+    }
+    let mut f = 0;
+    while f < 6 {
+        t[35 + f] = (27 + f as u8, 0);
+        f += 1;
+    }
+    t
+};
+
+/// A crossing mask with prefix popcounts, for vertex ranks.
+struct RankedMask {
+    mask: Vec<u64>,
+    before: Vec<u32>,
+}
+
+impl RankedMask {
+    fn new(words: usize) -> Self {
+        RankedMask { mask: vec![0; words], before: vec![0; words] }
+    }
+    fn rank_prefix(&mut self) {
+        let mut acc = 0;
+        for (b, m) in self.before.iter_mut().zip(&self.mask) {
+            *b = acc;
+            acc += m.count_ones();
+        }
+    }
+    /// Number of set bits below bit `i`.
+    #[inline(always)]
+    fn rank(&self, i: usize) -> u32 {
+        let (w, b) = (i / 64, i % 64);
+        self.before[w] + (self.mask[w] & ((1u64 << b) - 1)).count_ones()
+    }
+}
+
+/// Bit `i` of a row, across words.
+#[inline(always)]
+fn bit(row: &[u64], i: usize) -> u64 {
+    row[i / 64] >> (i % 64) & 1
+}
+
+/// Word `w` of the bits of a cell row's corner `c` (rows A, B, C, E from `rows`), aligned with
+/// the cells (bit i = corner c of cell i).
+#[inline(always)]
+fn corner_word(rows: &[&[u64]; 4], c: u8, w: usize) -> u64 {
+    let row = rows[((c >> 1) & 3) as usize];
+    if c & 1 == 0 {
+        row[w]
+    } else {
+        (row[w] >> 1) | if w + 1 < row.len() { row[w + 1] << 63 } else { 0 }
+    }
+}
+
+/// What a counted body-centred walk shares besides [`Passes`].
+pub(super) struct Bcc<'a> {
+    pub(super) t: &'a BodyCentredTables,
+    /// Centre bits, one row per cell row (`k · ny + j`), laid out as [`Bits`].
+    pub(super) centres: &'a Bits,
+}
+
+impl<V: SampleSlabs, X: Extractor> Passes<'_, V, X> {
+    /// PASS 1b for cell layer `k` (box-local): the centre bits of its cell rows into `out` (`ny`
+    /// rows of `bits.words`); returns its all-outside and all-inside cell counts.
+    pub(super) fn bcc_centres(&self, bits: &Bits, k: usize, out: &mut [u64]) -> [u64; 2] {
+        let [nx, ny, nz] = self.bx.dims;
+        let words = bits.words;
+        out.fill(0);
+        let mut cs = [0u64; 2];
+        if k + 1 >= nz {
+            return cs;
+        }
+        let mut active = vec![0u64; words];
+        for j in 0..ny - 1 {
+            let r = k * ny + j;
+            let rows = cell_rows(bits, r, ny);
+            let (outside, inside) = mark_active(rows, nx - 1, &mut active);
+            cs[0] += outside;
+            cs[1] += inside;
+            let o = &mut out[j * words..(j + 1) * words];
+            for w in 0..words {
+                o[w] = rows[0][w] & !active[w];
+            }
+            for_each_bit(&active, |i| {
+                if centre_value(self.vol, &self.bx, self.iso, [i, j, k]) < 0.0 {
+                    o[i / 64] |= 1 << (i % 64);
+                }
+            });
+            mask_tail(o, nx - 1);
+        }
+        cs
+    }
+
+    /// Family `f`'s crossings in row `r` = (j, k) into `out`; false when the row has none.
+    #[inline]
+    fn bcc_mask(&self, f: usize, bits: &Bits, cb: &Bits, r: usize, [j, k]: [usize; 2], out: &mut [u64]) -> bool {
+        let [nx, ny, nz] = self.bx.dims;
+        if f <= Z {
+            return self.walked.mask(f, bits, r, [j, k], self.bx.dims, out);
+        }
+        if j + 1 >= ny || k + 1 >= nz {
+            return false;
+        }
+        let words = bits.words;
+        let cells = nx - 1;
+        let c = cb.row(r);
+        match f {
+            _ if f < CCL => {
+                let rows = cell_rows(bits, r, ny);
+                let corner = (f - CC) as u8;
+                for w in 0..words {
+                    out[w] = c[w] ^ corner_word(&rows, corner, w);
+                }
+            }
+            _ if f == CCL => {
+                for w in 0..words {
+                    let carry = if w > 0 { c[w - 1] >> 63 } else { 0 };
+                    out[w] = c[w] ^ (c[w] << 1 | carry);
+                }
+                out[0] &= !1;
+            }
+            _ if f == CCL + 1 || f == CCL + 2 => {
+                if (f == CCL + 1 && j == 0) || (f == CCL + 2 && k == 0) {
+                    return false;
+                }
+                let d = if f == CCL + 1 { cb.row(r - 1) } else { cb.row(r - ny) };
+                for w in 0..words {
+                    out[w] = c[w] ^ d[w];
+                }
+            }
+            _ => {
+                let face = f - BD;
+                let last = [nx - 2, ny - 2, nz - 2];
+                let at = [0, j, k];
+                let (axis, upper) = (face / 2, face % 2 == 1);
+                if axis > 0 && at[axis] != if upper { last[axis] } else { 0 } {
+                    return false;
+                }
+                let rows = cell_rows(bits, r, ny);
+                let fc = FACE_CORNERS[face];
+                for w in 0..words {
+                    out[w] = corner_word(&rows, fc[0], w) ^ corner_word(&rows, fc[2], w);
+                }
+                if axis == 0 {
+                    // One cell of the row has this face on the boundary.
+                    let i = if upper { last[0] } else { 0 };
+                    let b = bit(out, i);
+                    out.fill(0);
+                    out[i / 64] = b << (i % 64);
+                }
+            }
+        }
+        mask_tail(out, cells);
+        true
+    }
+
+    /// The triangles of box cell (i, j, k) whose corner case is `case` (centre bits from `cb`).
+    #[inline(always)]
+    fn bcc_cell_count(&self, t: &BodyCentredTables, cb: &Bits, case: u8, [i, j, k]: [usize; 3]) -> u32 {
+        let [nx, ny, nz] = self.bx.dims;
+        let r = k * self.bx.dims[1] + j;
+        let centre = bit(cb.row(r), i) as usize;
+        let interior = i > 0 && j > 0 && k > 0 && i + 2 < nx && j + 2 < ny && k + 2 < nz;
+        let by = |a: usize| match a {
+            0 => bit(cb.row(r), i - 1) as usize,
+            1 => bit(cb.row(r - 1), i) as usize,
+            _ => bit(cb.row(r - ny), i) as usize,
+        };
+        if interior {
+            let x = case as usize | centre << 8 | by(0) << 9 | by(1) << 10 | by(2) << 11;
+            return t.interior[x] as u32;
+        }
+        let l = [i, j, k];
+        let last = [nx - 2, ny - 2, nz - 2];
+        let mut n = 0;
+        for f in 0..6 {
+            let a = f / 2;
+            let corners = t.face_case[f][case as usize] as usize;
+            let boundary = if f % 2 == 0 { l[a] == 0 } else { l[a] == last[a] };
+            if boundary {
+                n += t.pyramids[f][centre | corners << 1].triangle_count as u32;
+            } else if f % 2 == 0 {
+                n += t.octahedra[a][centre | by(a) << 1 | corners << 2].triangle_count as u32;
+            }
+        }
+        n
+    }
+
+    /// Cells of cell row `r` = (j, k) that can have triangles: the active ones and those just
+    /// above an active one on some axis (their octahedra hold its centre), into `visit`.
+    fn bcc_visit(&self, bits: &Bits, r: usize, [j, k]: [usize; 2], visit: &mut [u64], scratch: &mut [u64]) {
+        let [nx, ny, _] = self.bx.dims;
+        mark_active(cell_rows(bits, r, ny), nx - 1, scratch);
+        let words = visit.len();
+        for w in 0..words {
+            let carry = if w > 0 { scratch[w - 1] >> 63 } else { 0 };
+            visit[w] = scratch[w] | scratch[w] << 1 | carry;
+        }
+        if j > 0 {
+            mark_active(cell_rows(bits, r - 1, ny), nx - 1, scratch);
+            visit.iter_mut().zip(scratch.iter()).for_each(|(v, b)| *v |= b);
+        }
+        if k > 0 {
+            mark_active(cell_rows(bits, r - ny, ny), nx - 1, scratch);
+            visit.iter_mut().zip(scratch.iter()).for_each(|(v, b)| *v |= b);
+        }
+        mask_tail(visit, nx - 1);
+    }
+
+    /// PASS 2 for the rows of plane `k` into `out`.
+    pub(super) fn bcc_count_plane(&self, b: &Bcc<'_>, bits: &Bits, k: usize, out: &mut [BccRow]) {
+        let [_, ny, nz] = self.bx.dims;
+        let words = bits.words;
+        let mut mask = vec![0u64; words];
+        let mut visit = vec![0u64; words];
+        let mut scratch = vec![0u64; words];
+        for (j, c) in out.iter_mut().enumerate() {
+            let r = k * ny + j;
+            *c = BccRow::default();
+            for f in 0..BCC_FAMILIES {
+                if self.bcc_mask(f, bits, &b.centres, r, [j, k], &mut mask) {
+                    c.v[f] = popcount(&mask);
+                }
+            }
+            if j + 1 >= ny || k + 1 >= nz {
+                continue;
+            }
+            self.bcc_visit(bits, r, [j, k], &mut visit, &mut scratch);
+            let rows = cell_rows(bits, r, ny);
+            let mut tris = 0;
+            for_each_bit(&visit, |i| {
+                tris += self.bcc_cell_count(b.t, &b.centres, case_at(&rows, i), [i, j, k]);
+            });
+            c.tris = tris;
+        }
+    }
+
+    /// PASS 4 for box plane `k`: the vertices of its rows, then the triangles of its cell rows.
+    ///
+    /// # Panics
+    /// When the counts and the fill disagree (an internal error).
+    pub(super) fn bcc_fill_plane<O: FillOut>(&self, b: &Bcc<'_>, bits: &Bits, table: &BccTable, k: usize, out: &mut O) {
+        let [out_vertices, out_triangles, _] = out.sizes();
+        let bx = &self.bx;
+        let [nx, ny, nz] = bx.dims;
+        let words = bits.words;
+        let z = bx.lo[2] + k as u32;
+        let s0 = self.vol.slab(z);
+        let s1 = if k + 1 < nz { self.vol.slab(z + 1) } else { s0 };
+        let plane = table.base(k * ny);
+        let stride = bx.row_stride();
+        let recording = self.record != crate::mesh::KeyRecord::None;
+        let offset = |a: V::Sample| self.iso.offset(a.to_f64());
+        let mut mask = vec![0u64; words];
+        let mut out_v = 0usize;
+        // Centre values of the current cell row, computed once (NaN: not yet).
+        let mut centres = vec![f32::NAN; nx];
+        for j in 0..ny {
+            let r = k * ny + j;
+            let c = table.count(r);
+            assert_eq!(plane[0] + out_v as u64, table.base(r)[0], "internal: row {r} starts off its count");
+            if c.vertices() == 0 {
+                continue;
+            }
+            centres.fill(f32::NAN);
+            let at = bx.in_slab(0, j);
+            for f in 0..BCC_FAMILIES {
+                if c.v[f] == 0 || !self.bcc_mask(f, bits, &b.centres, r, [j, k], &mut mask) {
+                    continue;
+                }
+                for_each_bit(&mask, |i| {
+                    let g = bx.global([i, j, k]);
+                    let sample = |o: [usize; 3]| {
+                        let s = if o[2] == 0 { s0 } else { s1 };
+                        offset(s[at + o[1] * stride + i + o[0]])
+                    };
+                    let (p, n, key) = if f <= Z {
+                        let (ends, key) = self.walked.segment(f, g);
+                        let VertexKey::Edge(e) = key else { unreachable!("edge families name edges") };
+                        let (d0, d1) = (sample(ends[0]), sample(ends[1]));
+                        let (p, t) = edge_crossing(self.vol, e, d0, d1, self.iso);
+                        (p, self.normals.then(|| edge_normal(self.vol, e, t, d0, self.iso)), key)
+                    } else {
+                        let mut centre = |l: [usize; 3]| {
+                            if l[1] == j && l[2] == k {
+                                if centres[l[0]].is_nan() {
+                                    centres[l[0]] = centre_value(self.vol, bx, self.iso, l);
+                                }
+                                centres[l[0]]
+                            } else {
+                                centre_value(self.vol, bx, self.iso, l)
+                            }
+                        };
+                        let (pa, pb) = match f {
+                            _ if f < CCL => (CellPoint::Centre, CellPoint::Corner((f - CC) as u8)),
+                            _ if f < BD => (CellPoint::Beyond(2 * (f - CCL) as u8), CellPoint::Centre),
+                            _ => {
+                                let fc = FACE_CORNERS[f - BD];
+                                (CellPoint::Corner(fc[0]), CellPoint::Corner(fc[2]))
+                            }
+                        };
+                        let value = |p: CellPoint| match p {
+                            CellPoint::Corner(c) => {
+                                sample([(c & 1) as usize, (c >> 1 & 1) as usize, (c >> 2) as usize])
+                            }
+                            CellPoint::Centre => centre([i, j, k]),
+                            CellPoint::Beyond(f) => {
+                                let mut l = [i, j, k];
+                                l[(f / 2) as usize] -= 1;
+                                centre(l)
+                            }
+                        };
+                        let (key, d0, d1) = segment::segment_ends(g, pa, pb, value);
+                        let q = segment::segment_point(self.vol, key, d0, d1, self.iso);
+                        let n = self.normals.then(|| segment::segment_normal(self.vol, key, q, d0, self.iso));
+                        (segment::world_point(self.vol, q), n, VertexKey::Segment(key))
+                    };
+                    out.set_position(out_v, p);
+                    if let Some(n) = n {
+                        out.set_normal(out_v, n);
+                    }
+                    if recording && self.records(&key) {
+                        out.keys().push(((plane[0] + out_v as u64) as u32, key));
+                    }
+                    out_v += 1;
+                });
+            }
+        }
+        assert_eq!(out_v, out_vertices, "internal: slab {k} vertices off their count");
+        if k + 1 >= nz {
+            assert_eq!(out_triangles, 0, "internal: triangles counted past the last layer");
+            return;
+        }
+        // Triangles of the cell rows of layer k.
+        let mut masks: [RankedMask; SLOTS] = std::array::from_fn(|_| RankedMask::new(words));
+        let mut base = [0u32; SLOTS];
+        let mut visit = vec![0u64; words];
+        let mut scratch = vec![0u64; words];
+        let mut t_out = 0usize;
+        let last = [nx - 2, ny - 2, nz - 2];
+        for j in 0..ny - 1 {
+            let r = k * ny + j;
+            if table.count(r).tris == 0 {
+                continue;
+            }
+            for (slot, &(f, src)) in SLOT_SOURCE.iter().enumerate() {
+                let (row, jk) = match src {
+                    Src::A => (r, [j, k]),
+                    Src::B => (r + 1, [j + 1, k]),
+                    Src::C => (r + ny, [j, k + 1]),
+                    Src::E => (r + ny + 1, [j + 1, k + 1]),
+                    Src::Below if j > 0 => (r - 1, [j - 1, k]),
+                    Src::Under if k > 0 => (r - ny, [j, k - 1]),
+                    _ => continue,
+                };
+                let rc = table.count(row);
+                if rc.v[f] == 0 {
+                    continue;
+                }
+                let m = &mut masks[slot];
+                self.bcc_mask(f, bits, &b.centres, row, jk, &mut m.mask);
+                m.rank_prefix();
+                base[slot] = table.base(row)[0] as u32 + rc.before(f);
+            }
+            self.bcc_visit(bits, r, [j, k], &mut visit, &mut scratch);
+            let rows = cell_rows(bits, r, ny);
+            let cb = &b.centres;
+            for_each_bit(&visit, |i| {
+                let case = case_at(&rows, i);
+                let centre = bit(cb.row(r), i) as usize;
+                let l = [i, j, k];
+                let by = |a: usize| match a {
+                    0 => bit(cb.row(r), i - 1) as usize,
+                    1 => bit(cb.row(r - 1), i) as usize,
+                    _ => bit(cb.row(r - ny), i) as usize,
+                };
+                for f in 0..6 {
+                    let a = f / 2;
+                    let corners = b.t.face_case[f][case as usize] as usize;
+                    let boundary = if f % 2 == 0 { l[a] == 0 } else { l[a] == last[a] };
+                    let solid = if boundary {
+                        &b.t.pyramids[f][centre | corners << 1]
+                    } else if f % 2 == 0 {
+                        &b.t.octahedra[a][centre | by(a) << 1 | corners << 2]
+                    } else {
+                        continue;
+                    };
+                    if solid.triangle_count == 0 {
+                        continue;
+                    }
+                    let mut ids = [0u32; 12];
+                    for (id, &s) in ids.iter_mut().zip(&solid.segments[..solid.segment_count as usize]) {
+                        let (slot, off) = SEGMENT_SLOT[s as usize];
+                        let at = (i as isize + off as isize) as usize;
+                        *id = base[slot as usize] + masks[slot as usize].rank(at);
+                    }
+                    for tri in &solid.triangles[..solid.triangle_count as usize] {
+                        let [a, b2, c] = tri.map(|s| ids[s as usize]);
+                        out.set_triangle(t_out, if self.reverse { [a, c, b2] } else { [a, b2, c] });
+                        t_out += 1;
+                    }
+                }
+            });
+        }
+        assert_eq!(t_out, out_triangles, "internal: slab {k} triangles off their count");
+    }
+}
+
+/// Whether a walk of `range` on `vol` can take the counted body-centred path.
+pub(super) fn applies<V: SampleSlabs>(vol: &V, bx: &PointBox, range: &crate::cube::CellRange) -> bool {
+    let all = crate::cube::CellRange::all(vol.lattice().dims());
+    *range == all && bx.lo == [0; 3] && vol.centres_from_samples() && vol.bounded_by_corners()
+}
+
+impl<V: SampleSlabs + Sync, X: Extractor + Sync> Passes<'_, V, X> {
+    /// PASS 1b–4 of the counted body-centred walk of the whole lattice (see the module doc).
+    pub(super) fn bcc_counted(
+        &self,
+        t: &BodyCentredTables,
+        bits: &Bits,
+        out: &mut MeshBuilder,
+        progress: Option<&dyn Progress>,
+    ) -> Result<WalkStats> {
+        let [_, ny, nz] = self.bx.dims;
+        let words = bits.words;
+        // PASS 1b: centre bits, and the uniform cells of each layer.
+        let mut centres = Bits { words, row0: 0, data: huge_vec(ny * nz * words, 0) };
+        let mut cell_stats = vec![[0u64; 2]; nz];
+        for_each_chunk_with(&mut centres.data, ny * words, &mut cell_stats, |k, plane, cs| {
+            *cs = self.bcc_centres(bits, k, plane);
+        });
+        let stats = WalkStats {
+            cells: self.range.num_cells(),
+            cells_outside: cell_stats.iter().map(|c| c[0]).sum(),
+            cells_inside: cell_stats.iter().map(|c| c[1]).sum(),
+        };
+        let b = Bcc { t, centres: &centres };
+        // PASS 2: count.
+        let mut table = BccTable::new(ny * nz);
+        for_each_chunk(&mut table.counts, ny, |k, plane| self.bcc_count_plane(&b, bits, k, plane));
+        // PASS 3: prefix sums; exact allocation, left uninitialised (the fill writes every slot).
+        table.restart(0, [0, 0])?;
+        let [v, tr] = table.base(ny * nz).map(|x| x as usize);
+        let nv = if self.normals { v } else { 0 };
+        let mut mesh = Mesh {
+            positions: huge_capacity(v),
+            normals: huge_capacity(nv),
+            triangles: huge_capacity(tr),
+            quads: Vec::new(),
+        };
+        // PASS 4: fill, one task per slab, each owning its slots of the output.
+        let mut tasks = Vec::with_capacity(nz);
+        {
+            let (mut pos, mut nrm, mut tri) = (
+                &mut mesh.positions.spare_capacity_mut()[..v],
+                &mut mesh.normals.spare_capacity_mut()[..nv],
+                &mut mesh.triangles.spare_capacity_mut()[..tr],
+            );
+            for k in 0..nz {
+                let [dv, dt] = table.plane_sizes(k, ny);
+                let (p, rest) = pos.split_at_mut(dv);
+                pos = rest;
+                let (n, rest) = if self.normals { nrm.split_at_mut(dv) } else { (&mut [][..], nrm) };
+                nrm = rest;
+                let (t, rest) = tri.split_at_mut(dt);
+                tri = rest;
+                tasks.push((k, SlabSlots { positions: p, normals: n, triangles: t, quads: &mut [], keys: Vec::new() }));
+            }
+        }
+        let done = AtomicU64::new(0);
+        let keys = map_tasks(tasks, |(k, mut slab)| {
+            self.bcc_fill_plane(&b, bits, &table, k, &mut slab);
+            if let Some(p) = progress {
+                p.advance(done.fetch_add(1, Ordering::Relaxed) + 1, nz as u64);
+            }
+            slab.keys
+        });
+        // SAFETY: the slabs' slots partition the first v, nv and t slots of the three buffers
+        // (split in order above), and `bcc_fill_plane` returned for every slab, which it does
+        // only after writing each slot of its slab (asserted row by row and per slab; a panic
+        // propagates out of `map_tasks` before this point), so those slots are initialised.
+        unsafe {
+            mesh.positions.set_len(v);
+            mesh.normals.set_len(nv);
+            mesh.triangles.set_len(tr);
+        }
+        out.set_assembled(mesh, keys.concat());
+        Ok(stats)
+    }
+}
+
+impl<X: Extractor + Sync> Ctx<'_, X> {
+    /// The counted body-centred walk on a window sliding up a stream: bits of planes k − 1 … k + 2,
+    /// centre bits and row counts of k − 1 … k + 1 (the triangles of layer k name the centre
+    /// segments of layer k − 1); `bits` holds planes 0, 1, 2 on entry, `load(k, …)` reads and
+    /// classifies plane k into the bit window. Each slab's vertices and triangles go to `sink`
+    /// in the order of the in-memory walk.
+    ///
+    /// # Errors
+    /// The source's or the sink's, [`Error::Limit`] past `u32` vertex indices.
+    #[allow(clippy::too_many_arguments)]
+    pub(super) fn bcc_stream<S: Sample>(
+        &self,
+        t: &BodyCentredTables,
+        ring: &mut SlabRing<S>,
+        bits: &mut Bits,
+        load: &mut dyn FnMut(usize, &mut SlabRing<S>, &mut Bits) -> Result<()>,
+        sink: &mut dyn MeshSink,
+        progress: Option<&dyn Progress>,
+        out: &mut StreamStats,
+    ) -> Result<()> {
+        let [_, ny, nz] = self.bx.dims;
+        let words = bits.words;
+        let plane = ny * words;
+        bits.data.resize(4 * plane, 0);
+        let mut centres = Bits { words, row0: 0, data: vec![0u64; 3 * plane] };
+        let mut table = BccTable::new(3 * ny);
+        let add = |cs: [u64; 2], out: &mut StreamStats| {
+            out.walk.cells_outside += cs[0];
+            out.walk.cells_inside += cs[1];
+        };
+        add(self.on(ring).bcc_centres(bits, 0, &mut centres.data[..plane]), out);
+        {
+            let b = Bcc { t, centres: &centres };
+            self.on(ring).bcc_count_plane(&b, bits, 0, &mut table.counts[..ny]);
+        }
+        let mut start = [0u64; 2];
+        let (mut pos, mut nrm, mut tri) = (Vec::new(), Vec::new(), Vec::new());
+        for k in 0..nz {
+            // The windows hold planes p0 … (bits: p0 + 3, the others p0 + 2).
+            let p0 = k.saturating_sub(1);
+            let next = (k + 1 - p0) * ny;
+            if k + 1 < nz {
+                let at = next * words;
+                add(self.on(ring).bcc_centres(bits, k + 1, &mut centres.data[at..at + plane]), out);
+                let b = Bcc { t, centres: &centres };
+                self.on(ring).bcc_count_plane(&b, bits, k + 1, &mut table.counts[next..next + ny]);
+            } else {
+                table.counts[next..next + ny].fill(BccRow::default());
+            }
+            table.restart(p0 * ny, start)?;
+            let [dv, dt] = table.plane_sizes(k, ny);
+            pos.clear();
+            pos.resize(dv, [0.0f32; 3]);
+            nrm.clear();
+            nrm.resize(if self.normals { dv } else { 0 }, [0.0f32; 3]);
+            tri.clear();
+            tri.resize(dt, [0u32; 3]);
+            let mut slab = SlabOut {
+                positions: &mut pos,
+                normals: &mut nrm,
+                triangles: &mut tri,
+                quads: &mut [],
+                keys: Vec::new(),
+            };
+            let b = Bcc { t, centres: &centres };
+            self.on(ring).bcc_fill_plane(&b, bits, &table, k, &mut slab);
+            sink.push(MeshBatch { positions: &pos, normals: &nrm, triangles: &tri, quads: &[] })
+                .map_err(Error::External)?;
+            out.vertices += dv as u64;
+            out.triangles += dt as u64;
+            if k >= 1 {
+                // Slide the windows up one plane.
+                start = table.base(k * ny);
+                table.counts.copy_within(ny.., 0);
+                bits.data.copy_within(plane.., 0);
+                bits.row0 += ny;
+                centres.data.copy_within(plane.., 0);
+                centres.row0 += ny;
+            }
+            if k + 3 < nz {
+                load(k + 3, ring, bits)?;
+            }
+            if let Some(p) = progress {
+                p.advance(k as u64 + 1, nz as u64);
+            }
+        }
+        Ok(())
+    }
+}
