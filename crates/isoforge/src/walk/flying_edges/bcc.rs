@@ -29,18 +29,15 @@
 
 use super::bits::{case_at, cell_rows, for_each_bit, mark_active, mask_tail, popcount, Bits};
 use super::families::{X, Y, Z};
-use super::fill::FillOut;
-use super::fill::{SlabOut, SlabSlots};
+use super::fill::{FillOut, SlabSlots};
 use super::keyed::centre_value;
-use super::stream::{Ctx, SlabRing, StreamStats};
+use super::stream::{spare, Ctx, SlabRing, StreamStats};
 use super::{for_each_chunk, for_each_chunk_with, map_tasks, Passes, PointBox};
 use crate::cube::{CellPoint, VertexKey, FACE_CORNERS};
 use crate::error::{Error, Result};
 use crate::extract::{BodyCentredTables, Extractor};
 use crate::grid::Sample;
-use crate::mesh::MeshBuilder;
-use crate::mesh::{huge_capacity, huge_vec, Mesh};
-use crate::mesh::{MeshBatch, MeshSink};
+use crate::mesh::{huge_capacity, huge_vec, Mesh, MeshBuilder, MeshSink, OwnedBatch};
 use crate::volume::SampleSlabs;
 use crate::walk::segment;
 use crate::walk::{edge_crossing, edge_normal};
@@ -743,7 +740,7 @@ impl<X: Extractor + Sync> Ctx<'_, X> {
             self.on(ring).bcc_count_plane(&b, bits, 0, &mut table.counts[..ny]);
         }
         let mut start = [0u64; 2];
-        let (mut pos, mut nrm, mut tri) = (Vec::new(), Vec::new(), Vec::new());
+        let mut batch = OwnedBatch::default();
         for k in 0..nz {
             // The windows hold planes p0 … (bits: p0 + 3, the others p0 + 2).
             let p0 = k.saturating_sub(1);
@@ -757,24 +754,28 @@ impl<X: Extractor + Sync> Ctx<'_, X> {
                 table.counts[next..next + ny].fill(BccRow::default());
             }
             table.restart(p0 * ny, start)?;
+            // Reused batch buffers sized from the counts, left uninitialised: the fill writes
+            // every slot (asserted row by row and per slab).
             let [dv, dt] = table.plane_sizes(k, ny);
-            pos.clear();
-            pos.resize(dv, [0.0f32; 3]);
-            nrm.clear();
-            nrm.resize(if self.normals { dv } else { 0 }, [0.0f32; 3]);
-            tri.clear();
-            tri.resize(dt, [0u32; 3]);
-            let mut slab = SlabOut {
-                positions: &mut pos,
-                normals: &mut nrm,
-                triangles: &mut tri,
-                quads: &mut [],
+            let nv = if self.normals { dv } else { 0 };
+            let mut slab = SlabSlots {
+                positions: spare(&mut batch.positions, dv),
+                normals: spare(&mut batch.normals, nv),
+                triangles: spare(&mut batch.triangles, dt),
+                quads: spare(&mut batch.quads, 0),
                 keys: Vec::new(),
             };
             let b = Bcc { t, centres: &centres };
             self.on(ring).bcc_fill_plane(&b, bits, &table, k, &mut slab);
-            sink.push(MeshBatch { positions: &pos, normals: &nrm, triangles: &tri, quads: &[] })
-                .map_err(Error::External)?;
+            // SAFETY: `bcc_fill_plane` returned, which it does only after writing every slot of
+            // `slab` (the first dv, nv and dt of the buffers `spare` cleared and reserved); a
+            // panic there propagates before this point.
+            unsafe {
+                batch.positions.set_len(dv);
+                batch.normals.set_len(nv);
+                batch.triangles.set_len(dt);
+            }
+            sink.push_owned(&mut batch).map_err(Error::External)?;
             out.vertices += dv as u64;
             out.triangles += dt as u64;
             if k >= 1 {

@@ -272,7 +272,7 @@ impl FlyingEdgesWalker<'_> {
 }
 
 /// The first `n` slots of `v`, emptied first: room the fill writes before `set_len`.
-fn spare<T>(v: &mut Vec<T>, n: usize) -> &mut [std::mem::MaybeUninit<T>] {
+pub(super) fn spare<T>(v: &mut Vec<T>, n: usize) -> &mut [std::mem::MaybeUninit<T>] {
     v.clear();
     v.reserve(n);
     &mut v.spare_capacity_mut()[..n]
