@@ -433,7 +433,7 @@ impl<V: SampleSlabs, X: Extractor> Passes<'_, V, X> {
             let r = k * ny + j;
             *c = BccRow::default();
             for f in 0..BCC_FAMILIES {
-                if self.bcc_mask(f, bits, &b.centres, r, [j, k], &mut mask) {
+                if self.bcc_mask(f, bits, b.centres, r, [j, k], &mut mask) {
                     c.v[f] = popcount(&mask);
                 }
             }
@@ -444,7 +444,7 @@ impl<V: SampleSlabs, X: Extractor> Passes<'_, V, X> {
             let rows = cell_rows(bits, r, ny);
             let mut tris = 0;
             for_each_bit(&visit, |i| {
-                tris += self.bcc_cell_count(b.t, &b.centres, case_at(&rows, i), [i, j, k]);
+                tris += self.bcc_cell_count(b.t, b.centres, case_at(&rows, i), [i, j, k]);
             });
             c.tris = tris;
         }
@@ -480,7 +480,7 @@ impl<V: SampleSlabs, X: Extractor> Passes<'_, V, X> {
             centres.fill(f32::NAN);
             let at = bx.in_slab(0, j);
             for f in 0..BCC_FAMILIES {
-                if c.v[f] == 0 || !self.bcc_mask(f, bits, &b.centres, r, [j, k], &mut mask) {
+                if c.v[f] == 0 || !self.bcc_mask(f, bits, b.centres, r, [j, k], &mut mask) {
                     continue;
                 }
                 for_each_bit(&mask, |i| {
@@ -573,7 +573,7 @@ impl<V: SampleSlabs, X: Extractor> Passes<'_, V, X> {
                     continue;
                 }
                 let m = &mut masks[slot];
-                self.bcc_mask(f, bits, &b.centres, row, jk, &mut m.mask);
+                self.bcc_mask(f, bits, b.centres, row, jk, &mut m.mask);
                 m.rank_prefix();
                 base[slot] = table.base(row)[0] as u32 + rc.before(f);
             }
@@ -704,6 +704,9 @@ impl<V: SampleSlabs + Sync, X: Extractor + Sync> Passes<'_, V, X> {
     }
 }
 
+/// Reads and classifies plane `k` of a stream into the bit window.
+type LoadPlane<'a, S> = dyn FnMut(usize, &mut SlabRing<S>, &mut Bits) -> Result<()> + 'a;
+
 impl<X: Extractor + Sync> Ctx<'_, X> {
     /// The counted body-centred walk on a window sliding up a stream: bits of planes k − 1 … k + 2,
     /// centre bits and row counts of k − 1 … k + 1 (the triangles of layer k name the centre
@@ -719,7 +722,7 @@ impl<X: Extractor + Sync> Ctx<'_, X> {
         t: &BodyCentredTables,
         ring: &mut SlabRing<S>,
         bits: &mut Bits,
-        load: &mut dyn FnMut(usize, &mut SlabRing<S>, &mut Bits) -> Result<()>,
+        load: &mut LoadPlane<'_, S>,
         sink: &mut dyn MeshSink,
         progress: Option<&dyn Progress>,
         out: &mut StreamStats,
