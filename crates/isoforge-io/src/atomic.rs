@@ -217,11 +217,6 @@ impl TempFile {
         &mut self.file
     }
 
-    /// The file, for positioned reads and writes.
-    pub fn file(&self) -> &File {
-        &self.file
-    }
-
     /// Empties the file and rewinds it.
     pub fn reset(&mut self) -> io::Result<()> {
         self.file.set_len(0)?;

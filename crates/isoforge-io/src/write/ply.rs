@@ -15,19 +15,14 @@ pub fn write_ply(w: &mut dyn Write, mesh: &Mesh, ascii: bool) -> io::Result<()> 
     write_ply_with(w, mesh, &MeshData::default(), ascii)
 }
 
-/// Binary PLY files end their vertex block on a multiple of this many bytes (the header is
-/// padded with blank `comment` lines): the streamed writer then writes the faces in place and
-/// inserts the header and vertices in front of them at the end (`FALLOC_FL_INSERT_RANGE`
-/// shifts whole filesystem blocks), rather than copying the larger face block.
-pub const VERTEX_BLOCK_END: u64 = 4096;
-
-/// The header of a PLY file: `faces` triangles and quads as one `face` element. A binary
-/// header is padded so that it and the vertex block end on [`VERTEX_BLOCK_END`].
+/// The header of a PLY file: `faces` triangles and quads as one `face` element.
 fn header(vertices: usize, faces: usize, normals: bool, data: &MeshData, ascii: bool) -> String {
     use std::fmt::Write as _;
     let format = if ascii { "ascii" } else { "binary_little_endian" };
-    let head = format!("ply\nformat {format} 1.0\ncomment isoforge {}\n", env!("CARGO_PKG_VERSION"));
-    let mut h = format!("element vertex {vertices}\nproperty float x\nproperty float y\nproperty float z\n");
+    let mut h = format!(
+        "ply\nformat {format} 1.0\ncomment isoforge {}\nelement vertex {vertices}\nproperty float x\nproperty float y\nproperty float z\n",
+        env!("CARGO_PKG_VERSION")
+    );
     if normals {
         h.push_str("property float nx\nproperty float ny\nproperty float nz\n");
     }
@@ -43,30 +38,7 @@ fn header(vertices: usize, faces: usize, normals: bool, data: &MeshData, ascii: 
         h.push_str("property int label\n");
     }
     h.push_str("end_header\n");
-    if ascii {
-        return head + &h;
-    }
-    let stride = 12 * (1 + normals as u64) + 3 * data.colors.is_some() as u64 + 4 * data.scalars.len() as u64;
-    let end = (head.len() + h.len()) as u64 + vertices as u64 * stride;
-    head + &padding(end) + &h
-}
-
-/// Blank `comment` lines (at most 72 bytes each) that bring `end` to a multiple of
-/// [`VERTEX_BLOCK_END`]; a line takes at least 8 bytes (`comment` and its newline).
-fn padding(end: u64) -> String {
-    const LINE: usize = 64;
-    let mut pad = ((VERTEX_BLOCK_END - end % VERTEX_BLOCK_END) % VERTEX_BLOCK_END) as usize;
-    if (1..8).contains(&pad) {
-        pad += VERTEX_BLOCK_END as usize;
-    }
-    let mut lines = vec![LINE; pad / LINE];
-    match (pad % LINE, lines.last_mut()) {
-        (0, _) => {}
-        (r @ 8.., _) => lines.push(r),
-        (r, Some(last)) => *last += r,
-        (_, None) => unreachable!("a padding under 8 bytes is raised by a block"),
-    }
-    lines.iter().map(|&n| format!("comment{}\n", " ".repeat(n - 8))).collect()
+    h
 }
 
 /// Faces packed per write (13 bytes a triangle, 17 a quad).
@@ -217,19 +189,15 @@ pub fn write_ply_with(w: &mut dyn Write, mesh: &Mesh, data: &MeshData, ascii: bo
     write_faces(w, &mesh.quads, &mut buf)
 }
 
-/// A binary PLY written as the mesh is produced ([`isoforge::mesh::MeshSink`]). The counts, hence
-/// the header, are known only at the end. Where the filesystem shifts blocks in
-/// (`FALLOC_FL_INSERT_RANGE`: ext4, XFS) the faces go straight into the output's temporary file and
-/// [`PlyStream::finish`] inserts the header and the vertices (kept in a scratch file) in front of
-/// them; elsewhere the faces go to a scratch file too and both are copied behind the header
-/// (`copy_file_range`: a copy inside the kernel). The bytes are exactly [`write_ply`]'s for the
-/// same mesh. Nothing appears at the path before the batch commits (or, for
-/// [`PlyStream::create`], before `finish`); a stream dropped unfinished leaves nothing.
+/// A binary PLY written as the mesh is produced ([`isoforge::mesh::MeshSink`]): vertices and
+/// faces go to two anonymous scratch files beside the output (the counts, hence the header, are
+/// known only at the end); [`PlyStream::finish`] writes the header into the output's temporary
+/// file and appends both (`copy_file_range`: a copy inside the kernel). The bytes are exactly
+/// [`write_ply`]'s for the same mesh. Nothing appears at the path before the batch commits (or,
+/// for [`PlyStream::create`], before `finish`); a stream dropped unfinished leaves nothing.
 pub struct PlyStream<'a> {
     batch: Owner<'a>,
     path: PathBuf,
-    /// The output's temporary file, or `None` when the faces are written into it in place (it is
-    /// then `faces`' file).
     main: Option<TempFile>,
     verts: io::BufWriter<TempFile>,
     faces: io::BufWriter<TempFile>,
@@ -283,15 +251,11 @@ impl<'a> PlyStream<'a> {
         let mut main = batch.batch().take(path)?;
         main.reset().map_err(io_err)?;
         let verts = TempFile::create(path).map_err(io_err)?;
-        let (main, faces) = if inserts_blocks(&mut main).map_err(io_err)? {
-            (None, main)
-        } else {
-            (Some(main), TempFile::create(path).map_err(io_err)?)
-        };
+        let faces = TempFile::create(path).map_err(io_err)?;
         Ok(PlyStream {
             batch,
             path: path.to_path_buf(),
-            main,
+            main: Some(main),
             verts: io::BufWriter::with_capacity(1 << 20, verts),
             faces: io::BufWriter::with_capacity(1 << 20, faces),
             buf: Vec::new(),
@@ -308,6 +272,9 @@ impl<'a> PlyStream<'a> {
     /// Writing fails, or `normals` does not match the stream.
     pub fn push(&mut self, batch: isoforge::mesh::MeshBatch<'_>) -> io::Result<()> {
         let isoforge::mesh::MeshBatch { positions, normals, triangles, quads } = batch;
+        if self.main.is_none() {
+            return Err(io::Error::other("the stream is finished"));
+        }
         if self.normals == normals.is_empty() && !positions.is_empty() {
             return Err(io::Error::other("normals given to a stream created without them, or missing"));
         }
@@ -325,113 +292,59 @@ impl<'a> PlyStream<'a> {
         Ok(())
     }
 
-    /// Writes the header and the vertices in front of the faces (see [`PlyStream`]); then
-    /// commits the file (a stream of its own) or hands it back to its batch. Returns the vertex
-    /// and face counts.
+    /// Writes the header, appends the vertices and faces; then commits the file (a stream of its
+    /// own) or hands it back to its batch. Returns the vertex and face counts.
     ///
     /// # Errors
     /// [`Error::Io`] naming the path when writing or committing fails (nothing is left behind).
-    pub fn finish(self) -> Result<(u64, u64)> {
+    pub fn finish(mut self) -> Result<(u64, u64)> {
         use std::io::{Seek, SeekFrom};
-        use std::os::unix::fs::FileExt;
-        let PlyStream { batch, path, main, verts, mut faces, faces_packed, normals, vertices, triangles, .. } = self;
+        let path = self.path.clone();
         let io_err = |source| Error::Io { path: path.clone(), source };
-        let out = (|| {
+        let mut main = self.main.take().ok_or_else(|| io_err(io::Error::other("the stream is finished")))?;
+        let written = (|| {
             let too_many = || io::Error::other("more vertices or faces than this machine can count");
             let (v, f) = (
-                usize::try_from(vertices).map_err(|_| too_many())?,
-                usize::try_from(triangles).map_err(|_| too_many())?,
+                usize::try_from(self.vertices).map_err(|_| too_many())?,
+                usize::try_from(self.triangles).map_err(|_| too_many())?,
             );
-            let head = header(v, f, normals, &MeshData::default(), false);
-            faces.write_all(&faces_packed)?;
-            let mut verts = verts.into_inner().map_err(io::IntoInnerError::into_error)?;
-            let mut faces = faces.into_inner().map_err(io::IntoInnerError::into_error)?;
-            let (h, vlen) = (head.len() as u64, verts.file_mut().metadata()?.len());
-            let flen = faces.file_mut().metadata()?.len();
-            let (mut out, scratch_faces) = match main {
-                Some(main) => (main, Some(faces)),
-                None => {
-                    if flen > 0 {
-                        insert_blocks(faces.file_mut(), h + vlen)?;
-                    }
-                    (faces, None)
-                }
-            };
-            let (o, vf): (&std::fs::File, &std::fs::File) = (out.file_mut(), verts.file_mut());
-            o.write_all_at(head.as_bytes(), 0)?;
-            // The vertices in two halves and the scratch faces, at once (the walk is over: the
-            // second core is free).
-            let half = vlen / 2;
+            main.write_all(header(v, f, self.normals, &MeshData::default(), false).as_bytes())?;
+            self.faces.write_all(&self.faces_packed)?;
+            self.verts.flush()?;
+            self.faces.flush()?;
+            // Vertices after the header, faces after the vertices: both lengths are known, so
+            // the two copies run at once (the walk is over; the second core is free).
+            let at = main.file_mut().stream_position()?;
+            let (verts, faces) = (self.verts.get_mut().file_mut(), self.faces.get_mut().file_mut());
+            let (vlen, flen) = (verts.metadata()?.len(), faces.metadata()?.len());
+            let out: &std::fs::File = main.file_mut();
+            let (verts, faces): (&std::fs::File, &std::fs::File) = (verts, faces);
             std::thread::scope(|s| {
-                let faces = scratch_faces.as_ref().map(|sf| {
-                    let sf: &std::fs::File = sf.file();
-                    s.spawn(move || copy_at(sf, 0, o, h + vlen, flen))
-                });
-                let first = s.spawn(|| copy_at(vf, 0, o, h, half));
-                let rest = copy_at(vf, half, o, h + half, vlen - half);
-                let joined = |j: std::thread::ScopedJoinHandle<'_, io::Result<()>>| {
-                    j.join().unwrap_or_else(|_| Err(io::Error::other("copying into the output panicked")))
-                };
-                rest.and(joined(first)).and(faces.map_or(Ok(()), joined))
+                let tail = s.spawn(|| copy_at(faces, out, at + vlen, flen));
+                let head = copy_at(verts, out, at, vlen);
+                head.and(tail.join().unwrap_or_else(|_| Err(io::Error::other("copying the faces panicked"))))
             })?;
-            out.file_mut().seek(SeekFrom::Start(h + vlen + flen))?;
-            Ok(out)
-        })()
-        .map_err(io_err)?;
-        batch.batch().put(&path, out);
-        if let Owner::Own(b) = batch {
+            main.file_mut().seek(SeekFrom::Start(at + vlen + flen))?;
+            Ok(())
+        })();
+        written.map_err(io_err)?;
+        self.batch.batch().put(&path, main);
+        if let Owner::Own(b) = std::mem::replace(&mut self.batch, Owner::Own(Batch::new())) {
             b.commit()?;
         }
-        Ok((vertices, triangles))
+        Ok((self.vertices, self.triangles))
     }
 }
 
-/// Whether `t`'s filesystem shifts whole blocks into a file (`FALLOC_FL_INSERT_RANGE` of
-/// [`VERTEX_BLOCK_END`] bytes, tried on the empty file, which is emptied again). Never elsewhere
-/// than Linux, nor with `ISOFORGE_PLY_COPY=1` (to exercise the copying path).
-fn inserts_blocks(t: &mut TempFile) -> io::Result<bool> {
-    if std::env::var_os("ISOFORGE_PLY_COPY").is_some_and(|v| v == "1") {
-        return Ok(false);
-    }
-    #[cfg(target_os = "linux")]
-    {
-        t.file_mut().set_len(VERTEX_BLOCK_END)?;
-        let ok = insert_blocks(t.file_mut(), VERTEX_BLOCK_END).is_ok();
-        t.reset()?;
-        Ok(ok)
-    }
-    #[cfg(not(target_os = "linux"))]
-    Ok(false)
-}
-
-/// Shifts `f`'s contents `len` bytes further in (`len` a multiple of the filesystem block),
-/// leaving a hole at the start.
-#[cfg(target_os = "linux")]
-fn insert_blocks(f: &std::fs::File, len: u64) -> io::Result<()> {
-    use std::os::fd::AsRawFd;
-    let len = libc::off_t::try_from(len).map_err(|_| io::Error::other("the vertex block is too long to insert"))?;
-    // SAFETY: the descriptor is an open file borrowed for the call; no memory is passed.
-    if unsafe { libc::fallocate(f.as_raw_fd(), libc::FALLOC_FL_INSERT_RANGE, 0, len) } == 0 {
-        Ok(())
-    } else {
-        Err(io::Error::last_os_error())
-    }
-}
-
-#[cfg(not(target_os = "linux"))]
-fn insert_blocks(_: &std::fs::File, _: u64) -> io::Result<()> {
-    Err(io::Error::from(io::ErrorKind::Unsupported))
-}
-
-/// Copies `len` bytes of `from` at `from_at` into `to` at `to_at` (neither file's position is
+/// Copies the first `len` bytes of `from` into `to` at offset `at` (neither file's position is
 /// used or moved): in the kernel (`copy_file_range`) where it can, else through a buffer.
-fn copy_at(from: &std::fs::File, from_at: u64, to: &std::fs::File, to_at: u64, len: u64) -> io::Result<()> {
+fn copy_at(from: &std::fs::File, to: &std::fs::File, at: u64, len: u64) -> io::Result<()> {
     let mut done = 0u64;
     #[cfg(target_os = "linux")]
     {
         use std::os::fd::AsRawFd;
         while done < len {
-            let (mut off_in, mut off_out) = ((from_at + done) as libc::loff_t, (to_at + done) as libc::loff_t);
+            let (mut off_in, mut off_out) = ((done) as libc::loff_t, (at + done) as libc::loff_t);
             let want = usize::try_from(len - done).unwrap_or(usize::MAX).min(1 << 30);
             // SAFETY: both descriptors are open files borrowed for the call; the offsets are
             // locals the kernel updates; no memory of ours is read or written.
@@ -457,8 +370,8 @@ fn copy_at(from: &std::fs::File, from_at: u64, to: &std::fs::File, to_at: u64, l
     let mut buf = vec![0u8; (1 << 20).min(len.saturating_sub(done)) as usize];
     while done < len {
         let n = buf.len().min((len - done) as usize);
-        from.read_exact_at(&mut buf[..n], from_at + done)?;
-        to.write_all_at(&buf[..n], to_at + done)?;
+        from.read_exact_at(&mut buf[..n], done)?;
+        to.write_all_at(&buf[..n], at + done)?;
         done += n as u64;
     }
     Ok(())
