@@ -192,9 +192,10 @@ pub fn write_ply_with(w: &mut dyn Write, mesh: &Mesh, data: &MeshData, ascii: bo
 /// A binary PLY written as the mesh is produced ([`isoforge::mesh::MeshSink`]): vertices and
 /// faces go to two anonymous scratch files beside the output (the counts, hence the header, are
 /// known only at the end); [`PlyStream::finish`] writes the header into the output's temporary
-/// file and appends both (`copy_file_range`: a copy inside the kernel). The bytes are exactly
-/// [`write_ply`]'s for the same mesh. Nothing appears at the path before the batch commits (or,
-/// for [`PlyStream::create`], before `finish`); a stream dropped unfinished leaves nothing.
+/// file and appends both (`copy_file_range`: a copy inside the kernel, in two parallel halves).
+/// The bytes are exactly [`write_ply`]'s for the same mesh. Nothing appears at the path before the
+/// batch commits (or, for [`PlyStream::create`], before `finish`); a stream dropped unfinished
+/// leaves nothing.
 pub struct PlyStream<'a> {
     batch: Owner<'a>,
     path: PathBuf,
@@ -313,16 +314,18 @@ impl<'a> PlyStream<'a> {
             self.verts.flush()?;
             self.faces.flush()?;
             // Vertices after the header, faces after the vertices: both lengths are known, so
-            // the two copies run at once (the walk is over; the second core is free).
+            // the body is copied as two equal halves at once (the walk is over; the second core
+            // is free). Vertices ∥ faces was unbalanced: the faces are twice the vertices.
             let at = main.file_mut().stream_position()?;
             let (verts, faces) = (self.verts.get_mut().file_mut(), self.faces.get_mut().file_mut());
             let (vlen, flen) = (verts.metadata()?.len(), faces.metadata()?.len());
             let out: &std::fs::File = main.file_mut();
-            let (verts, faces): (&std::fs::File, &std::fs::File) = (verts, faces);
+            let parts: [(&std::fs::File, u64); 2] = [(verts, vlen), (faces, flen)];
+            let half = (vlen + flen) / 2;
             std::thread::scope(|s| {
-                let tail = s.spawn(|| copy_at(faces, out, at + vlen, flen));
-                let head = copy_at(verts, out, at, vlen);
-                head.and(tail.join().unwrap_or_else(|_| Err(io::Error::other("copying the faces panicked"))))
+                let tail = s.spawn(|| copy_span(&parts, out, at, half..vlen + flen));
+                let head = copy_span(&parts, out, at, 0..half);
+                head.and(tail.join().unwrap_or_else(|_| Err(io::Error::other("copying into the output panicked"))))
             })?;
             main.file_mut().seek(SeekFrom::Start(at + vlen + flen))?;
             Ok(())
@@ -336,15 +339,34 @@ impl<'a> PlyStream<'a> {
     }
 }
 
-/// Copies the first `len` bytes of `from` into `to` at offset `at` (neither file's position is
+/// Copies bytes `range` of the concatenation of `parts` (files and the lengths taken from each)
+/// into `to` at `at + range.start`.
+fn copy_span(
+    parts: &[(&std::fs::File, u64)],
+    to: &std::fs::File,
+    at: u64,
+    range: std::ops::Range<u64>,
+) -> io::Result<()> {
+    let mut start = 0;
+    for &(from, len) in parts {
+        let (lo, hi) = (range.start.max(start), range.end.min(start + len));
+        if lo < hi {
+            copy_at(from, lo - start, to, at + lo, hi - lo)?;
+        }
+        start += len;
+    }
+    Ok(())
+}
+
+/// Copies `len` bytes of `from` at `from_at` into `to` at `to_at` (neither file's position is
 /// used or moved): in the kernel (`copy_file_range`) where it can, else through a buffer.
-fn copy_at(from: &std::fs::File, to: &std::fs::File, at: u64, len: u64) -> io::Result<()> {
+fn copy_at(from: &std::fs::File, from_at: u64, to: &std::fs::File, to_at: u64, len: u64) -> io::Result<()> {
     let mut done = 0u64;
     #[cfg(target_os = "linux")]
     {
         use std::os::fd::AsRawFd;
         while done < len {
-            let (mut off_in, mut off_out) = ((done) as libc::loff_t, (at + done) as libc::loff_t);
+            let (mut off_in, mut off_out) = ((from_at + done) as libc::loff_t, (to_at + done) as libc::loff_t);
             let want = usize::try_from(len - done).unwrap_or(usize::MAX).min(1 << 30);
             // SAFETY: both descriptors are open files borrowed for the call; the offsets are
             // locals the kernel updates; no memory of ours is read or written.
@@ -370,8 +392,8 @@ fn copy_at(from: &std::fs::File, to: &std::fs::File, at: u64, len: u64) -> io::R
     let mut buf = vec![0u8; (1 << 20).min(len.saturating_sub(done)) as usize];
     while done < len {
         let n = buf.len().min((len - done) as usize);
-        from.read_exact_at(&mut buf[..n], done)?;
-        to.write_all_at(&buf[..n], at + done)?;
+        from.read_exact_at(&mut buf[..n], from_at + done)?;
+        to.write_all_at(&buf[..n], to_at + done)?;
         done += n as u64;
     }
     Ok(())
