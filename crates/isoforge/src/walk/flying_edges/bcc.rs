@@ -27,7 +27,9 @@
 //! their corners (grids, the streaming window); ranges (chunks, keys at their boundary) and
 //! tabulated fields take the keyed path.
 
-use super::bits::{case_at, cell_rows, for_each_bit, mark_active, mask_tail, popcount, Bits, RankedMask};
+use super::bits::{
+    case_at, cell_rows, for_each_bit, mark_active, mask_tail, popcount, uniform_block, Bits, RankedMask,
+};
 use super::families::{X, Y, Z};
 use super::fill::{fill_planes, Counted, FillOut, RowTable};
 use super::keyed::centre_value;
@@ -35,6 +37,7 @@ use super::stream::{fill_batch, Ctx, SlabRing, StreamStats};
 use super::{for_each_chunk, for_each_chunk_with, Passes, PointBox};
 use crate::cube::{CellPoint, VertexKey, FACE_CORNERS};
 use crate::error::{Error, Result};
+use crate::extract::tetrahedra::BccSolid;
 use crate::extract::{BodyCentredTables, Extractor};
 use crate::grid::Sample;
 use crate::mesh::{huge_vec, MeshBuilder, MeshSink, OwnedBatch};
@@ -361,9 +364,22 @@ impl<V: SampleSlabs, X: Extractor> Passes<'_, V, X> {
         let mut mask = vec![0u64; words];
         let mut visit = vec![0u64; words];
         let mut scratch = vec![0u64; words];
+        let dims = self.bx.dims;
+        // Whether the points of cell row (j, k) and those of the next rows on y and z are all on
+        // one side (the row on the lattice's last y or z plane: its points and the next ones).
+        let uniform = |r: usize, jk: [usize; 2]| uniform_block(bits, r, jk, dims);
+        let mut below = None;
         for (j, c) in out.iter_mut().enumerate() {
             let r = k * ny + j;
             *c = BccRow::default();
+            // A row whose cell row and the cell rows below it on y and z are uniform (all on one
+            // side, so are their centres) crosses no segment and has no triangle.
+            let here = uniform(r, [j, k]);
+            let skip = here.is_some() && (j == 0 || below == here) && (k == 0 || uniform(r - ny, [j, k - 1]) == here);
+            below = here;
+            if skip {
+                continue;
+            }
             for f in 0..BCC_FAMILIES {
                 if self.bcc_mask(f, bits, b.centres, r, [j, k], &mut mask) {
                     c.v[f] = popcount(&mask);
@@ -511,40 +527,53 @@ impl<V: SampleSlabs, X: Extractor> Passes<'_, V, X> {
             }
             self.bcc_visit(bits, r, [j, k], &mut visit, &mut scratch);
             let rows = cell_rows(bits, r, ny);
-            let cb = &b.centres;
+            // Centre rows of this cell row and of those below it on y and z (when they exist).
+            let cr = b.centres.row(r);
+            let cy = if j > 0 { b.centres.row(r - 1) } else { cr };
+            let cz = if k > 0 { b.centres.row(r - ny) } else { cr };
+            // Cell rows away from the lattice's y and z faces: cells away from all faces have just
+            // the octahedra of their lower faces.
+            let inner_row = j > 0 && k > 0 && j + 2 < ny && k + 2 < nz;
+            let mut emit = |solid: &BccSolid, i: usize| {
+                if solid.triangle_count == 0 {
+                    return;
+                }
+                let mut ids = [0u32; 12];
+                for (id, &s) in ids.iter_mut().zip(&solid.segments[..solid.segment_count as usize]) {
+                    let (slot, off) = SEGMENT_SLOT[s as usize];
+                    let at = (i as isize + off as isize) as usize;
+                    *id = base[slot as usize] + masks[slot as usize].rank(at);
+                }
+                for tri in &solid.triangles[..solid.triangle_count as usize] {
+                    let [a, b2, c] = tri.map(|s| ids[s as usize]);
+                    out.set_triangle(t_out, if self.reverse { [a, c, b2] } else { [a, b2, c] });
+                    t_out += 1;
+                }
+            };
             for_each_bit(&visit, |i| {
-                let case = case_at(&rows, i);
-                let centre = bit(cb.row(r), i) as usize;
-                let l = [i, j, k];
+                let case = case_at(&rows, i) as usize;
+                let centre = bit(cr, i) as usize;
                 let by = |a: usize| match a {
-                    0 => bit(cb.row(r), i - 1) as usize,
-                    1 => bit(cb.row(r - 1), i) as usize,
-                    _ => bit(cb.row(r - ny), i) as usize,
+                    0 => bit(cr, i - 1) as usize,
+                    1 => bit(cy, i) as usize,
+                    _ => bit(cz, i) as usize,
                 };
+                if inner_row && i > 0 && i + 2 < nx {
+                    for a in 0..3 {
+                        let corners = b.t.face_case[2 * a][case] as usize;
+                        emit(&b.t.octahedra[a][centre | by(a) << 1 | corners << 2], i);
+                    }
+                    return;
+                }
+                let l = [i, j, k];
                 for f in 0..6 {
                     let a = f / 2;
-                    let corners = b.t.face_case[f][case as usize] as usize;
+                    let corners = b.t.face_case[f][case] as usize;
                     let boundary = if f % 2 == 0 { l[a] == 0 } else { l[a] == last[a] };
-                    let solid = if boundary {
-                        &b.t.pyramids[f][centre | corners << 1]
+                    if boundary {
+                        emit(&b.t.pyramids[f][centre | corners << 1], i);
                     } else if f % 2 == 0 {
-                        &b.t.octahedra[a][centre | by(a) << 1 | corners << 2]
-                    } else {
-                        continue;
-                    };
-                    if solid.triangle_count == 0 {
-                        continue;
-                    }
-                    let mut ids = [0u32; 12];
-                    for (id, &s) in ids.iter_mut().zip(&solid.segments[..solid.segment_count as usize]) {
-                        let (slot, off) = SEGMENT_SLOT[s as usize];
-                        let at = (i as isize + off as isize) as usize;
-                        *id = base[slot as usize] + masks[slot as usize].rank(at);
-                    }
-                    for tri in &solid.triangles[..solid.triangle_count as usize] {
-                        let [a, b2, c] = tri.map(|s| ids[s as usize]);
-                        out.set_triangle(t_out, if self.reverse { [a, c, b2] } else { [a, b2, c] });
-                        t_out += 1;
+                        emit(&b.t.octahedra[a][centre | by(a) << 1 | corners << 2], i);
                     }
                 }
             });
