@@ -620,14 +620,7 @@ impl<V: SampleSlabs + Sync, X: Extractor + Sync> Passes<'_, V, X> {
         // SAFETY: `bcc_fill_plane` returns only after writing every slot of its slab (asserted
         // row by row and per slab).
         let (mesh, keys) = unsafe {
-            fill_planes(
-                table.totals(),
-                self.normals,
-                nz,
-                |k| table.plane_sizes(k, ny),
-                progress,
-                |k, slab| self.bcc_fill_plane(&b, bits, &table, k, slab),
-            )
+            fill_planes(&table, ny, self.normals, progress, |k, slab| self.bcc_fill_plane(&b, bits, &table, k, slab))
         };
         out.set_assembled(mesh, keys);
         Ok(stats)

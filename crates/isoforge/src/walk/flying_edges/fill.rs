@@ -96,8 +96,8 @@ impl<C: Counted> RowTable<C> {
     }
 
     #[inline(always)]
-    pub(super) fn count(&self, r: usize) -> C {
-        self.counts[r - self.row0]
+    pub(super) fn count(&self, r: usize) -> &C {
+        &self.counts[r - self.row0]
     }
 
     #[inline(always)]
@@ -161,23 +161,23 @@ impl FillOut for SlabSlots<'_> {
     }
 }
 
-/// PASS 4 in memory: the mesh of `totals` vertices, triangles and quads, allocated exactly and
-/// left uninitialised, split into one [`SlabSlots`] per box plane (`sizes(k)`, in order), filled
+/// PASS 4 in memory: the mesh of all rows of `table` (`ny` rows a plane), allocated exactly and
+/// left uninitialised, split into one [`SlabSlots`] per box plane (its sizes, in order), filled
 /// by `fill(k, slots)` on every plane (in parallel when enabled; `progress` once per plane), its
 /// lengths then committed. Returns the mesh and the recorded keys, in plane order.
 ///
 /// # Safety
 /// `fill` returns only after writing every slot of the [`SlabSlots`] it is given (the fills
 /// assert it row by row and per plane, and panic otherwise).
-pub(super) unsafe fn fill_planes(
-    totals: [usize; 3],
+pub(super) unsafe fn fill_planes<C: Counted>(
+    table: &RowTable<C>,
+    ny: usize,
     normals: bool,
-    planes: usize,
-    sizes: impl Fn(usize) -> [usize; 3],
     progress: Option<&dyn Progress>,
     fill: impl Fn(usize, &mut SlabSlots<'_>) + Sync + Send,
 ) -> (Mesh, Vec<(u32, VertexKey)>) {
-    let [v, t, q] = totals;
+    let [v, t, q] = table.totals();
+    let planes = table.counts.len() / ny;
     let nv = if normals { v } else { 0 };
     let mut mesh = Mesh {
         positions: huge_capacity(v),
@@ -194,7 +194,7 @@ pub(super) unsafe fn fill_planes(
             &mut mesh.quads.spare_capacity_mut()[..q],
         );
         for k in 0..planes {
-            let [dv, dt, dq] = sizes(k);
+            let [dv, dt, dq] = table.plane_sizes(k, ny);
             let (p, rest) = pos.split_at_mut(dv);
             pos = rest;
             let (n, rest) = if normals { nrm.split_at_mut(dv) } else { (&mut [][..], nrm) };

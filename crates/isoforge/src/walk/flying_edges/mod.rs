@@ -302,14 +302,9 @@ impl<V: SampleSlabs + Sync, X: Extractor + Sync> Passes<'_, V, X> {
         // SAFETY: `fill_plane` returns only after writing every slot of its slab (asserted row by
         // row).
         let (mesh, keys) = unsafe {
-            fill_planes(
-                table.totals(),
-                self.normals,
-                nz,
-                |k| table.plane_sizes(k, ny),
-                progress,
-                |k, slab| self.fill_plane(bits, &table, k, &cell_stats[k].1, slab),
-            )
+            fill_planes(&table, ny, self.normals, progress, |k, slab| {
+                self.fill_plane(bits, &table, k, &cell_stats[k].1, slab)
+            })
         };
         out.set_assembled(mesh, keys);
         (scratch.counts, scratch.base) = table.into_parts();
