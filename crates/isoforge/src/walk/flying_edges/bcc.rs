@@ -27,22 +27,24 @@
 //! their corners (grids, the streaming window); ranges (chunks, keys at their boundary) and
 //! tabulated fields take the keyed path.
 
-use super::bits::{case_at, cell_rows, for_each_bit, mark_active, mask_tail, popcount, Bits};
+use super::bits::{
+    case_at, cell_rows, for_each_bit, mark_active, mask_tail, popcount, uniform_block, Bits, RankedMask,
+};
 use super::families::{X, Y, Z};
-use super::fill::{FillOut, SlabSlots};
+use super::fill::{fill_planes, Counted, FillOut, RowTable};
 use super::keyed::centre_value;
-use super::stream::{spare, Ctx, SlabRing, StreamStats};
-use super::{for_each_chunk, for_each_chunk_with, map_tasks, Passes, PointBox};
+use super::stream::{fill_batch, Ctx, SlabRing, StreamStats};
+use super::{for_each_chunk, for_each_chunk_with, Passes, PointBox};
 use crate::cube::{CellPoint, VertexKey, FACE_CORNERS};
 use crate::error::{Error, Result};
+use crate::extract::tetrahedra::BccSolid;
 use crate::extract::{BodyCentredTables, Extractor};
 use crate::grid::Sample;
-use crate::mesh::{huge_capacity, huge_vec, Mesh, MeshBuilder, MeshSink, OwnedBatch};
+use crate::mesh::{huge_vec, MeshBuilder, MeshSink, OwnedBatch};
 use crate::volume::SampleSlabs;
 use crate::walk::segment;
 use crate::walk::{edge_crossing, edge_normal};
 use crate::walk::{Progress, WalkStats};
-use std::sync::atomic::{AtomicU64, Ordering};
 
 /// Centre → corner c: family `CC + c`.
 const CC: usize = 3;
@@ -71,57 +73,15 @@ impl BccRow {
     }
 }
 
-/// Row counts and each row's first vertex and triangle, for box rows `row0 ..` (all rows in
-/// memory, a window of planes when streaming).
-pub(super) struct BccTable {
-    pub(super) counts: Vec<BccRow>,
-    /// `[vertex, triangle]` before each row; one more entry holds the running total.
-    base: Vec<[u64; 2]>,
-    pub(super) row0: usize,
-}
-
-impl BccTable {
-    pub(super) fn new(rows: usize) -> Self {
-        BccTable { counts: vec![BccRow::default(); rows], base: vec![[0; 2]; rows + 1], row0: 0 }
-    }
-
-    /// Recomputes the running sums from `start` (the bases of row `row0`).
-    ///
-    /// # Errors
-    /// [`Error::Limit`] past `u32` vertex indices.
-    pub(super) fn restart(&mut self, row0: usize, start: [u64; 2]) -> Result<()> {
-        self.row0 = row0;
-        let mut acc = start;
-        for (b, c) in self.base.iter_mut().zip(&self.counts) {
-            *b = acc;
-            acc[0] += c.vertices() as u64;
-            acc[1] += c.tris as u64;
-        }
-        if let Some(last) = self.base.last_mut() {
-            *last = acc;
-        }
-        if acc[0] > MeshBuilder::MAX_VERTICES {
-            return Err(Error::Limit { what: "mesh vertices", requested: acc[0], allowed: MeshBuilder::MAX_VERTICES });
-        }
-        Ok(())
-    }
-
-    #[inline(always)]
-    fn count(&self, r: usize) -> BccRow {
-        self.counts[r - self.row0]
-    }
-
-    #[inline(always)]
-    pub(super) fn base(&self, r: usize) -> [u64; 2] {
-        self.base[r - self.row0]
-    }
-
-    /// Vertices and triangles of the `ny` rows of box plane `k`.
-    pub(super) fn plane_sizes(&self, k: usize, ny: usize) -> [usize; 2] {
-        let (a, b) = (self.base(k * ny), self.base((k + 1) * ny));
-        [(b[0] - a[0]) as usize, (b[1] - a[1]) as usize]
+impl Counted for BccRow {
+    #[inline]
+    fn sums(&self) -> [u64; 3] {
+        [self.vertices() as u64, self.tris as u64, 0]
     }
 }
+
+/// Row counts and each row's first vertex and triangle (no quads).
+pub(super) type BccTable = RowTable<BccRow>;
 
 /// Rows of a cell's ranked masks, relative to its cell row A = (j, k).
 #[derive(Clone, Copy)]
@@ -223,31 +183,6 @@ const SEGMENT_SLOT: [(u8, i8); 41] = {
     }
     t
 };
-
-/// A crossing mask with prefix popcounts, for vertex ranks.
-struct RankedMask {
-    mask: Vec<u64>,
-    before: Vec<u32>,
-}
-
-impl RankedMask {
-    fn new(words: usize) -> Self {
-        RankedMask { mask: vec![0; words], before: vec![0; words] }
-    }
-    fn rank_prefix(&mut self) {
-        let mut acc = 0;
-        for (b, m) in self.before.iter_mut().zip(&self.mask) {
-            *b = acc;
-            acc += m.count_ones();
-        }
-    }
-    /// Number of set bits below bit `i`.
-    #[inline(always)]
-    fn rank(&self, i: usize) -> u32 {
-        let (w, b) = (i / 64, i % 64);
-        self.before[w] + (self.mask[w] & ((1u64 << b) - 1)).count_ones()
-    }
-}
 
 /// Bit `i` of a row, across words.
 #[inline(always)]
@@ -429,9 +364,22 @@ impl<V: SampleSlabs, X: Extractor> Passes<'_, V, X> {
         let mut mask = vec![0u64; words];
         let mut visit = vec![0u64; words];
         let mut scratch = vec![0u64; words];
+        let dims = self.bx.dims;
+        // Whether the points of cell row (j, k) and those of the next rows on y and z are all on
+        // one side (the row on the lattice's last y or z plane: its points and the next ones).
+        let uniform = |r: usize, jk: [usize; 2]| uniform_block(bits, r, jk, dims);
+        let mut below = None;
         for (j, c) in out.iter_mut().enumerate() {
             let r = k * ny + j;
             *c = BccRow::default();
+            // A row whose cell row and the cell rows below it on y and z are uniform (all on one
+            // side, so are their centres) crosses no segment and has no triangle.
+            let here = uniform(r, [j, k]);
+            let skip = here.is_some() && (j == 0 || below == here) && (k == 0 || uniform(r - ny, [j, k - 1]) == here);
+            below = here;
+            if skip {
+                continue;
+            }
             for f in 0..BCC_FAMILIES {
                 if self.bcc_mask(f, bits, b.centres, r, [j, k], &mut mask) {
                     c.v[f] = popcount(&mask);
@@ -579,40 +527,53 @@ impl<V: SampleSlabs, X: Extractor> Passes<'_, V, X> {
             }
             self.bcc_visit(bits, r, [j, k], &mut visit, &mut scratch);
             let rows = cell_rows(bits, r, ny);
-            let cb = &b.centres;
+            // Centre rows of this cell row and of those below it on y and z (when they exist).
+            let cr = b.centres.row(r);
+            let cy = if j > 0 { b.centres.row(r - 1) } else { cr };
+            let cz = if k > 0 { b.centres.row(r - ny) } else { cr };
+            // Cell rows away from the lattice's y and z faces: cells away from all faces have just
+            // the octahedra of their lower faces.
+            let inner_row = j > 0 && k > 0 && j + 2 < ny && k + 2 < nz;
+            let mut emit = |solid: &BccSolid, i: usize| {
+                if solid.triangle_count == 0 {
+                    return;
+                }
+                let mut ids = [0u32; 12];
+                for (id, &s) in ids.iter_mut().zip(&solid.segments[..solid.segment_count as usize]) {
+                    let (slot, off) = SEGMENT_SLOT[s as usize];
+                    let at = (i as isize + off as isize) as usize;
+                    *id = base[slot as usize] + masks[slot as usize].rank(at);
+                }
+                for tri in &solid.triangles[..solid.triangle_count as usize] {
+                    let [a, b2, c] = tri.map(|s| ids[s as usize]);
+                    out.set_triangle(t_out, if self.reverse { [a, c, b2] } else { [a, b2, c] });
+                    t_out += 1;
+                }
+            };
             for_each_bit(&visit, |i| {
-                let case = case_at(&rows, i);
-                let centre = bit(cb.row(r), i) as usize;
-                let l = [i, j, k];
+                let case = case_at(&rows, i) as usize;
+                let centre = bit(cr, i) as usize;
                 let by = |a: usize| match a {
-                    0 => bit(cb.row(r), i - 1) as usize,
-                    1 => bit(cb.row(r - 1), i) as usize,
-                    _ => bit(cb.row(r - ny), i) as usize,
+                    0 => bit(cr, i - 1) as usize,
+                    1 => bit(cy, i) as usize,
+                    _ => bit(cz, i) as usize,
                 };
+                if inner_row && i > 0 && i + 2 < nx {
+                    for a in 0..3 {
+                        let corners = b.t.face_case[2 * a][case] as usize;
+                        emit(&b.t.octahedra[a][centre | by(a) << 1 | corners << 2], i);
+                    }
+                    return;
+                }
+                let l = [i, j, k];
                 for f in 0..6 {
                     let a = f / 2;
-                    let corners = b.t.face_case[f][case as usize] as usize;
+                    let corners = b.t.face_case[f][case] as usize;
                     let boundary = if f % 2 == 0 { l[a] == 0 } else { l[a] == last[a] };
-                    let solid = if boundary {
-                        &b.t.pyramids[f][centre | corners << 1]
+                    if boundary {
+                        emit(&b.t.pyramids[f][centre | corners << 1], i);
                     } else if f % 2 == 0 {
-                        &b.t.octahedra[a][centre | by(a) << 1 | corners << 2]
-                    } else {
-                        continue;
-                    };
-                    if solid.triangle_count == 0 {
-                        continue;
-                    }
-                    let mut ids = [0u32; 12];
-                    for (id, &s) in ids.iter_mut().zip(&solid.segments[..solid.segment_count as usize]) {
-                        let (slot, off) = SEGMENT_SLOT[s as usize];
-                        let at = (i as isize + off as isize) as usize;
-                        *id = base[slot as usize] + masks[slot as usize].rank(at);
-                    }
-                    for tri in &solid.triangles[..solid.triangle_count as usize] {
-                        let [a, b2, c] = tri.map(|s| ids[s as usize]);
-                        out.set_triangle(t_out, if self.reverse { [a, c, b2] } else { [a, b2, c] });
-                        t_out += 1;
+                        emit(&b.t.octahedra[a][centre | by(a) << 1 | corners << 2], i);
                     }
                 }
             });
@@ -651,55 +612,17 @@ impl<V: SampleSlabs + Sync, X: Extractor + Sync> Passes<'_, V, X> {
         };
         let b = Bcc { t, centres: &centres };
         // PASS 2: count.
-        let mut table = BccTable::new(ny * nz);
-        for_each_chunk(&mut table.counts, ny, |k, plane| self.bcc_count_plane(&b, bits, k, plane));
-        // PASS 3: prefix sums; exact allocation, left uninitialised (the fill writes every slot).
-        table.restart(0, [0, 0])?;
-        let [v, tr] = table.base(ny * nz).map(|x| x as usize);
-        let nv = if self.normals { v } else { 0 };
-        let mut mesh = Mesh {
-            positions: huge_capacity(v),
-            normals: huge_capacity(nv),
-            triangles: huge_capacity(tr),
-            quads: Vec::new(),
+        let mut counts = vec![BccRow::default(); ny * nz];
+        for_each_chunk(&mut counts, ny, |k, plane| self.bcc_count_plane(&b, bits, k, plane));
+        // PASS 3: prefix sums.
+        let table = BccTable::prefix(counts, Vec::new())?;
+        // PASS 4: fill, one task per slab, each owning its slots of the exactly allocated output.
+        // SAFETY: `bcc_fill_plane` returns only after writing every slot of its slab (asserted
+        // row by row and per slab).
+        let (mesh, keys) = unsafe {
+            fill_planes(&table, ny, self.normals, progress, |k, slab| self.bcc_fill_plane(&b, bits, &table, k, slab))
         };
-        // PASS 4: fill, one task per slab, each owning its slots of the output.
-        let mut tasks = Vec::with_capacity(nz);
-        {
-            let (mut pos, mut nrm, mut tri) = (
-                &mut mesh.positions.spare_capacity_mut()[..v],
-                &mut mesh.normals.spare_capacity_mut()[..nv],
-                &mut mesh.triangles.spare_capacity_mut()[..tr],
-            );
-            for k in 0..nz {
-                let [dv, dt] = table.plane_sizes(k, ny);
-                let (p, rest) = pos.split_at_mut(dv);
-                pos = rest;
-                let (n, rest) = if self.normals { nrm.split_at_mut(dv) } else { (&mut [][..], nrm) };
-                nrm = rest;
-                let (t, rest) = tri.split_at_mut(dt);
-                tri = rest;
-                tasks.push((k, SlabSlots { positions: p, normals: n, triangles: t, quads: &mut [], keys: Vec::new() }));
-            }
-        }
-        let done = AtomicU64::new(0);
-        let keys = map_tasks(tasks, |(k, mut slab)| {
-            self.bcc_fill_plane(&b, bits, &table, k, &mut slab);
-            if let Some(p) = progress {
-                p.advance(done.fetch_add(1, Ordering::Relaxed) + 1, nz as u64);
-            }
-            slab.keys
-        });
-        // SAFETY: the slabs' slots partition the first v, nv and t slots of the three buffers
-        // (split in order above), and `bcc_fill_plane` returned for every slab, which it does
-        // only after writing each slot of its slab (asserted row by row and per slab; a panic
-        // propagates out of `map_tasks` before this point), so those slots are initialised.
-        unsafe {
-            mesh.positions.set_len(v);
-            mesh.normals.set_len(nv);
-            mesh.triangles.set_len(tr);
-        }
-        out.set_assembled(mesh, keys.concat());
+        out.set_assembled(mesh, keys);
         Ok(stats)
     }
 }
@@ -732,7 +655,7 @@ impl<X: Extractor + Sync> Ctx<'_, X> {
         let plane = ny * words;
         bits.data.resize(4 * plane, 0);
         let mut centres = Bits { words, row0: 0, data: vec![0u64; 3 * plane] };
-        let mut table = BccTable::new(3 * ny);
+        let mut table = BccTable::window(3 * ny);
         let add = |cs: [u64; 2], out: &mut StreamStats| {
             out.walk.cells_outside += cs[0];
             out.walk.cells_inside += cs[1];
@@ -742,7 +665,7 @@ impl<X: Extractor + Sync> Ctx<'_, X> {
             let b = Bcc { t, centres: &centres };
             self.on(ring).bcc_count_plane(&b, bits, 0, &mut table.counts[..ny]);
         }
-        let mut start = [0u64; 2];
+        let mut start = [0u64; 3];
         let mut batch = OwnedBatch::default();
         for k in 0..nz {
             // The windows hold planes p0 … (bits: p0 + 3, the others p0 + 2).
@@ -757,27 +680,14 @@ impl<X: Extractor + Sync> Ctx<'_, X> {
                 table.counts[next..next + ny].fill(BccRow::default());
             }
             table.restart(p0 * ny, start)?;
-            // Reused batch buffers sized from the counts, left uninitialised: the fill writes
-            // every slot (asserted row by row and per slab).
-            let [dv, dt] = table.plane_sizes(k, ny);
+            let [dv, dt, _] = table.plane_sizes(k, ny);
             let nv = if self.normals { dv } else { 0 };
-            let mut slab = SlabSlots {
-                positions: spare(&mut batch.positions, dv),
-                normals: spare(&mut batch.normals, nv),
-                triangles: spare(&mut batch.triangles, dt),
-                quads: spare(&mut batch.quads, 0),
-                keys: Vec::new(),
-            };
             let b = Bcc { t, centres: &centres };
-            self.on(ring).bcc_fill_plane(&b, bits, &table, k, &mut slab);
-            // SAFETY: `bcc_fill_plane` returned, which it does only after writing every slot of
-            // `slab` (the first dv, nv and dt of the buffers `spare` cleared and reserved); a
-            // panic there propagates before this point.
+            // SAFETY: `bcc_fill_plane` returns only after writing every slot of its slab
+            // (asserted row by row and per slab).
             unsafe {
-                batch.positions.set_len(dv);
-                batch.normals.set_len(nv);
-                batch.triangles.set_len(dt);
-            }
+                fill_batch(&mut batch, [dv, nv, dt, 0], |slab| self.on(ring).bcc_fill_plane(&b, bits, &table, k, slab))
+            };
             sink.push_owned(&mut batch).map_err(Error::External)?;
             out.vertices += dv as u64;
             out.triangles += dt as u64;

@@ -119,7 +119,8 @@ impl RankedMask {
     pub(super) fn new(words: usize) -> Self {
         RankedMask { mask: vec![0; words], before: vec![0; words] }
     }
-    fn rank_prefix(&mut self) {
+    /// Recomputes the prefix popcounts after `mask` changed.
+    pub(super) fn rank_prefix(&mut self) {
         let mut acc = 0;
         for (b, m) in self.before.iter_mut().zip(&self.mask) {
             *b = acc;

@@ -3,55 +3,63 @@
 
 use std::cell::OnceCell;
 use std::mem::MaybeUninit;
+use std::sync::atomic::{AtomicU64, Ordering};
 
 use super::bits::{case_at, cell_rows, for_each_bit, mark_active, Bits, RowMasks};
 use super::count::RowCount;
 use super::families::FAMILIES;
-use super::{cell_values, Passes};
+use super::{cell_values, map_tasks, Passes};
 use crate::cube::{cell_segment, CellPoint, CubeEdge, EdgeKey, VertexKey, CELL_SEGMENTS};
 use crate::error::{Error, Result};
 use crate::extract::{Decision, Extractor};
 use crate::grid::Sample;
-use crate::mesh::{MeshBuilder, VertexId};
+use crate::mesh::{huge_capacity, Mesh, MeshBuilder, VertexId};
 use crate::volume::SampleSlabs;
 use crate::walk::segment;
-use crate::walk::{edge_crossing, edge_hermite, edge_normal, Cell, Hermite};
+use crate::walk::{edge_crossing, edge_hermite, edge_normal, Cell, Hermite, Progress};
 
-/// Row counts and each row's first vertex, triangle and quad, for box rows `row0 ..`.
-pub(super) struct RowTable {
-    pub(super) counts: Vec<RowCount>,
+/// What the running sums take from a row's counts: its vertices, triangles and quads.
+pub(super) trait Counted: Copy + Default {
+    fn sums(&self) -> [u64; 3];
+}
+
+impl Counted for RowCount {
+    #[inline]
+    fn sums(&self) -> [u64; 3] {
+        [self.vertices() as u64, self.tris as u64, self.quads as u64]
+    }
+}
+
+/// Row counts and each row's first vertex, triangle and quad, for box rows `row0 ..` (all rows
+/// in memory, a window of planes when streaming). `C`: the counts of one row (the extractors'
+/// [`RowCount`], mt-bcc's `BccRow`).
+pub(super) struct RowTable<C = RowCount> {
+    pub(super) counts: Vec<C>,
     /// `[vertex, triangle, quad]` before each row; one more entry holds the totals.
     base: Vec<[u64; 3]>,
     pub(super) row0: usize,
 }
 
-impl RowTable {
+impl<C: Counted> RowTable<C> {
     /// PASS 3: running sums over all rows, in `base`'s buffer (its contents dropped).
     ///
     /// # Errors
     /// [`Error::Limit`] past `u32` vertex indices.
-    pub(super) fn prefix(counts: Vec<RowCount>, mut base: Vec<[u64; 3]>) -> Result<Self> {
+    pub(super) fn prefix(counts: Vec<C>, mut base: Vec<[u64; 3]>) -> Result<Self> {
         base.clear();
-        base.reserve(counts.len() + 1);
-        let mut acc = [0u64; 3];
-        for c in &counts {
-            base.push(acc);
-            acc[0] += c.vertices() as u64;
-            acc[1] += c.tris as u64;
-            acc[2] += c.quads as u64;
-        }
-        base.push(acc);
-        check_vertices(acc[0])?;
-        Ok(RowTable { counts, base, row0: 0 })
+        base.resize(counts.len() + 1, [0; 3]);
+        let mut table = RowTable { counts, base, row0: 0 };
+        table.restart(0, [0; 3])?;
+        Ok(table)
     }
 
-    /// A table for a window of rows starting at `row0` whose first vertex, triangle and quad
-    /// are `start` (streaming: the counts are set later with [`restart`](RowTable::restart)).
+    /// A table for a window of `rows` rows (streaming: the counts are set later, the sums with
+    /// [`restart`](RowTable::restart)).
     pub(super) fn window(rows: usize) -> Self {
-        RowTable { counts: vec![RowCount::default(); rows], base: vec![[0; 3]; rows + 1], row0: 0 }
+        RowTable { counts: vec![C::default(); rows], base: vec![[0; 3]; rows + 1], row0: 0 }
     }
 
-    /// Recomputes the running sums of the window from `start` (its first row's bases).
+    /// Recomputes the running sums from `start` (the bases of row `row0`, the first held).
     ///
     /// # Errors
     /// [`Error::Limit`] past `u32` vertex indices.
@@ -60,9 +68,10 @@ impl RowTable {
         let mut acc = start;
         for (b, c) in self.base.iter_mut().zip(&self.counts) {
             *b = acc;
-            acc[0] += c.vertices() as u64;
-            acc[1] += c.tris as u64;
-            acc[2] += c.quads as u64;
+            let s = c.sums();
+            for (a, s) in acc.iter_mut().zip(s) {
+                *a += s;
+            }
         }
         if let Some(last) = self.base.last_mut() {
             *last = acc;
@@ -71,7 +80,7 @@ impl RowTable {
     }
 
     /// The buffers of the counts and of the sums, for reuse.
-    pub(super) fn into_parts(self) -> (Vec<RowCount>, Vec<[u64; 3]>) {
+    pub(super) fn into_parts(self) -> (Vec<C>, Vec<[u64; 3]>) {
         (self.counts, self.base)
     }
 
@@ -87,8 +96,8 @@ impl RowTable {
     }
 
     #[inline(always)]
-    pub(super) fn count(&self, r: usize) -> RowCount {
-        self.counts[r - self.row0]
+    pub(super) fn count(&self, r: usize) -> &C {
+        &self.counts[r - self.row0]
     }
 
     #[inline(always)]
@@ -150,6 +159,72 @@ impl FillOut for SlabSlots<'_> {
     fn keys(&mut self) -> &mut Vec<(u32, VertexKey)> {
         &mut self.keys
     }
+}
+
+/// PASS 4 in memory: the mesh of all rows of `table` (`ny` rows a plane), allocated exactly and
+/// left uninitialised, split into one [`SlabSlots`] per box plane (its sizes, in order), filled
+/// by `fill(k, slots)` on every plane (in parallel when enabled; `progress` once per plane), its
+/// lengths then committed. Returns the mesh and the recorded keys, in plane order.
+///
+/// # Safety
+/// `fill` returns only after writing every slot of the [`SlabSlots`] it is given (the fills
+/// assert it row by row and per plane, and panic otherwise).
+pub(super) unsafe fn fill_planes<C: Counted>(
+    table: &RowTable<C>,
+    ny: usize,
+    normals: bool,
+    progress: Option<&dyn Progress>,
+    fill: impl Fn(usize, &mut SlabSlots<'_>) + Sync + Send,
+) -> (Mesh, Vec<(u32, VertexKey)>) {
+    let [v, t, q] = table.totals();
+    let planes = table.counts.len() / ny;
+    let nv = if normals { v } else { 0 };
+    let mut mesh = Mesh {
+        positions: huge_capacity(v),
+        normals: huge_capacity(nv),
+        triangles: huge_capacity(t),
+        quads: Vec::with_capacity(q),
+    };
+    let mut tasks = Vec::with_capacity(planes);
+    {
+        let (mut pos, mut nrm, mut tri, mut qua) = (
+            &mut mesh.positions.spare_capacity_mut()[..v],
+            &mut mesh.normals.spare_capacity_mut()[..nv],
+            &mut mesh.triangles.spare_capacity_mut()[..t],
+            &mut mesh.quads.spare_capacity_mut()[..q],
+        );
+        for k in 0..planes {
+            let [dv, dt, dq] = table.plane_sizes(k, ny);
+            let (p, rest) = pos.split_at_mut(dv);
+            pos = rest;
+            let (n, rest) = if normals { nrm.split_at_mut(dv) } else { (&mut [][..], nrm) };
+            nrm = rest;
+            let (tr, rest) = tri.split_at_mut(dt);
+            tri = rest;
+            let (qu, rest) = qua.split_at_mut(dq);
+            qua = rest;
+            tasks.push((k, SlabSlots { positions: p, normals: n, triangles: tr, quads: qu, keys: Vec::new() }));
+        }
+    }
+    let done = AtomicU64::new(0);
+    let keys = map_tasks(tasks, |(k, mut slab)| {
+        fill(k, &mut slab);
+        if let Some(p) = progress {
+            p.advance(done.fetch_add(1, Ordering::Relaxed) + 1, planes as u64);
+        }
+        slab.keys
+    });
+    // SAFETY: the planes' slots partition the first v, nv, t and q slots of the four buffers
+    // (split in order above), and `fill` returned for every plane, which (the caller's promise)
+    // it does only after writing each slot of its plane; a panic propagates out of `map_tasks`
+    // before this point. So those slots are initialised.
+    unsafe {
+        mesh.positions.set_len(v);
+        mesh.normals.set_len(nv);
+        mesh.triangles.set_len(t);
+        mesh.quads.set_len(q);
+    }
+    (mesh, keys.concat())
 }
 
 /// Rows of look-ahead for the sample prefetch (enough to cover memory latency on sparse rows).

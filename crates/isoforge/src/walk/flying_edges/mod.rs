@@ -38,20 +38,18 @@ mod fill;
 mod keyed;
 mod stream;
 
-use std::sync::atomic::{AtomicU64, Ordering};
-
 pub use stream::StreamStats;
 
 use self::bits::Bits;
 use self::count::{CaseCounts, RowCount};
 use self::families::Walked;
-use self::fill::{RowTable, SlabSlots};
+use self::fill::{fill_planes, RowTable};
 use super::{range_of, Progress, WalkStats, Walker};
 use crate::cube::{CellRange, VertexKey};
 use crate::error::{Error, Result};
 use crate::extract::{Counting, Extractor};
 use crate::grid::Sample;
-use crate::mesh::{huge_capacity, huge_vec, KeyRecord, Mesh, MeshBuilder};
+use crate::mesh::{huge_vec, KeyRecord, MeshBuilder};
 use crate::volume::{Iso, SampleSlabs};
 
 /// The parallel walker for sampled grids (and streamed slabs): see the module documentation.
@@ -298,61 +296,17 @@ impl<V: SampleSlabs + Sync, X: Extractor + Sync> Passes<'_, V, X> {
         let mut stats = WalkStats { cells: self.range.num_cells(), ..Default::default() };
         stats.cells_outside = cell_stats.iter().map(|c| c.0[0]).sum();
         stats.cells_inside = cell_stats.iter().map(|c| c.0[1]).sum();
-        // PASS 3: prefix sums; exact allocation, left uninitialised (the fill writes every slot).
+        // PASS 3: prefix sums.
         let table = RowTable::prefix(counts, std::mem::take(&mut scratch.base))?;
-        let [v, t, q] = table.totals();
-        let nv = if self.normals { v } else { 0 };
-        let mut mesh = Mesh {
-            positions: huge_capacity(v),
-            normals: huge_capacity(nv),
-            triangles: huge_capacity(t),
-            quads: Vec::with_capacity(q),
+        // PASS 4: fill, one task per slab, each owning its slots of the exactly allocated output.
+        // SAFETY: `fill_plane` returns only after writing every slot of its slab (asserted row by
+        // row).
+        let (mesh, keys) = unsafe {
+            fill_planes(&table, ny, self.normals, progress, |k, slab| {
+                self.fill_plane(bits, &table, k, &cell_stats[k].1, slab)
+            })
         };
-        // PASS 4: fill, one task per slab, each owning its slots of the output.
-        let mut tasks = Vec::with_capacity(nz);
-        {
-            let (mut pos, mut nrm, mut tri, mut qua) = (
-                &mut mesh.positions.spare_capacity_mut()[..v],
-                &mut mesh.normals.spare_capacity_mut()[..nv],
-                &mut mesh.triangles.spare_capacity_mut()[..t],
-                &mut mesh.quads.spare_capacity_mut()[..q],
-            );
-            for k in 0..nz {
-                let [dv, dt, dq] = table.plane_sizes(k, ny);
-                let (p, rest) = pos.split_at_mut(dv);
-                pos = rest;
-                let (n, rest) = if self.normals { nrm.split_at_mut(dv) } else { (&mut [][..], nrm) };
-                nrm = rest;
-                let (tr, rest) = tri.split_at_mut(dt);
-                tri = rest;
-                let (qu, rest) = qua.split_at_mut(dq);
-                qua = rest;
-                tasks.push((
-                    k,
-                    &cell_stats[k].1,
-                    SlabSlots { positions: p, normals: n, triangles: tr, quads: qu, keys: Vec::new() },
-                ));
-            }
-        }
-        let done = AtomicU64::new(0);
-        let keys = map_tasks(tasks, |(k, decisions, mut slab)| {
-            self.fill_plane(bits, &table, k, decisions, &mut slab);
-            if let Some(p) = progress {
-                p.advance(done.fetch_add(1, Ordering::Relaxed) + 1, nz as u64);
-            }
-            slab.keys
-        });
-        // SAFETY: the slabs' slots partition the first v, nv, t and q slots of the four buffers
-        // (split in order above), and `fill_plane` returned for every slab, which it does only
-        // after writing each slot of its slab (asserted row by row; a panic propagates out of
-        // `map_tasks` before this point), so those slots are initialised.
-        unsafe {
-            mesh.positions.set_len(v);
-            mesh.normals.set_len(nv);
-            mesh.triangles.set_len(t);
-            mesh.quads.set_len(q);
-        }
-        out.set_assembled(mesh, keys.concat());
+        out.set_assembled(mesh, keys);
         (scratch.counts, scratch.base) = table.into_parts();
         Ok(stats)
     }
@@ -413,7 +367,7 @@ mod tests {
     use super::*;
     use crate::extract::{MarchingCubes, MarchingCubes33};
     use crate::grid::{DenseGrid, Lattice};
-    use crate::mesh::Normals;
+    use crate::mesh::{Mesh, Normals};
     use crate::volume::GridVolume;
 
     fn walk<X: Extractor + Sync>(g: &DenseGrid<f32>, x: &X) -> Mesh {

@@ -197,23 +197,13 @@ impl FlyingEdgesWalker<'_> {
                     // uninitialised: the fill writes every slot (asserted row by row).
                     let [dv, dt, dq] = rows.plane_sizes(k, ny);
                     let nv = if normals == Normals::Gradient { dv } else { 0 };
-                    let mut slab = SlabSlots {
-                        positions: spare(&mut batch.positions, dv),
-                        normals: spare(&mut batch.normals, nv),
-                        triangles: spare(&mut batch.triangles, dt),
-                        quads: spare(&mut batch.quads, dq),
-                        keys: Vec::new(),
-                    };
-                    ctx.on(&ring).fill_plane(&bits, &rows, k, &decisions, &mut slab);
-                    // SAFETY: `fill_plane` returned, which it does only after writing every slot
-                    // of `slab` (the first dv, nv, dt and dq of the four buffers, cleared and
-                    // reserved by `spare`); a panic there propagates before this point.
+                    // SAFETY: `fill_plane` returns only after writing every slot of its slab
+                    // (asserted row by row).
                     unsafe {
-                        batch.positions.set_len(dv);
-                        batch.normals.set_len(nv);
-                        batch.triangles.set_len(dt);
-                        batch.quads.set_len(dq);
-                    }
+                        fill_batch(&mut batch, [dv, nv, dt, dq], |slab| {
+                            ctx.on(&ring).fill_plane(&bits, &rows, k, &decisions, slab)
+                        })
+                    };
                     sink.push_owned(&mut batch).map_err(external)?;
                     out.vertices += dv as u64;
                     out.triangles += dt as u64;
@@ -272,8 +262,39 @@ impl FlyingEdgesWalker<'_> {
 }
 
 /// The first `n` slots of `v`, emptied first: room the fill writes before `set_len`.
-pub(super) fn spare<T>(v: &mut Vec<T>, n: usize) -> &mut [std::mem::MaybeUninit<T>] {
+fn spare<T>(v: &mut Vec<T>, n: usize) -> &mut [std::mem::MaybeUninit<T>] {
     v.clear();
     v.reserve(n);
     &mut v.spare_capacity_mut()[..n]
+}
+
+/// PASS 4 of one streamed plane into `batch`'s reused buffers: their first `[v, nv, t, q]`
+/// positions, normals, triangles and quads as uninitialised [`SlabSlots`] (no zeroing pass)
+/// for `fill`, their lengths then committed.
+///
+/// # Safety
+/// `fill` returns only after writing every slot of the [`SlabSlots`] it is given (the fills
+/// assert it row by row and per plane, and panic otherwise).
+pub(super) unsafe fn fill_batch(
+    batch: &mut OwnedBatch,
+    [v, nv, t, q]: [usize; 4],
+    fill: impl FnOnce(&mut SlabSlots<'_>),
+) {
+    let mut slab = SlabSlots {
+        positions: spare(&mut batch.positions, v),
+        normals: spare(&mut batch.normals, nv),
+        triangles: spare(&mut batch.triangles, t),
+        quads: spare(&mut batch.quads, q),
+        keys: Vec::new(),
+    };
+    fill(&mut slab);
+    // SAFETY: `fill` returned, which (the caller's promise) it does only after writing every
+    // slot of `slab`, the first v, nv, t and q of the buffers `spare` cleared and reserved; a
+    // panic there propagates before this point.
+    unsafe {
+        batch.positions.set_len(v);
+        batch.normals.set_len(nv);
+        batch.triangles.set_len(t);
+        batch.quads.set_len(q);
+    }
 }
