@@ -25,7 +25,9 @@
 //!
 //! Steps 1–2 and the candidate loops of step 3 depend only on the case and the face deciders, so
 //! they are tabulated once per case and face decisions (`Skeleton`); per cell only the deciders and,
-//! for a class with several patches, the slice sweep run. A walker that counts before it fills gets
+//! for a class with several patches, the slice sweep run — unless a cheap exact pre-test
+//! (`interior_cannot_join`: no slice inside the cell has that class joined across its diagonal)
+//! shows the sweep would join nothing, as for most such classes on scans. A walker that counts before it fills gets
 //! the decided topology from [`counts`](Extractor::counts) and hands it back to
 //! [`process_decided`](Extractor::process_decided).
 //!
