@@ -25,7 +25,9 @@
 //!
 //! Steps 1–2 and the candidate loops of step 3 depend only on the case and the face deciders, so
 //! they are tabulated once per case and face decisions (`Skeleton`); per cell only the deciders and,
-//! for a class with several patches, the slice sweep run. A walker that counts before it fills gets
+//! for a class with several patches, the slice sweep run — unless a cheap exact pre-test
+//! (`interior_cannot_join`: no slice inside the cell has that class joined across its diagonal)
+//! shows the sweep would join nothing, as for most such classes on scans. A walker that counts before it fills gets
 //! the decided topology from [`counts`](Extractor::counts) and hands it back to
 //! [`process_decided`](Extractor::process_decided).
 //!
@@ -260,7 +262,14 @@ impl CellTopology {
     }
 
     /// [`of`](CellTopology::of) for a cell of known `case`.
+    #[inline]
     fn of_case(case: u8, d: &[f32; 8]) -> Self {
+        Self::of_case_with(case, d, true)
+    }
+
+    /// [`of_case`](CellTopology::of_case), sweeping every class with several patches unless
+    /// `pretest` may rule the sweep out first ([`interior_cannot_join`]; the same topology).
+    fn of_case_with(case: u8, d: &[f32; 8], pretest: bool) -> Self {
         let faces = &skeletons().faces[case as usize];
         // PASS 1: the deciders of the case's ambiguous faces select the skeleton.
         let mut bits = 0usize;
@@ -275,6 +284,11 @@ impl CellTopology {
             let n = patches.n as usize;
             if n < 2 || !patches.may_tube {
                 // One patch, or no pair of loops a tunnel could join: the interior adds nothing.
+                continue;
+            }
+            if pretest && interior_cannot_join(d, class == 0) {
+                // No slice inside the cell joins two corners of the class across its diagonal:
+                // the sweep would find the patches of the surface, apart.
                 continue;
             }
             let mut interior = interior_components(d, class == 0);
@@ -734,6 +748,77 @@ fn interior_components(d: &[f32; 8], class_inside: bool) -> Interior {
     Interior { uf, top: 4 * (ns - 1) }
 }
 
+/// Heights (fractions of the cell) within which [`interior_cannot_join`] leaves the decision to the
+/// sweep: far above the rounding of the crossing heights it compares (a few ulps of 1).
+const PRETEST_MARGIN: f64 = 1e-9;
+
+/// A cheap proof that the slice sweep of `class_inside` joins no two patches of the cell's surface
+/// (false: no proof, sweep). The sweep joins corners through the interior only across the diagonal
+/// of a slice strictly inside the cell, where the slice's two corners of the class lie on one
+/// diagonal and its saddle is of the class (elsewhere it follows the cell's faces and edges, which
+/// the skeleton's patches already join). Each vertical edge crosses iso at most once, so the
+/// heights where its slice corner may be of the class form one closed range, as do those where it
+/// may not: a diagonal pattern can only occur where four such ranges meet, and there its saddle is
+/// of the class only where the slice saddle numerator `g(t) = e0·e3 − e1·e2` has one sign (≥ 0 for
+/// corners 0 and 3 of the class, ≤ 0 for 1 and 2; `saddle_inside`). The proof holds when the
+/// ranges miss each other or `g` keeps the other sign on their meeting, both by a margin far above
+/// rounding; ties at iso (a corner at iso, equal crossing heights on a face, `g` at 0) fall back.
+///
+/// It also asks the sweep's side faces to agree with the face deciders: a face with its class on a
+/// diagonal is joined by the sweep where its two vertical crossings overlap, so they must be apart.
+fn interior_cannot_join(d: &[f32; 8], class_inside: bool) -> bool {
+    const NEVER: (f64, f64) = (2.0, -1.0);
+    let b: [f64; 4] = [0, 1, 2, 3].map(|c| d[c] as f64);
+    let top: [f64; 4] = [4, 5, 6, 7].map(|c| d[c] as f64);
+    let (mut member, mut other) = ([(0.0f64, 1.0f64); 4], [(0.0f64, 1.0f64); 4]);
+    let mut crossing = [f64::NAN; 4];
+    for c in 0..4 {
+        let changes = (b[c] < 0.0) != (top[c] < 0.0);
+        let t = b[c] / (b[c] - top[c]); // the sweep's crossing height, rounded alike
+        if changes && t > 0.0 && t < 1.0 {
+            crossing[c] = t;
+            let (before, after) = ((0.0, t), (t, 1.0));
+            (member[c], other[c]) = if (b[c] < 0.0) == class_inside { (before, after) } else { (after, before) };
+        } else if changes {
+            return false; // an end at iso: the class changes at the cell's face (ties)
+        } else if ((if b[c] == 0.0 { top[c] } else { b[c] }) < 0.0) == class_inside {
+            other[c] = NEVER;
+        } else {
+            member[c] = NEVER;
+        }
+    }
+    for (p, q) in [(0, 1), (1, 3), (3, 2), (2, 0)] {
+        if (b[p] < 0.0) != (b[q] < 0.0) && (crossing[p] - crossing[q]).abs() <= PRETEST_MARGIN {
+            return false;
+        }
+    }
+    let scale = d.iter().fold(0.0f64, |m, &v| m.max((v as f64).abs()));
+    let tol = PRETEST_MARGIN * scale * scale;
+    let g = |t: f64| {
+        let e: [f64; 4] = std::array::from_fn(|c| b[c] + t * (top[c] - b[c]));
+        e[0] * e[3] - e[1] * e[2]
+    };
+    let delta: [f64; 4] = std::array::from_fn(|c| top[c] - b[c]);
+    let qa = delta[0] * delta[3] - delta[1] * delta[2];
+    let qb = b[0] * delta[3] + delta[0] * b[3] - b[1] * delta[2] - delta[1] * b[2];
+    // The class on diagonal (0, 3): joined where g ≥ 0; on (1, 2): where g ≤ 0.
+    for ([p, q], [r, s], sign) in [([0, 3], [1, 2], -1.0), ([1, 2], [0, 3], 1.0)] {
+        let ranges = [member[p], member[q], other[r], other[s]];
+        let lo = ranges.iter().fold(0.0f64, |m, x| m.max(x.0));
+        let hi = ranges.iter().fold(1.0f64, |m, x| m.min(x.1));
+        if lo > hi + PRETEST_MARGIN {
+            continue; // no slice with that pattern
+        }
+        let (lo, hi) = ((lo.min(hi) - PRETEST_MARGIN).max(0.0), (lo.max(hi) + PRETEST_MARGIN).min(1.0));
+        let vertex = if qa != 0.0 { -qb / (2.0 * qa) } else { f64::NAN };
+        let least = if vertex > lo && vertex < hi { (sign * g(vertex)).min(sign * g(lo)) } else { sign * g(lo) };
+        if !(least.min(sign * g(hi)) > tol) {
+            return false;
+        }
+    }
+    true
+}
+
 /// The connectivity [`interior_components`] found: slice corners over the samples.
 struct Interior {
     uf: UnionFind<[u32; 4 * (2 * 6 + 3)]>,
@@ -1021,6 +1106,96 @@ mod tests {
             tubes += usize::from(t.n_tubes > 0);
         }
         assert!(decided_cells > 10_000 && tubes > 100, "{decided_cells} cells, {tubes} with a tube");
+    }
+
+    /// Issue 11: where [`interior_cannot_join`] skips the slice sweep, the sweep joins no two
+    /// patches of that class either, so the topology is the same; `(skipped, swept)` counted.
+    fn pretest_agrees(d: [f32; 8], stats: &mut [usize; 3]) {
+        let case = crate::cube::case_of(&d);
+        let fast = CellTopology::of_case_with(case, &d, true);
+        let swept = CellTopology::of_case_with(case, &d, false);
+        assert_eq!((fast.index, fast.n_tubes, fast.tubes), (swept.index, swept.n_tubes, swept.tubes), "{d:?}");
+        for (class, patches) in fast.skeleton.classes.iter().enumerate() {
+            let n = patches.n as usize;
+            if n < 2 || !patches.may_tube {
+                continue;
+            }
+            if !interior_cannot_join(&d, class == 0) {
+                stats[1] += 1;
+                continue;
+            }
+            stats[0] += 1;
+            let mut interior = interior_components(&d, class == 0);
+            for i in 0..n {
+                for j in i + 1..n {
+                    let (p, q) = (patches.roots[i] as usize, patches.roots[j] as usize);
+                    assert!(!interior.joined(p, q), "{d:?}: class {class}, patches {p} and {q} are joined inside");
+                }
+            }
+        }
+        stats[2] += usize::from(swept.n_tubes > 0);
+    }
+
+    #[test]
+    fn issue_11_the_sweep_pretest_agrees_with_the_sweep_on_random_cells() {
+        let mut seed = 0x5eed_0011_u64;
+        let mut next = move || {
+            seed ^= seed << 13;
+            seed ^= seed >> 7;
+            seed ^= seed << 17;
+            seed
+        };
+        let mut stats = [0; 3];
+        for i in 0..400_000 {
+            let d: [f32; 8] = std::array::from_fn(|_| {
+                let u = (next() % 1_000_001) as f32 / 500_000.0 - 1.0;
+                // Every other cell: a wide range of magnitudes, as CT values around iso.
+                if i % 2 == 0 {
+                    u
+                } else {
+                    u * u * u * 300.0
+                }
+            });
+            pretest_agrees(d, &mut stats);
+        }
+        let [skipped, swept, tubes] = stats;
+        assert!(skipped > 5 * swept && swept > 1000 && tubes > 1000, "{skipped} skipped, {swept} swept, {tubes} tubes");
+    }
+
+    #[test]
+    fn issue_11_the_sweep_pretest_agrees_with_the_sweep_on_integer_cells() {
+        // Ties at iso, equal crossing heights, slice and face saddles at iso (issue 10): every cell
+        // with values in −2..=2, every 7th with −3..=3, and every 5th of integers 0..=6 less a
+        // fractional iso (scans at a non-integer iso: no ties at iso, many equal crossing heights).
+        let mut stats = [0; 3];
+        let sets: [(&[f32], usize); 3] = [
+            (&[-2.0, -1.0, 0.0, 1.0, 2.0], 1),
+            (&[-3.0, -2.0, -1.0, 0.0, 1.0, 2.0, 3.0], 7),
+            (&[0.0, 1.0, 2.0, 3.0, 4.0, 5.0, 6.0].map(|v: f32| (v as f64 - 2.3184) as f32), 5),
+        ];
+        for (vals, stride) in sets {
+            let k = vals.len();
+            for code in (0..k.pow(8)).step_by(stride) {
+                let mut c = code;
+                let d: [f32; 8] = std::array::from_fn(|_| {
+                    let v = vals[c % k];
+                    c /= k;
+                    v
+                });
+                pretest_agrees(d, &mut stats);
+            }
+        }
+        // The issue-10 cells: slice saddles touching iso, a corner at iso, a CT head tunnel.
+        for d in [
+            [-1., -1., -1., 3., 2., -1., -1., 0.],
+            [-1., 2., 0., -1., 0., -1., 1., 0.],
+            [0., -1., -0.5, -2., -1., 0.25, 1., -2.],
+            [56.0f32, 55.0, 43.0, 48.0, 52.0, 49.0, 54.0, 58.0].map(|v| (v as f64 - 52.2949) as f32),
+        ] {
+            pretest_agrees(d, &mut stats);
+        }
+        let [skipped, swept, tubes] = stats;
+        assert!(skipped > 100_000 && swept > 10_000 && tubes > 1000, "{skipped} skipped, {swept} swept, {tubes} tubes");
     }
 
     #[test]
