@@ -1,7 +1,7 @@
 //! PASS 2: every row → its crossed segments of each family (popcounts of XORed bit rows); every
 //! cell row → the polygons and placed vertices of its active cells (the extractor's counts).
 
-use super::bits::{case_at, cell_rows, count_edges_and_mark, for_each_bit, mark_active, popcount, uniform_block, Bits};
+use super::bits::{cell_rows, count_edges_and_mark, for_each_case, mark_active, popcount, uniform_block, Bits};
 use super::families::FAMILIES;
 use super::{cell_values, Passes};
 use crate::extract::{CellCounts, Decision, Extractor};
@@ -100,8 +100,7 @@ impl<V: SampleSlabs, X: Extractor> Passes<'_, V, X> {
             };
             let parity = self.walked.parity0 + j + k;
             let first_decision = decisions.len();
-            for_each_bit(&active, |i| {
-                let case = case_at(&rows, i);
+            for_each_case(&rows, &active, |i, case| {
                 let n = match self.table.0[case as usize][(parity + i) % 2] {
                     Some(n) => n,
                     None => {

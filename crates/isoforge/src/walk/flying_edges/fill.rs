@@ -5,7 +5,7 @@ use std::cell::OnceCell;
 use std::mem::MaybeUninit;
 use std::sync::atomic::{AtomicU64, Ordering};
 
-use super::bits::{case_at, cell_rows, for_each_bit, mark_active, Bits, RowMasks};
+use super::bits::{cell_rows, for_each_bit, for_each_case, mark_active, Bits, RowMasks};
 use super::count::RowCount;
 use super::families::FAMILIES;
 use super::{cell_values, map_tasks, Passes};
@@ -343,9 +343,8 @@ impl<V: SampleSlabs, X: Extractor> Passes<'_, V, X> {
             ranked.load(bits, r, [j, k], bx.dims, &self.walked, table);
             state.next_placed = table.base(r)[0] + c.before(FAMILIES) as u64;
             let parity = self.walked.parity0 + j + k;
-            for_each_bit(&active, |i| {
+            for_each_case(&rows, &active, |i, case| {
                 let l = [i, j, k];
-                let case = case_at(&rows, i);
                 let odd = (parity + i) % 2 == 1;
                 // Each crossed segment's id once per cell; triangles then only look them up.
                 let mut ids = [0u32; CELL_SEGMENTS];

@@ -12,7 +12,7 @@
 use std::sync::atomic::{AtomicU64, Ordering};
 use std::sync::Mutex;
 
-use super::bits::{case_at, cell_rows, for_each_bit, mark_active, Bits};
+use super::bits::{case_at, cell_rows, for_each_case, mark_active, Bits};
 use super::{cell_values, map_tasks, Passes, PointBox};
 use crate::cube::CellRange;
 use crate::error::Result;
@@ -184,13 +184,13 @@ impl<V: SampleSlabs + Sync, X: Extractor + Sync> Passes<'_, V, X> {
                     visit.iter_mut().zip(&below).for_each(|(v, b)| *v |= b);
                 }
                 super::bits::mask_tail(&mut visit, nx - 1);
-                for_each_bit(&visit, |i| visit_cell(i, case_at(&rows, i)));
+                for_each_case(&rows, &visit, &mut visit_cell);
             } else if uniform_too {
                 for i in 0..nx - 1 {
                     visit_cell(i, case_at(&rows, i));
                 }
             } else {
-                for_each_bit(&active, |i| visit_cell(i, case_at(&rows, i)));
+                for_each_case(&rows, &active, &mut visit_cell);
             }
         }
         stats
