@@ -35,7 +35,7 @@ use super::fill::{fill_planes, Counted, FillOut, RowTable};
 use super::keyed::centre_value;
 use super::stream::{fill_batch, Ctx, SlabRing, StreamStats};
 use super::{for_each_chunk, for_each_chunk_with, Passes, PointBox};
-use crate::cube::{CellPoint, VertexKey, FACE_CORNERS};
+use crate::cube::{CellPoint, SegmentKey, VertexKey, FACE_CORNERS};
 use crate::error::{Error, Result};
 use crate::extract::tetrahedra::BccSolid;
 use crate::extract::{BodyCentredTables, Extractor};
@@ -416,8 +416,22 @@ impl<V: SampleSlabs, X: Extractor> Passes<'_, V, X> {
         let offset = |a: V::Sample| self.iso.offset(a.to_f64());
         let mut mask = vec![0u64; words];
         let mut out_v = 0usize;
-        // Centre values of the current cell row, computed once (NaN: not yet).
-        let mut centres = vec![f32::NAN; nx];
+        // Centre values of the current cell row and of the one before it on y, computed once
+        // (NaN: not yet); `cur_j` is the row `cur` belongs to.
+        let mut cur = vec![f32::NAN; nx];
+        let mut prev = vec![f32::NAN; nx];
+        let mut cur_j = None;
+        let centre_at = |l: [usize; 3]| centre_value(self.vol, bx, self.iso, l);
+        let cached = |memo: &mut [f32], l: [usize; 3]| {
+            let v = memo[l[0]];
+            if v.is_nan() {
+                let v = centre_at(l);
+                memo[l[0]] = v;
+                v
+            } else {
+                v
+            }
+        };
         for j in 0..ny {
             let r = k * ny + j;
             let c = table.count(r);
@@ -425,68 +439,100 @@ impl<V: SampleSlabs, X: Extractor> Passes<'_, V, X> {
             if c.vertices() == 0 {
                 continue;
             }
-            centres.fill(f32::NAN);
+            if j > 0 && cur_j == Some(j - 1) {
+                std::mem::swap(&mut cur, &mut prev);
+            } else {
+                prev.fill(f32::NAN);
+            }
+            cur.fill(f32::NAN);
+            cur_j = Some(j);
             let at = bx.in_slab(0, j);
+            let mut push = |(p, n, key): ([f32; 3], Option<[f32; 3]>, VertexKey)| {
+                out.set_position(out_v, p);
+                if let Some(n) = n {
+                    out.set_normal(out_v, n);
+                }
+                if recording && self.records(&key) {
+                    out.keys().push(((plane[0] + out_v as u64) as u32, key));
+                }
+                out_v += 1;
+            };
+            // A crossing on segment `key` with offset values `d0` at its end a, `d1` at b.
+            let on_segment = |key: SegmentKey, d0: f32, d1: f32| {
+                let q = segment::segment_point(self.vol, key, d0, d1, self.iso);
+                let n = self.normals.then(|| segment::segment_normal(self.vol, key, q, d0, self.iso));
+                (segment::world_point(self.vol, q), n, VertexKey::Segment(key))
+            };
             for f in 0..BCC_FAMILIES {
                 if c.v[f] == 0 || !self.bcc_mask(f, bits, b.centres, r, [j, k], &mut mask) {
                     continue;
                 }
-                for_each_bit(&mask, |i| {
-                    let g = bx.global([i, j, k]);
-                    let sample = |o: [usize; 3]| {
-                        let s = if o[2] == 0 { s0 } else { s1 };
-                        offset(s[at + o[1] * stride + i + o[0]])
-                    };
-                    let (p, n, key) = if f <= Z {
-                        let (ends, key) = self.walked.segment(f, g);
+                let sample = |i: usize, o: [usize; 3]| {
+                    let s = if o[2] == 0 { s0 } else { s1 };
+                    offset(s[at + o[1] * stride + i + o[0]])
+                };
+                // Doubled index coordinates of the centre of cell (i, j, k).
+                let centre_doubled = |i: usize| bx.global([i, j, k]).map(|x| 2 * x + 1);
+                match f {
+                    _ if f <= Z => for_each_bit(&mask, |i| {
+                        let (ends, key) = self.walked.segment(f, bx.global([i, j, k]));
                         let VertexKey::Edge(e) = key else { unreachable!("edge families name edges") };
-                        let (d0, d1) = (sample(ends[0]), sample(ends[1]));
+                        let (d0, d1) = (sample(i, ends[0]), sample(i, ends[1]));
                         let (p, t) = edge_crossing(self.vol, e, d0, d1, self.iso);
-                        (p, self.normals.then(|| edge_normal(self.vol, e, t, d0, self.iso)), key)
-                    } else {
-                        let mut centre = |l: [usize; 3]| {
-                            if l[1] == j && l[2] == k {
-                                if centres[l[0]].is_nan() {
-                                    centres[l[0]] = centre_value(self.vol, bx, self.iso, l);
-                                }
-                                centres[l[0]]
+                        push((p, self.normals.then(|| edge_normal(self.vol, e, t, d0, self.iso)), key));
+                    }),
+                    // Centre → corner c (`SegmentKey::of_cell`'s order: the end with the lower
+                    // doubled coordinates first, here decided on x).
+                    _ if f < CCL => {
+                        let corner = f - CC;
+                        let o = [corner & 1, corner >> 1 & 1, corner >> 2];
+                        for_each_bit(&mask, |i| {
+                            let cd = centre_doubled(i);
+                            let kd = [0, 1, 2].map(|a| cd[a] - 1 + 2 * o[a] as u32);
+                            let (vc, vk) = (cached(&mut cur, [i, j, k]), sample(i, o));
+                            if o[0] == 1 {
+                                push(on_segment(SegmentKey { a: cd, b: kd }, vc, vk));
                             } else {
-                                centre_value(self.vol, bx, self.iso, l)
+                                push(on_segment(SegmentKey { a: kd, b: cd }, vk, vc));
                             }
-                        };
-                        let (pa, pb) = match f {
-                            _ if f < CCL => (CellPoint::Centre, CellPoint::Corner((f - CC) as u8)),
-                            _ if f < BD => (CellPoint::Beyond(2 * (f - CCL) as u8), CellPoint::Centre),
-                            _ => {
-                                let fc = FACE_CORNERS[f - BD];
-                                (CellPoint::Corner(fc[0]), CellPoint::Corner(fc[2]))
-                            }
-                        };
-                        let value = |p: CellPoint| match p {
-                            CellPoint::Corner(c) => {
-                                sample([(c & 1) as usize, (c >> 1 & 1) as usize, (c >> 2) as usize])
-                            }
-                            CellPoint::Centre => centre([i, j, k]),
-                            CellPoint::Beyond(f) => {
-                                let mut l = [i, j, k];
-                                l[(f / 2) as usize] -= 1;
-                                centre(l)
-                            }
-                        };
-                        let (key, d0, d1) = segment::segment_ends(g, pa, pb, value);
-                        let q = segment::segment_point(self.vol, key, d0, d1, self.iso);
-                        let n = self.normals.then(|| segment::segment_normal(self.vol, key, q, d0, self.iso));
-                        (segment::world_point(self.vol, q), n, VertexKey::Segment(key))
-                    };
-                    out.set_position(out_v, p);
-                    if let Some(n) = n {
-                        out.set_normal(out_v, n);
+                        });
                     }
-                    if recording && self.records(&key) {
-                        out.keys().push(((plane[0] + out_v as u64) as u32, key));
+                    // Centre of the lower neighbour on axis a → centre (the neighbour's end first).
+                    _ if f < BD => {
+                        let axis = f - CCL;
+                        for_each_bit(&mask, |i| {
+                            let cd = centre_doubled(i);
+                            let mut nd = cd;
+                            nd[axis] -= 2;
+                            let vn = match axis {
+                                0 => cached(&mut cur, [i - 1, j, k]),
+                                1 => cached(&mut prev, [i, j - 1, k]),
+                                _ => centre_at([i, j, k - 1]),
+                            };
+                            let vc = cached(&mut cur, [i, j, k]);
+                            push(on_segment(SegmentKey { a: nd, b: cd }, vn, vc));
+                        });
                     }
-                    out_v += 1;
-                });
+                    // Diagonal of a boundary face (rare: the generic route).
+                    _ => {
+                        let fc = FACE_CORNERS[f - BD];
+                        for_each_bit(&mask, |i| {
+                            let value = |p: CellPoint| match p {
+                                CellPoint::Corner(c) => {
+                                    sample(i, [(c & 1) as usize, (c >> 1 & 1) as usize, (c >> 2) as usize])
+                                }
+                                _ => unreachable!("face diagonals join corners"),
+                            };
+                            let (key, d0, d1) = segment::segment_ends(
+                                bx.global([i, j, k]),
+                                CellPoint::Corner(fc[0]),
+                                CellPoint::Corner(fc[2]),
+                                value,
+                            );
+                            push(on_segment(key, d0, d1));
+                        });
+                    }
+                }
             }
         }
         assert_eq!(out_v, out_vertices, "internal: slab {k} vertices off their count");
