@@ -4,7 +4,7 @@
 //! ```text
 //!   PASS 1b centres  every cell row → one bit per cell (centre inside): the corners' class where
 //!                    they agree (a grid's centre lies between its corners), else the centre's
-//!                    value from the samples (the trilinear interpolant's bits, `centre_value`)
+//!                    value from the samples (the trilinear interpolant's bits, `centre_in`)
 //!   PASS 2 count     every row (j, k) → crossings of its families, popcounts of XORed bit rows:
 //!                      X Y Z        lattice edges from the row's points (as for MC)
 //!                      CC0 … CC7    centre of cell (i, j, k) → its corner c
@@ -28,11 +28,12 @@
 //! tabulated fields take the keyed path.
 
 use super::bits::{
-    case_at, cell_rows, for_each_bit, mark_active, mask_tail, popcount, uniform_block, Bits, RankedMask,
+    case_at, cell_rows, for_each_bit, mark_active, mask_tail, popcount, rank_prefix, uniform_block, Bits, RankedMask,
+    RankedRef,
 };
 use super::families::{X, Y, Z};
 use super::fill::{fill_planes, Counted, FillOut, RowTable};
-use super::keyed::centre_value;
+use super::keyed::centre_in;
 use super::stream::{fill_batch, Ctx, SlabRing, StreamStats};
 use super::{for_each_chunk, for_each_chunk_with, Passes, PointBox};
 use crate::cube::{CellPoint, SegmentKey, VertexKey, FACE_CORNERS};
@@ -202,6 +203,23 @@ fn corner_word(rows: &[&[u64]; 4], c: u8, w: usize) -> u64 {
     }
 }
 
+/// The cells a cell row visits ([`Passes::bcc_visit`]) and the active cells it found them from.
+struct VisitRows {
+    visit: Vec<u64>,
+    /// Active cells of the row `last`, of the row before it, and scratch.
+    active: Vec<u64>,
+    before: Vec<u64>,
+    scratch: Vec<u64>,
+    last: Option<usize>,
+}
+
+impl VisitRows {
+    fn new(words: usize) -> Self {
+        let z = || vec![0u64; words];
+        VisitRows { visit: z(), active: z(), before: z(), scratch: z(), last: None }
+    }
+}
+
 /// What a counted body-centred walk shares besides [`Passes`].
 pub(super) struct Bcc<'a> {
     pub(super) t: &'a BodyCentredTables,
@@ -221,10 +239,14 @@ impl<V: SampleSlabs, X: Extractor> Passes<'_, V, X> {
             return cs;
         }
         let mut active = vec![0u64; words];
+        let z = self.bx.lo[2] + k as u32;
+        let (s0, s1) = (self.vol.slab(z), self.vol.slab(z + 1));
+        let stride = self.bx.row_stride();
         for j in 0..ny - 1 {
             let r = k * ny + j;
             let rows = cell_rows(bits, r, ny);
             let (outside, inside) = mark_active(rows, nx - 1, &mut active);
+            let at = self.bx.in_slab(0, j);
             cs[0] += outside;
             cs[1] += inside;
             let o = &mut out[j * words..(j + 1) * words];
@@ -232,7 +254,7 @@ impl<V: SampleSlabs, X: Extractor> Passes<'_, V, X> {
                 o[w] = rows[0][w] & !active[w];
             }
             for_each_bit(&active, |i| {
-                if centre_value(self.vol, &self.bx, self.iso, [i, j, k]) < 0.0 {
+                if centre_in(s0, s1, at + i, at + stride + i, self.iso) < 0.0 {
                     o[i / 64] |= 1 << (i % 64);
                 }
             });
@@ -337,22 +359,30 @@ impl<V: SampleSlabs, X: Extractor> Passes<'_, V, X> {
     }
 
     /// Cells of cell row `r` = (j, k) that can have triangles: the active ones and those just
-    /// above an active one on some axis (their octahedra hold its centre), into `visit`.
-    fn bcc_visit(&self, bits: &Bits, r: usize, [j, k]: [usize; 2], visit: &mut [u64], scratch: &mut [u64]) {
+    /// above an active one on some axis (their octahedra hold its centre), into `v.visit`. The
+    /// active cells of the row before on y come from the previous call when it was that row's.
+    fn bcc_visit(&self, bits: &Bits, r: usize, [j, k]: [usize; 2], v: &mut VisitRows) {
         let [nx, ny, _] = self.bx.dims;
-        mark_active(cell_rows(bits, r, ny), nx - 1, scratch);
-        let words = visit.len();
-        for w in 0..words {
-            let carry = if w > 0 { scratch[w - 1] >> 63 } else { 0 };
-            visit[w] = scratch[w] | scratch[w] << 1 | carry;
+        if j > 0 {
+            if v.last == Some(r - 1) {
+                std::mem::swap(&mut v.active, &mut v.before);
+            } else {
+                mark_active(cell_rows(bits, r - 1, ny), nx - 1, &mut v.before);
+            }
+        }
+        mark_active(cell_rows(bits, r, ny), nx - 1, &mut v.active);
+        v.last = Some(r);
+        let (visit, active) = (&mut v.visit, &v.active);
+        for w in 0..visit.len() {
+            let carry = if w > 0 { active[w - 1] >> 63 } else { 0 };
+            visit[w] = active[w] | active[w] << 1 | carry;
         }
         if j > 0 {
-            mark_active(cell_rows(bits, r - 1, ny), nx - 1, scratch);
-            visit.iter_mut().zip(scratch.iter()).for_each(|(v, b)| *v |= b);
+            visit.iter_mut().zip(&v.before).for_each(|(x, b)| *x |= b);
         }
         if k > 0 {
-            mark_active(cell_rows(bits, r - ny, ny), nx - 1, scratch);
-            visit.iter_mut().zip(scratch.iter()).for_each(|(v, b)| *v |= b);
+            mark_active(cell_rows(bits, r - ny, ny), nx - 1, &mut v.scratch);
+            visit.iter_mut().zip(&v.scratch).for_each(|(x, b)| *x |= b);
         }
         mask_tail(visit, nx - 1);
     }
@@ -362,8 +392,7 @@ impl<V: SampleSlabs, X: Extractor> Passes<'_, V, X> {
         let [_, ny, nz] = self.bx.dims;
         let words = bits.words;
         let mut mask = vec![0u64; words];
-        let mut visit = vec![0u64; words];
-        let mut scratch = vec![0u64; words];
+        let mut v = VisitRows::new(words);
         let dims = self.bx.dims;
         // Whether the points of cell row (j, k) and those of the next rows on y and z are all on
         // one side (the row on the lattice's last y or z plane: its points and the next ones).
@@ -388,10 +417,10 @@ impl<V: SampleSlabs, X: Extractor> Passes<'_, V, X> {
             if j + 1 >= ny || k + 1 >= nz {
                 continue;
             }
-            self.bcc_visit(bits, r, [j, k], &mut visit, &mut scratch);
+            self.bcc_visit(bits, r, [j, k], &mut v);
             let rows = cell_rows(bits, r, ny);
             let mut tris = 0;
-            for_each_bit(&visit, |i| {
+            for_each_bit(&v.visit, |i| {
                 tris += self.bcc_cell_count(b.t, b.centres, case_at(&rows, i), [i, j, k]);
             });
             c.tris = tris;
@@ -414,19 +443,31 @@ impl<V: SampleSlabs, X: Extractor> Passes<'_, V, X> {
         let stride = bx.row_stride();
         let recording = self.record != crate::mesh::KeyRecord::None;
         let offset = |a: V::Sample| self.iso.offset(a.to_f64());
-        let mut mask = vec![0u64; words];
+        // Ranked crossing masks of every family of every row of the plane (those of a family
+        // not crossed in its row are left unset: no triangle names them). The vertices walk
+        // them, and the triangles of the plane's cell rows find in them all their slots but
+        // those of rows C, E and `Under` (7 of 33).
+        let row_words = BCC_FAMILIES * words;
+        let mut store = vec![0u64; ny * row_words];
+        let mut store_before = vec![0u32; ny * row_words];
         let mut out_v = 0usize;
         // Centre values of the current cell row and of the one before it on y, computed once
         // (NaN: not yet); `cur_j` is the row `cur` belongs to.
         let mut cur = vec![f32::NAN; nx];
         let mut prev = vec![f32::NAN; nx];
         let mut cur_j = None;
-        let centre_at = |l: [usize; 3]| centre_value(self.vol, bx, self.iso, l);
-        let cached = |memo: &mut [f32], l: [usize; 3]| {
-            let v = memo[l[0]];
+        // The slab below (for the centres of cell layer k − 1).
+        let sm = if k > 0 { self.vol.slab(z - 1) } else { s0 };
+        // The centre of cell i of the cell row starting at slab index `at` of `lo` (and `hi`).
+        let centre_at = |lo: &[V::Sample], hi: &[V::Sample], at: usize, i: usize| {
+            centre_in(lo, hi, at + i, at + stride + i, self.iso)
+        };
+        // The centre of cell i of the cell row starting at `at` in slabs k, k + 1, through `memo`.
+        let cached = |memo: &mut [f32], at: usize, i: usize| {
+            let v = memo[i];
             if v.is_nan() {
-                let v = centre_at(l);
-                memo[l[0]] = v;
+                let v = centre_at(s0, s1, at, i);
+                memo[i] = v;
                 v
             } else {
                 v
@@ -464,9 +505,13 @@ impl<V: SampleSlabs, X: Extractor> Passes<'_, V, X> {
                 (segment::world_point(self.vol, q), n, VertexKey::Segment(key))
             };
             for f in 0..BCC_FAMILIES {
-                if c.v[f] == 0 || !self.bcc_mask(f, bits, b.centres, r, [j, k], &mut mask) {
+                let at_f = (j * BCC_FAMILIES + f) * words..(j * BCC_FAMILIES + f + 1) * words;
+                let mask = &mut store[at_f.clone()];
+                if c.v[f] == 0 || !self.bcc_mask(f, bits, b.centres, r, [j, k], mask) {
                     continue;
                 }
+                rank_prefix(mask, &mut store_before[at_f]);
+                let mask = &*mask;
                 let sample = |i: usize, o: [usize; 3]| {
                     let s = if o[2] == 0 { s0 } else { s1 };
                     offset(s[at + o[1] * stride + i + o[0]])
@@ -474,7 +519,7 @@ impl<V: SampleSlabs, X: Extractor> Passes<'_, V, X> {
                 // Doubled index coordinates of the centre of cell (i, j, k).
                 let centre_doubled = |i: usize| bx.global([i, j, k]).map(|x| 2 * x + 1);
                 match f {
-                    _ if f <= Z => for_each_bit(&mask, |i| {
+                    _ if f <= Z => for_each_bit(mask, |i| {
                         let (ends, key) = self.walked.segment(f, bx.global([i, j, k]));
                         let VertexKey::Edge(e) = key else { unreachable!("edge families name edges") };
                         let (d0, d1) = (sample(i, ends[0]), sample(i, ends[1]));
@@ -486,10 +531,10 @@ impl<V: SampleSlabs, X: Extractor> Passes<'_, V, X> {
                     _ if f < CCL => {
                         let corner = f - CC;
                         let o = [corner & 1, corner >> 1 & 1, corner >> 2];
-                        for_each_bit(&mask, |i| {
+                        for_each_bit(mask, |i| {
                             let cd = centre_doubled(i);
                             let kd = [0, 1, 2].map(|a| cd[a] - 1 + 2 * o[a] as u32);
-                            let (vc, vk) = (cached(&mut cur, [i, j, k]), sample(i, o));
+                            let (vc, vk) = (cached(&mut cur, at, i), sample(i, o));
                             if o[0] == 1 {
                                 push(on_segment(SegmentKey { a: cd, b: kd }, vc, vk));
                             } else {
@@ -500,23 +545,23 @@ impl<V: SampleSlabs, X: Extractor> Passes<'_, V, X> {
                     // Centre of the lower neighbour on axis a → centre (the neighbour's end first).
                     _ if f < BD => {
                         let axis = f - CCL;
-                        for_each_bit(&mask, |i| {
+                        for_each_bit(mask, |i| {
                             let cd = centre_doubled(i);
                             let mut nd = cd;
                             nd[axis] -= 2;
                             let vn = match axis {
-                                0 => cached(&mut cur, [i - 1, j, k]),
-                                1 => cached(&mut prev, [i, j - 1, k]),
-                                _ => centre_at([i, j, k - 1]),
+                                0 => cached(&mut cur, at, i - 1),
+                                1 => cached(&mut prev, at - stride, i),
+                                _ => centre_at(sm, s0, at, i),
                             };
-                            let vc = cached(&mut cur, [i, j, k]);
+                            let vc = cached(&mut cur, at, i);
                             push(on_segment(SegmentKey { a: nd, b: cd }, vn, vc));
                         });
                     }
                     // Diagonal of a boundary face (rare: the generic route).
                     _ => {
                         let fc = FACE_CORNERS[f - BD];
-                        for_each_bit(&mask, |i| {
+                        for_each_bit(mask, |i| {
                             let value = |p: CellPoint| match p {
                                 CellPoint::Corner(c) => {
                                     sample(i, [(c & 1) as usize, (c >> 1 & 1) as usize, (c >> 2) as usize])
@@ -540,11 +585,11 @@ impl<V: SampleSlabs, X: Extractor> Passes<'_, V, X> {
             assert_eq!(out_triangles, 0, "internal: triangles counted past the last layer");
             return;
         }
-        // Triangles of the cell rows of layer k.
-        let mut masks: [RankedMask; SLOTS] = std::array::from_fn(|_| RankedMask::new(words));
+        // Triangles of the cell rows of layer k: slots of rows A, B and `Below` from the store,
+        // the others into `own`.
+        let mut own: [RankedMask; SLOTS] = std::array::from_fn(|_| RankedMask::new(words));
         let mut base = [0u32; SLOTS];
-        let mut visit = vec![0u64; words];
-        let mut scratch = vec![0u64; words];
+        let mut v = VisitRows::new(words);
         let mut t_out = 0usize;
         let last = [nx - 2, ny - 2, nz - 2];
         for j in 0..ny - 1 {
@@ -554,24 +599,41 @@ impl<V: SampleSlabs, X: Extractor> Passes<'_, V, X> {
             }
             for (slot, &(f, src)) in SLOT_SOURCE.iter().enumerate() {
                 let (row, jk) = match src {
-                    Src::A => (r, [j, k]),
-                    Src::B => (r + 1, [j + 1, k]),
                     Src::C => (r + ny, [j, k + 1]),
                     Src::E => (r + ny + 1, [j + 1, k + 1]),
-                    Src::Below if j > 0 => (r - 1, [j - 1, k]),
                     Src::Under if k > 0 => (r - ny, [j, k - 1]),
+                    _ => continue,
+                };
+                if table.count(row).v[f] != 0 {
+                    let m = &mut own[slot];
+                    self.bcc_mask(f, bits, b.centres, row, jk, &mut m.mask);
+                    m.rank_prefix();
+                }
+            }
+            let mut masks = [RankedRef::new(&[], &[]); SLOTS];
+            for (slot, &(f, src)) in SLOT_SOURCE.iter().enumerate() {
+                let (row, j_row) = match src {
+                    Src::A => (r, j),
+                    Src::B => (r + 1, j + 1),
+                    Src::C => (r + ny, j),
+                    Src::E => (r + ny + 1, j + 1),
+                    Src::Below if j > 0 => (r - 1, j - 1),
+                    Src::Under if k > 0 => (r - ny, j),
                     _ => continue,
                 };
                 let rc = table.count(row);
                 if rc.v[f] == 0 {
                     continue;
                 }
-                let m = &mut masks[slot];
-                self.bcc_mask(f, bits, b.centres, row, jk, &mut m.mask);
-                m.rank_prefix();
                 base[slot] = table.base(row)[0] as u32 + rc.before(f);
+                masks[slot] = if matches!(src, Src::C | Src::E | Src::Under) {
+                    own[slot].as_ref()
+                } else {
+                    let at = (j_row * BCC_FAMILIES + f) * words..(j_row * BCC_FAMILIES + f + 1) * words;
+                    RankedRef::new(&store[at.clone()], &store_before[at])
+                };
             }
-            self.bcc_visit(bits, r, [j, k], &mut visit, &mut scratch);
+            self.bcc_visit(bits, r, [j, k], &mut v);
             let rows = cell_rows(bits, r, ny);
             // Centre rows of this cell row and of those below it on y and z (when they exist).
             let cr = b.centres.row(r);
@@ -584,19 +646,24 @@ impl<V: SampleSlabs, X: Extractor> Passes<'_, V, X> {
                 if solid.triangle_count == 0 {
                     return;
                 }
-                let mut ids = [0u32; 12];
+                // 16 ids so that `& 15` proves every index in bounds (solids name at most 12).
+                let mut ids = [0u32; 16];
                 for (id, &s) in ids.iter_mut().zip(&solid.segments[..solid.segment_count as usize]) {
                     let (slot, off) = SEGMENT_SLOT[s as usize];
                     let at = (i as isize + off as isize) as usize;
-                    *id = base[slot as usize] + masks[slot as usize].rank(at);
+                    debug_assert!(at + 1 < nx);
+                    // SAFETY: `at` is a cell of the row (i, or i − 1 for the x-lower octahedron,
+                    // taken only when i > 0), so below nx − 1 ≤ 64 · words; the slot of a
+                    // crossed segment was set above, its family being crossed in its row.
+                    *id = base[slot as usize] + unsafe { masks[slot as usize].rank_unchecked(at) };
                 }
                 for tri in &solid.triangles[..solid.triangle_count as usize] {
-                    let [a, b2, c] = tri.map(|s| ids[s as usize]);
+                    let [a, b2, c] = tri.map(|s| ids[(s & 15) as usize]);
                     out.set_triangle(t_out, if self.reverse { [a, c, b2] } else { [a, b2, c] });
                     t_out += 1;
                 }
             };
-            for_each_bit(&visit, |i| {
+            for_each_bit(&v.visit, |i| {
                 let case = case_at(&rows, i) as usize;
                 let centre = bit(cr, i) as usize;
                 let by = |a: usize| match a {
@@ -605,9 +672,13 @@ impl<V: SampleSlabs, X: Extractor> Passes<'_, V, X> {
                     _ => bit(cz, i) as usize,
                 };
                 if inner_row && i > 0 && i + 2 < nx {
-                    for a in 0..3 {
+                    let beyond = [by(0), by(1), by(2)];
+                    if b.t.interior[case | centre << 8 | beyond[0] << 9 | beyond[1] << 10 | beyond[2] << 11] == 0 {
+                        return;
+                    }
+                    for (a, beyond) in beyond.into_iter().enumerate() {
                         let corners = b.t.face_case[2 * a][case] as usize;
-                        emit(&b.t.octahedra[a][centre | by(a) << 1 | corners << 2], i);
+                        emit(&b.t.octahedra[a][centre | beyond << 1 | corners << 2], i);
                     }
                     return;
                 }
