@@ -4,7 +4,8 @@
 //! ```text
 //!   PASS 1b centres  every cell row → one bit per cell (centre inside): the corners' class where
 //!                    they agree (a grid's centre lies between its corners), else the centre's
-//!                    value from the samples (the trilinear interpolant's bits, `centre_in`)
+//!                    value from the samples (the trilinear interpolant's bits, `centre_in`);
+//!                    and its active cells, which passes 2 and 4 visit (with their neighbours)
 //!   PASS 2 count     every row (j, k) → crossings of its families, popcounts of XORed bit rows:
 //!                      X Y Z        lattice edges from the row's points (as for MC)
 //!                      CC0 … CC7    centre of cell (i, j, k) → its corner c
@@ -26,6 +27,8 @@
 //! Taken for whole-lattice walks of volumes whose centres come from their samples and lie between
 //! their corners (grids, the streaming window); ranges (chunks, keys at their boundary) and
 //! tabulated fields take the keyed path.
+
+use std::cell::Cell;
 
 use super::bits::{
     case_at, cell_rows, for_each_bit, mark_active, mask_tail, popcount, rank_prefix, uniform_block, Bits, RankedMask,
@@ -203,21 +206,11 @@ fn corner_word(rows: &[&[u64]; 4], c: u8, w: usize) -> u64 {
     }
 }
 
-/// The cells a cell row visits ([`Passes::bcc_visit`]) and the active cells it found them from.
-struct VisitRows {
-    visit: Vec<u64>,
-    /// Active cells of the row `last`, of the row before it, and scratch.
-    active: Vec<u64>,
-    before: Vec<u64>,
-    scratch: Vec<u64>,
-    last: Option<usize>,
-}
-
-impl VisitRows {
-    fn new(words: usize) -> Self {
-        let z = || vec![0u64; words];
-        VisitRows { visit: z(), active: z(), before: z(), scratch: z(), last: None }
-    }
+thread_local! {
+    /// The ranked mask store of [`Passes::bcc_fill_plane`] (masks, prefix popcounts), kept by
+    /// each thread for its next plane: allocating and zeroing ~1 MB per plane cost ~6 % of the
+    /// walk's instructions.
+    static MASK_STORE: Cell<(Vec<u64>, Vec<u32>)> = const { Cell::new((Vec::new(), Vec::new())) };
 }
 
 /// What a counted body-centred walk shares besides [`Passes`].
@@ -225,27 +218,31 @@ pub(super) struct Bcc<'a> {
     pub(super) t: &'a BodyCentredTables,
     /// Centre bits, one row per cell row (`k · ny + j`), laid out as [`Bits`].
     pub(super) centres: &'a Bits,
+    /// Active cells ([`mark_active`]), laid out as `centres`.
+    pub(super) active: &'a Bits,
 }
 
 impl<V: SampleSlabs, X: Extractor> Passes<'_, V, X> {
-    /// PASS 1b for cell layer `k` (box-local): the centre bits of its cell rows into `out` (`ny`
-    /// rows of `bits.words`); returns its all-outside and all-inside cell counts.
-    pub(super) fn bcc_centres(&self, bits: &Bits, k: usize, out: &mut [u64]) -> [u64; 2] {
+    /// PASS 1b for cell layer `k` (box-local): the centre bits of its cell rows into `out` and
+    /// their active cells into `active` (`ny` rows of `bits.words` each); returns its all-outside
+    /// and all-inside cell counts.
+    pub(super) fn bcc_centres(&self, bits: &Bits, k: usize, out: &mut [u64], active: &mut [u64]) -> [u64; 2] {
         let [nx, ny, nz] = self.bx.dims;
         let words = bits.words;
         out.fill(0);
+        active.fill(0);
         let mut cs = [0u64; 2];
         if k + 1 >= nz {
             return cs;
         }
-        let mut active = vec![0u64; words];
         let z = self.bx.lo[2] + k as u32;
         let (s0, s1) = (self.vol.slab(z), self.vol.slab(z + 1));
         let stride = self.bx.row_stride();
         for j in 0..ny - 1 {
             let r = k * ny + j;
             let rows = cell_rows(bits, r, ny);
-            let (outside, inside) = mark_active(rows, nx - 1, &mut active);
+            let active = &mut active[j * words..(j + 1) * words];
+            let (outside, inside) = mark_active(rows, nx - 1, active);
             let at = self.bx.in_slab(0, j);
             cs[0] += outside;
             cs[1] += inside;
@@ -253,7 +250,7 @@ impl<V: SampleSlabs, X: Extractor> Passes<'_, V, X> {
             for w in 0..words {
                 o[w] = rows[0][w] & !active[w];
             }
-            for_each_bit(&active, |i| {
+            for_each_bit(active, |i| {
                 if centre_in(s0, s1, at + i, at + stride + i, self.iso) < 0.0 {
                     o[i / 64] |= 1 << (i % 64);
                 }
@@ -359,30 +356,19 @@ impl<V: SampleSlabs, X: Extractor> Passes<'_, V, X> {
     }
 
     /// Cells of cell row `r` = (j, k) that can have triangles: the active ones and those just
-    /// above an active one on some axis (their octahedra hold its centre), into `v.visit`. The
-    /// active cells of the row before on y come from the previous call when it was that row's.
-    fn bcc_visit(&self, bits: &Bits, r: usize, [j, k]: [usize; 2], v: &mut VisitRows) {
+    /// above an active one on some axis (their octahedra hold its centre), into `visit`.
+    fn bcc_visit(&self, active: &Bits, r: usize, [j, k]: [usize; 2], visit: &mut [u64]) {
         let [nx, ny, _] = self.bx.dims;
-        if j > 0 {
-            if v.last == Some(r - 1) {
-                std::mem::swap(&mut v.active, &mut v.before);
-            } else {
-                mark_active(cell_rows(bits, r - 1, ny), nx - 1, &mut v.before);
-            }
-        }
-        mark_active(cell_rows(bits, r, ny), nx - 1, &mut v.active);
-        v.last = Some(r);
-        let (visit, active) = (&mut v.visit, &v.active);
+        let here = active.row(r);
         for w in 0..visit.len() {
-            let carry = if w > 0 { active[w - 1] >> 63 } else { 0 };
-            visit[w] = active[w] | active[w] << 1 | carry;
+            let carry = if w > 0 { here[w - 1] >> 63 } else { 0 };
+            visit[w] = here[w] | here[w] << 1 | carry;
         }
         if j > 0 {
-            visit.iter_mut().zip(&v.before).for_each(|(x, b)| *x |= b);
+            visit.iter_mut().zip(active.row(r - 1)).for_each(|(x, b)| *x |= b);
         }
         if k > 0 {
-            mark_active(cell_rows(bits, r - ny, ny), nx - 1, &mut v.scratch);
-            visit.iter_mut().zip(&v.scratch).for_each(|(x, b)| *x |= b);
+            visit.iter_mut().zip(active.row(r - ny)).for_each(|(x, b)| *x |= b);
         }
         mask_tail(visit, nx - 1);
     }
@@ -392,7 +378,7 @@ impl<V: SampleSlabs, X: Extractor> Passes<'_, V, X> {
         let [_, ny, nz] = self.bx.dims;
         let words = bits.words;
         let mut mask = vec![0u64; words];
-        let mut v = VisitRows::new(words);
+        let mut visit = vec![0u64; words];
         let dims = self.bx.dims;
         // Whether the points of cell row (j, k) and those of the next rows on y and z are all on
         // one side (the row on the lattice's last y or z plane: its points and the next ones).
@@ -417,10 +403,10 @@ impl<V: SampleSlabs, X: Extractor> Passes<'_, V, X> {
             if j + 1 >= ny || k + 1 >= nz {
                 continue;
             }
-            self.bcc_visit(bits, r, [j, k], &mut v);
+            self.bcc_visit(b.active, r, [j, k], &mut visit);
             let rows = cell_rows(bits, r, ny);
             let mut tris = 0;
-            for_each_bit(&v.visit, |i| {
+            for_each_bit(&visit, |i| {
                 tris += self.bcc_cell_count(b.t, b.centres, case_at(&rows, i), [i, j, k]);
             });
             c.tris = tris;
@@ -446,10 +432,12 @@ impl<V: SampleSlabs, X: Extractor> Passes<'_, V, X> {
         // Ranked crossing masks of every family of every row of the plane (those of a family
         // not crossed in its row are left unset: no triangle names them). The vertices walk
         // them, and the triangles of the plane's cell rows find in them all their slots but
-        // those of rows C, E and `Under` (7 of 33).
+        // those of rows C, E and `Under` (7 of 33). The thread's store from its last plane, grown
+        // if need be: every entry read is written first, so it is not cleared.
         let row_words = BCC_FAMILIES * words;
-        let mut store = vec![0u64; ny * row_words];
-        let mut store_before = vec![0u32; ny * row_words];
+        let (mut store, mut store_before) = MASK_STORE.take();
+        store.resize(ny * row_words, 0);
+        store_before.resize(ny * row_words, 0);
         let mut out_v = 0usize;
         // Centre values of the current cell row and of the one before it on y, computed once
         // (NaN: not yet); `cur_j` is the row `cur` belongs to.
@@ -583,13 +571,14 @@ impl<V: SampleSlabs, X: Extractor> Passes<'_, V, X> {
         assert_eq!(out_v, out_vertices, "internal: slab {k} vertices off their count");
         if k + 1 >= nz {
             assert_eq!(out_triangles, 0, "internal: triangles counted past the last layer");
+            MASK_STORE.set((store, store_before));
             return;
         }
         // Triangles of the cell rows of layer k: slots of rows A, B and `Below` from the store,
         // the others into `own`.
         let mut own: [RankedMask; SLOTS] = std::array::from_fn(|_| RankedMask::new(words));
         let mut base = [0u32; SLOTS];
-        let mut v = VisitRows::new(words);
+        let mut visit = vec![0u64; words];
         let mut t_out = 0usize;
         let last = [nx - 2, ny - 2, nz - 2];
         for j in 0..ny - 1 {
@@ -633,7 +622,7 @@ impl<V: SampleSlabs, X: Extractor> Passes<'_, V, X> {
                     RankedRef::new(&store[at.clone()], &store_before[at])
                 };
             }
-            self.bcc_visit(bits, r, [j, k], &mut v);
+            self.bcc_visit(b.active, r, [j, k], &mut visit);
             let rows = cell_rows(bits, r, ny);
             // Centre rows of this cell row and of those below it on y and z (when they exist).
             let cr = b.centres.row(r);
@@ -663,7 +652,7 @@ impl<V: SampleSlabs, X: Extractor> Passes<'_, V, X> {
                     t_out += 1;
                 }
             };
-            for_each_bit(&v.visit, |i| {
+            for_each_bit(&visit, |i| {
                 let case = case_at(&rows, i) as usize;
                 let centre = bit(cr, i) as usize;
                 let by = |a: usize| match a {
@@ -696,6 +685,7 @@ impl<V: SampleSlabs, X: Extractor> Passes<'_, V, X> {
             });
         }
         assert_eq!(t_out, out_triangles, "internal: slab {k} triangles off their count");
+        MASK_STORE.set((store, store_before));
     }
 }
 
@@ -718,16 +708,18 @@ impl<V: SampleSlabs + Sync, X: Extractor + Sync> Passes<'_, V, X> {
         let words = bits.words;
         // PASS 1b: centre bits, and the uniform cells of each layer.
         let mut centres = Bits { words, row0: 0, data: huge_vec(ny * nz * words, 0) };
-        let mut cell_stats = vec![[0u64; 2]; nz];
-        for_each_chunk_with(&mut centres.data, ny * words, &mut cell_stats, |k, plane, cs| {
-            *cs = self.bcc_centres(bits, k, plane);
+        let mut active = Bits { words, row0: 0, data: huge_vec(ny * nz * words, 0) };
+        let mut per_layer: Vec<_> = active.data.chunks_mut(ny * words).map(|a| (a, [0u64; 2])).collect();
+        for_each_chunk_with(&mut centres.data, ny * words, &mut per_layer, |k, plane, (active, cs)| {
+            *cs = self.bcc_centres(bits, k, plane, active);
         });
+        let cell_stats: Vec<[u64; 2]> = per_layer.into_iter().map(|(_, cs)| cs).collect();
         let stats = WalkStats {
             cells: self.range.num_cells(),
             cells_outside: cell_stats.iter().map(|c| c[0]).sum(),
             cells_inside: cell_stats.iter().map(|c| c[1]).sum(),
         };
-        let b = Bcc { t, centres: &centres };
+        let b = Bcc { t, centres: &centres, active: &active };
         // PASS 2: count.
         let mut counts = vec![BccRow::default(); ny * nz];
         for_each_chunk(&mut counts, ny, |k, plane| self.bcc_count_plane(&b, bits, k, plane));
@@ -772,14 +764,15 @@ impl<X: Extractor + Sync> Ctx<'_, X> {
         let plane = ny * words;
         bits.data.resize(4 * plane, 0);
         let mut centres = Bits { words, row0: 0, data: vec![0u64; 3 * plane] };
+        let mut active = Bits { words, row0: 0, data: vec![0u64; 3 * plane] };
         let mut table = BccTable::window(3 * ny);
         let add = |cs: [u64; 2], out: &mut StreamStats| {
             out.walk.cells_outside += cs[0];
             out.walk.cells_inside += cs[1];
         };
-        add(self.on(ring).bcc_centres(bits, 0, &mut centres.data[..plane]), out);
+        add(self.on(ring).bcc_centres(bits, 0, &mut centres.data[..plane], &mut active.data[..plane]), out);
         {
-            let b = Bcc { t, centres: &centres };
+            let b = Bcc { t, centres: &centres, active: &active };
             self.on(ring).bcc_count_plane(&b, bits, 0, &mut table.counts[..ny]);
         }
         let mut start = [0u64; 3];
@@ -790,8 +783,14 @@ impl<X: Extractor + Sync> Ctx<'_, X> {
             let next = (k + 1 - p0) * ny;
             if k + 1 < nz {
                 let at = next * words;
-                add(self.on(ring).bcc_centres(bits, k + 1, &mut centres.data[at..at + plane]), out);
-                let b = Bcc { t, centres: &centres };
+                let cs = self.on(ring).bcc_centres(
+                    bits,
+                    k + 1,
+                    &mut centres.data[at..at + plane],
+                    &mut active.data[at..at + plane],
+                );
+                add(cs, out);
+                let b = Bcc { t, centres: &centres, active: &active };
                 self.on(ring).bcc_count_plane(&b, bits, k + 1, &mut table.counts[next..next + ny]);
             } else {
                 table.counts[next..next + ny].fill(BccRow::default());
@@ -799,7 +798,7 @@ impl<X: Extractor + Sync> Ctx<'_, X> {
             table.restart(p0 * ny, start)?;
             let [dv, dt, _] = table.plane_sizes(k, ny);
             let nv = if self.normals { dv } else { 0 };
-            let b = Bcc { t, centres: &centres };
+            let b = Bcc { t, centres: &centres, active: &active };
             // SAFETY: `bcc_fill_plane` returns only after writing every slot of its slab
             // (asserted row by row and per slab).
             unsafe {
@@ -816,6 +815,8 @@ impl<X: Extractor + Sync> Ctx<'_, X> {
                 bits.row0 += ny;
                 centres.data.copy_within(plane.., 0);
                 centres.row0 += ny;
+                active.data.copy_within(plane.., 0);
+                active.row0 += ny;
             }
             if k + 3 < nz {
                 load(k + 3, ring, bits)?;
