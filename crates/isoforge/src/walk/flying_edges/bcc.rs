@@ -640,10 +640,11 @@ impl<V: SampleSlabs, X: Extractor> Passes<'_, V, X> {
                 for (id, &s) in ids.iter_mut().zip(&solid.segments[..solid.segment_count as usize]) {
                     let (slot, off) = SEGMENT_SLOT[s as usize];
                     let at = (i as isize + off as isize) as usize;
-                    debug_assert!(at + 1 < nx);
-                    // SAFETY: `at` is a cell of the row (i, or i − 1 for the x-lower octahedron,
-                    // taken only when i > 0), so below nx − 1 ≤ 64 · words; the slot of a
-                    // crossed segment was set above, its family being crossed in its row.
+                    debug_assert!(at < nx);
+                    // SAFETY: `at` is a point of the row (i; i + 1 for the edges on the cell's
+                    // upper x; i − 1, taken only when i > 0, for the x-lower octahedron's centre
+                    // segments), so below nx ≤ 64 · words; the slot of a crossed segment was set
+                    // above, its family being crossed in its row.
                     *id = base[slot as usize] + unsafe { masks[slot as usize].rank_unchecked(at) };
                 }
                 for tri in &solid.triangles[..solid.triangle_count as usize] {
