@@ -4,7 +4,8 @@
 //! ```text
 //!   PASS 1b centres  every cell row → one bit per cell (centre inside): the corners' class where
 //!                    they agree (a grid's centre lies between its corners), else the centre's
-//!                    value from the samples (the trilinear interpolant's bits, `centre_value`)
+//!                    value from the samples (the trilinear interpolant's bits, `centre_in`);
+//!                    and its active cells, which passes 2 and 4 visit (with their neighbours)
 //!   PASS 2 count     every row (j, k) → crossings of its families, popcounts of XORed bit rows:
 //!                      X Y Z        lattice edges from the row's points (as for MC)
 //!                      CC0 … CC7    centre of cell (i, j, k) → its corner c
@@ -27,15 +28,18 @@
 //! their corners (grids, the streaming window); ranges (chunks, keys at their boundary) and
 //! tabulated fields take the keyed path.
 
+use std::cell::Cell;
+
 use super::bits::{
-    case_at, cell_rows, for_each_bit, mark_active, mask_tail, popcount, uniform_block, Bits, RankedMask,
+    case_at, cell_rows, for_each_bit, mark_active, mask_tail, popcount, rank_prefix, uniform_block, Bits, RankedMask,
+    RankedRef,
 };
 use super::families::{X, Y, Z};
 use super::fill::{fill_planes, Counted, FillOut, RowTable};
-use super::keyed::centre_value;
+use super::keyed::centre_in;
 use super::stream::{fill_batch, Ctx, SlabRing, StreamStats};
 use super::{for_each_chunk, for_each_chunk_with, Passes, PointBox};
-use crate::cube::{CellPoint, VertexKey, FACE_CORNERS};
+use crate::cube::{CellPoint, SegmentKey, VertexKey, FACE_CORNERS};
 use crate::error::{Error, Result};
 use crate::extract::tetrahedra::BccSolid;
 use crate::extract::{BodyCentredTables, Extractor};
@@ -202,37 +206,52 @@ fn corner_word(rows: &[&[u64]; 4], c: u8, w: usize) -> u64 {
     }
 }
 
+thread_local! {
+    /// The ranked mask store of [`Passes::bcc_fill_plane`] (masks, prefix popcounts), kept by
+    /// each thread for its next plane: allocating and zeroing ~1 MB per plane cost ~6 % of the
+    /// walk's instructions.
+    static MASK_STORE: Cell<(Vec<u64>, Vec<u32>)> = const { Cell::new((Vec::new(), Vec::new())) };
+}
+
 /// What a counted body-centred walk shares besides [`Passes`].
 pub(super) struct Bcc<'a> {
     pub(super) t: &'a BodyCentredTables,
     /// Centre bits, one row per cell row (`k · ny + j`), laid out as [`Bits`].
     pub(super) centres: &'a Bits,
+    /// Active cells ([`mark_active`]), laid out as `centres`.
+    pub(super) active: &'a Bits,
 }
 
 impl<V: SampleSlabs, X: Extractor> Passes<'_, V, X> {
-    /// PASS 1b for cell layer `k` (box-local): the centre bits of its cell rows into `out` (`ny`
-    /// rows of `bits.words`); returns its all-outside and all-inside cell counts.
-    pub(super) fn bcc_centres(&self, bits: &Bits, k: usize, out: &mut [u64]) -> [u64; 2] {
+    /// PASS 1b for cell layer `k` (box-local): the centre bits of its cell rows into `out` and
+    /// their active cells into `active` (`ny` rows of `bits.words` each); returns its all-outside
+    /// and all-inside cell counts.
+    pub(super) fn bcc_centres(&self, bits: &Bits, k: usize, out: &mut [u64], active: &mut [u64]) -> [u64; 2] {
         let [nx, ny, nz] = self.bx.dims;
         let words = bits.words;
         out.fill(0);
+        active.fill(0);
         let mut cs = [0u64; 2];
         if k + 1 >= nz {
             return cs;
         }
-        let mut active = vec![0u64; words];
+        let z = self.bx.lo[2] + k as u32;
+        let (s0, s1) = (self.vol.slab(z), self.vol.slab(z + 1));
+        let stride = self.bx.row_stride();
         for j in 0..ny - 1 {
             let r = k * ny + j;
             let rows = cell_rows(bits, r, ny);
-            let (outside, inside) = mark_active(rows, nx - 1, &mut active);
+            let active = &mut active[j * words..(j + 1) * words];
+            let (outside, inside) = mark_active(rows, nx - 1, active);
+            let at = self.bx.in_slab(0, j);
             cs[0] += outside;
             cs[1] += inside;
             let o = &mut out[j * words..(j + 1) * words];
             for w in 0..words {
                 o[w] = rows[0][w] & !active[w];
             }
-            for_each_bit(&active, |i| {
-                if centre_value(self.vol, &self.bx, self.iso, [i, j, k]) < 0.0 {
+            for_each_bit(active, |i| {
+                if centre_in(s0, s1, at + i, at + stride + i, self.iso) < 0.0 {
                     o[i / 64] |= 1 << (i % 64);
                 }
             });
@@ -338,21 +357,18 @@ impl<V: SampleSlabs, X: Extractor> Passes<'_, V, X> {
 
     /// Cells of cell row `r` = (j, k) that can have triangles: the active ones and those just
     /// above an active one on some axis (their octahedra hold its centre), into `visit`.
-    fn bcc_visit(&self, bits: &Bits, r: usize, [j, k]: [usize; 2], visit: &mut [u64], scratch: &mut [u64]) {
+    fn bcc_visit(&self, active: &Bits, r: usize, [j, k]: [usize; 2], visit: &mut [u64]) {
         let [nx, ny, _] = self.bx.dims;
-        mark_active(cell_rows(bits, r, ny), nx - 1, scratch);
-        let words = visit.len();
-        for w in 0..words {
-            let carry = if w > 0 { scratch[w - 1] >> 63 } else { 0 };
-            visit[w] = scratch[w] | scratch[w] << 1 | carry;
+        let here = active.row(r);
+        for w in 0..visit.len() {
+            let carry = if w > 0 { here[w - 1] >> 63 } else { 0 };
+            visit[w] = here[w] | here[w] << 1 | carry;
         }
         if j > 0 {
-            mark_active(cell_rows(bits, r - 1, ny), nx - 1, scratch);
-            visit.iter_mut().zip(scratch.iter()).for_each(|(v, b)| *v |= b);
+            visit.iter_mut().zip(active.row(r - 1)).for_each(|(x, b)| *x |= b);
         }
         if k > 0 {
-            mark_active(cell_rows(bits, r - ny, ny), nx - 1, scratch);
-            visit.iter_mut().zip(scratch.iter()).for_each(|(v, b)| *v |= b);
+            visit.iter_mut().zip(active.row(r - ny)).for_each(|(x, b)| *x |= b);
         }
         mask_tail(visit, nx - 1);
     }
@@ -363,7 +379,6 @@ impl<V: SampleSlabs, X: Extractor> Passes<'_, V, X> {
         let words = bits.words;
         let mut mask = vec![0u64; words];
         let mut visit = vec![0u64; words];
-        let mut scratch = vec![0u64; words];
         let dims = self.bx.dims;
         // Whether the points of cell row (j, k) and those of the next rows on y and z are all on
         // one side (the row on the lattice's last y or z plane: its points and the next ones).
@@ -388,7 +403,7 @@ impl<V: SampleSlabs, X: Extractor> Passes<'_, V, X> {
             if j + 1 >= ny || k + 1 >= nz {
                 continue;
             }
-            self.bcc_visit(bits, r, [j, k], &mut visit, &mut scratch);
+            self.bcc_visit(b.active, r, [j, k], &mut visit);
             let rows = cell_rows(bits, r, ny);
             let mut tris = 0;
             for_each_bit(&visit, |i| {
@@ -414,10 +429,38 @@ impl<V: SampleSlabs, X: Extractor> Passes<'_, V, X> {
         let stride = bx.row_stride();
         let recording = self.record != crate::mesh::KeyRecord::None;
         let offset = |a: V::Sample| self.iso.offset(a.to_f64());
-        let mut mask = vec![0u64; words];
+        // Ranked crossing masks of every family of every row of the plane (those of a family
+        // not crossed in its row are left unset: no triangle names them). The vertices walk
+        // them, and the triangles of the plane's cell rows find in them all their slots but
+        // those of rows C, E and `Under` (7 of 33). The thread's store from its last plane, grown
+        // if need be: every entry read is written first, so it is not cleared.
+        let row_words = BCC_FAMILIES * words;
+        let (mut store, mut store_before) = MASK_STORE.take();
+        store.resize(ny * row_words, 0);
+        store_before.resize(ny * row_words, 0);
         let mut out_v = 0usize;
-        // Centre values of the current cell row, computed once (NaN: not yet).
-        let mut centres = vec![f32::NAN; nx];
+        // Centre values of the current cell row and of the one before it on y, computed once
+        // (NaN: not yet); `cur_j` is the row `cur` belongs to.
+        let mut cur = vec![f32::NAN; nx];
+        let mut prev = vec![f32::NAN; nx];
+        let mut cur_j = None;
+        // The slab below (for the centres of cell layer k − 1).
+        let sm = if k > 0 { self.vol.slab(z - 1) } else { s0 };
+        // The centre of cell i of the cell row starting at slab index `at` of `lo` (and `hi`).
+        let centre_at = |lo: &[V::Sample], hi: &[V::Sample], at: usize, i: usize| {
+            centre_in(lo, hi, at + i, at + stride + i, self.iso)
+        };
+        // The centre of cell i of the cell row starting at `at` in slabs k, k + 1, through `memo`.
+        let cached = |memo: &mut [f32], at: usize, i: usize| {
+            let v = memo[i];
+            if v.is_nan() {
+                let v = centre_at(s0, s1, at, i);
+                memo[i] = v;
+                v
+            } else {
+                v
+            }
+        };
         for j in 0..ny {
             let r = k * ny + j;
             let c = table.count(r);
@@ -425,80 +468,117 @@ impl<V: SampleSlabs, X: Extractor> Passes<'_, V, X> {
             if c.vertices() == 0 {
                 continue;
             }
-            centres.fill(f32::NAN);
+            if j > 0 && cur_j == Some(j - 1) {
+                std::mem::swap(&mut cur, &mut prev);
+            } else {
+                prev.fill(f32::NAN);
+            }
+            cur.fill(f32::NAN);
+            cur_j = Some(j);
             let at = bx.in_slab(0, j);
+            let mut push = |(p, n, key): ([f32; 3], Option<[f32; 3]>, VertexKey)| {
+                out.set_position(out_v, p);
+                if let Some(n) = n {
+                    out.set_normal(out_v, n);
+                }
+                if recording && self.records(&key) {
+                    out.keys().push(((plane[0] + out_v as u64) as u32, key));
+                }
+                out_v += 1;
+            };
+            // A crossing on segment `key` with offset values `d0` at its end a, `d1` at b.
+            let on_segment = |key: SegmentKey, d0: f32, d1: f32| {
+                let q = segment::segment_point(self.vol, key, d0, d1, self.iso);
+                let n = self.normals.then(|| segment::segment_normal(self.vol, key, q, d0, self.iso));
+                (segment::world_point(self.vol, q), n, VertexKey::Segment(key))
+            };
             for f in 0..BCC_FAMILIES {
-                if c.v[f] == 0 || !self.bcc_mask(f, bits, b.centres, r, [j, k], &mut mask) {
+                let at_f = (j * BCC_FAMILIES + f) * words..(j * BCC_FAMILIES + f + 1) * words;
+                let mask = &mut store[at_f.clone()];
+                if c.v[f] == 0 || !self.bcc_mask(f, bits, b.centres, r, [j, k], mask) {
                     continue;
                 }
-                for_each_bit(&mask, |i| {
-                    let g = bx.global([i, j, k]);
-                    let sample = |o: [usize; 3]| {
-                        let s = if o[2] == 0 { s0 } else { s1 };
-                        offset(s[at + o[1] * stride + i + o[0]])
-                    };
-                    let (p, n, key) = if f <= Z {
-                        let (ends, key) = self.walked.segment(f, g);
+                rank_prefix(mask, &mut store_before[at_f]);
+                let mask = &*mask;
+                let sample = |i: usize, o: [usize; 3]| {
+                    let s = if o[2] == 0 { s0 } else { s1 };
+                    offset(s[at + o[1] * stride + i + o[0]])
+                };
+                // Doubled index coordinates of the centre of cell (i, j, k).
+                let centre_doubled = |i: usize| bx.global([i, j, k]).map(|x| 2 * x + 1);
+                match f {
+                    _ if f <= Z => for_each_bit(mask, |i| {
+                        let (ends, key) = self.walked.segment(f, bx.global([i, j, k]));
                         let VertexKey::Edge(e) = key else { unreachable!("edge families name edges") };
-                        let (d0, d1) = (sample(ends[0]), sample(ends[1]));
+                        let (d0, d1) = (sample(i, ends[0]), sample(i, ends[1]));
                         let (p, t) = edge_crossing(self.vol, e, d0, d1, self.iso);
-                        (p, self.normals.then(|| edge_normal(self.vol, e, t, d0, self.iso)), key)
-                    } else {
-                        let mut centre = |l: [usize; 3]| {
-                            if l[1] == j && l[2] == k {
-                                if centres[l[0]].is_nan() {
-                                    centres[l[0]] = centre_value(self.vol, bx, self.iso, l);
-                                }
-                                centres[l[0]]
+                        push((p, self.normals.then(|| edge_normal(self.vol, e, t, d0, self.iso)), key));
+                    }),
+                    // Centre → corner c (`SegmentKey::of_cell`'s order: the end with the lower
+                    // doubled coordinates first, here decided on x).
+                    _ if f < CCL => {
+                        let corner = f - CC;
+                        let o = [corner & 1, corner >> 1 & 1, corner >> 2];
+                        for_each_bit(mask, |i| {
+                            let cd = centre_doubled(i);
+                            let kd = [0, 1, 2].map(|a| cd[a] - 1 + 2 * o[a] as u32);
+                            let (vc, vk) = (cached(&mut cur, at, i), sample(i, o));
+                            if o[0] == 1 {
+                                push(on_segment(SegmentKey { a: cd, b: kd }, vc, vk));
                             } else {
-                                centre_value(self.vol, bx, self.iso, l)
+                                push(on_segment(SegmentKey { a: kd, b: cd }, vk, vc));
                             }
-                        };
-                        let (pa, pb) = match f {
-                            _ if f < CCL => (CellPoint::Centre, CellPoint::Corner((f - CC) as u8)),
-                            _ if f < BD => (CellPoint::Beyond(2 * (f - CCL) as u8), CellPoint::Centre),
-                            _ => {
-                                let fc = FACE_CORNERS[f - BD];
-                                (CellPoint::Corner(fc[0]), CellPoint::Corner(fc[2]))
-                            }
-                        };
-                        let value = |p: CellPoint| match p {
-                            CellPoint::Corner(c) => {
-                                sample([(c & 1) as usize, (c >> 1 & 1) as usize, (c >> 2) as usize])
-                            }
-                            CellPoint::Centre => centre([i, j, k]),
-                            CellPoint::Beyond(f) => {
-                                let mut l = [i, j, k];
-                                l[(f / 2) as usize] -= 1;
-                                centre(l)
-                            }
-                        };
-                        let (key, d0, d1) = segment::segment_ends(g, pa, pb, value);
-                        let q = segment::segment_point(self.vol, key, d0, d1, self.iso);
-                        let n = self.normals.then(|| segment::segment_normal(self.vol, key, q, d0, self.iso));
-                        (segment::world_point(self.vol, q), n, VertexKey::Segment(key))
-                    };
-                    out.set_position(out_v, p);
-                    if let Some(n) = n {
-                        out.set_normal(out_v, n);
+                        });
                     }
-                    if recording && self.records(&key) {
-                        out.keys().push(((plane[0] + out_v as u64) as u32, key));
+                    // Centre of the lower neighbour on axis a → centre (the neighbour's end first).
+                    _ if f < BD => {
+                        let axis = f - CCL;
+                        for_each_bit(mask, |i| {
+                            let cd = centre_doubled(i);
+                            let mut nd = cd;
+                            nd[axis] -= 2;
+                            let vn = match axis {
+                                0 => cached(&mut cur, at, i - 1),
+                                1 => cached(&mut prev, at - stride, i),
+                                _ => centre_at(sm, s0, at, i),
+                            };
+                            let vc = cached(&mut cur, at, i);
+                            push(on_segment(SegmentKey { a: nd, b: cd }, vn, vc));
+                        });
                     }
-                    out_v += 1;
-                });
+                    // Diagonal of a boundary face (rare: the generic route).
+                    _ => {
+                        let fc = FACE_CORNERS[f - BD];
+                        for_each_bit(mask, |i| {
+                            let value = |p: CellPoint| match p {
+                                CellPoint::Corner(c) => {
+                                    sample(i, [(c & 1) as usize, (c >> 1 & 1) as usize, (c >> 2) as usize])
+                                }
+                                _ => unreachable!("face diagonals join corners"),
+                            };
+                            let (key, d0, d1) = segment::segment_ends(
+                                bx.global([i, j, k]),
+                                CellPoint::Corner(fc[0]),
+                                CellPoint::Corner(fc[2]),
+                                value,
+                            );
+                            push(on_segment(key, d0, d1));
+                        });
+                    }
+                }
             }
         }
         assert_eq!(out_v, out_vertices, "internal: slab {k} vertices off their count");
         if k + 1 >= nz {
             assert_eq!(out_triangles, 0, "internal: triangles counted past the last layer");
+            MASK_STORE.set((store, store_before));
             return;
         }
-        // Triangles of the cell rows of layer k.
-        let mut masks: [RankedMask; SLOTS] = std::array::from_fn(|_| RankedMask::new(words));
+        // Triangles of the cell rows of layer k: slots of rows A, B and `Below` from the store,
+        // the others into `own`.
+        let mut own: [RankedMask; SLOTS] = std::array::from_fn(|_| RankedMask::new(words));
         let mut base = [0u32; SLOTS];
         let mut visit = vec![0u64; words];
-        let mut scratch = vec![0u64; words];
         let mut t_out = 0usize;
         let last = [nx - 2, ny - 2, nz - 2];
         for j in 0..ny - 1 {
@@ -508,24 +588,41 @@ impl<V: SampleSlabs, X: Extractor> Passes<'_, V, X> {
             }
             for (slot, &(f, src)) in SLOT_SOURCE.iter().enumerate() {
                 let (row, jk) = match src {
-                    Src::A => (r, [j, k]),
-                    Src::B => (r + 1, [j + 1, k]),
                     Src::C => (r + ny, [j, k + 1]),
                     Src::E => (r + ny + 1, [j + 1, k + 1]),
-                    Src::Below if j > 0 => (r - 1, [j - 1, k]),
                     Src::Under if k > 0 => (r - ny, [j, k - 1]),
+                    _ => continue,
+                };
+                if table.count(row).v[f] != 0 {
+                    let m = &mut own[slot];
+                    self.bcc_mask(f, bits, b.centres, row, jk, &mut m.mask);
+                    m.rank_prefix();
+                }
+            }
+            let mut masks = [RankedRef::new(&[], &[]); SLOTS];
+            for (slot, &(f, src)) in SLOT_SOURCE.iter().enumerate() {
+                let (row, j_row) = match src {
+                    Src::A => (r, j),
+                    Src::B => (r + 1, j + 1),
+                    Src::C => (r + ny, j),
+                    Src::E => (r + ny + 1, j + 1),
+                    Src::Below if j > 0 => (r - 1, j - 1),
+                    Src::Under if k > 0 => (r - ny, j),
                     _ => continue,
                 };
                 let rc = table.count(row);
                 if rc.v[f] == 0 {
                     continue;
                 }
-                let m = &mut masks[slot];
-                self.bcc_mask(f, bits, b.centres, row, jk, &mut m.mask);
-                m.rank_prefix();
                 base[slot] = table.base(row)[0] as u32 + rc.before(f);
+                masks[slot] = if matches!(src, Src::C | Src::E | Src::Under) {
+                    own[slot].as_ref()
+                } else {
+                    let at = (j_row * BCC_FAMILIES + f) * words..(j_row * BCC_FAMILIES + f + 1) * words;
+                    RankedRef::new(&store[at.clone()], &store_before[at])
+                };
             }
-            self.bcc_visit(bits, r, [j, k], &mut visit, &mut scratch);
+            self.bcc_visit(b.active, r, [j, k], &mut visit);
             let rows = cell_rows(bits, r, ny);
             // Centre rows of this cell row and of those below it on y and z (when they exist).
             let cr = b.centres.row(r);
@@ -538,14 +635,20 @@ impl<V: SampleSlabs, X: Extractor> Passes<'_, V, X> {
                 if solid.triangle_count == 0 {
                     return;
                 }
-                let mut ids = [0u32; 12];
+                // 16 ids so that `& 15` proves every index in bounds (solids name at most 12).
+                let mut ids = [0u32; 16];
                 for (id, &s) in ids.iter_mut().zip(&solid.segments[..solid.segment_count as usize]) {
                     let (slot, off) = SEGMENT_SLOT[s as usize];
                     let at = (i as isize + off as isize) as usize;
-                    *id = base[slot as usize] + masks[slot as usize].rank(at);
+                    debug_assert!(at < nx);
+                    // SAFETY: `at` is a point of the row (i; i + 1 for the edges on the cell's
+                    // upper x; i − 1, taken only when i > 0, for the x-lower octahedron's centre
+                    // segments), so below nx ≤ 64 · words; the slot of a crossed segment was set
+                    // above, its family being crossed in its row.
+                    *id = base[slot as usize] + unsafe { masks[slot as usize].rank_unchecked(at) };
                 }
                 for tri in &solid.triangles[..solid.triangle_count as usize] {
-                    let [a, b2, c] = tri.map(|s| ids[s as usize]);
+                    let [a, b2, c] = tri.map(|s| ids[(s & 15) as usize]);
                     out.set_triangle(t_out, if self.reverse { [a, c, b2] } else { [a, b2, c] });
                     t_out += 1;
                 }
@@ -559,9 +662,13 @@ impl<V: SampleSlabs, X: Extractor> Passes<'_, V, X> {
                     _ => bit(cz, i) as usize,
                 };
                 if inner_row && i > 0 && i + 2 < nx {
-                    for a in 0..3 {
+                    let beyond = [by(0), by(1), by(2)];
+                    if b.t.interior[case | centre << 8 | beyond[0] << 9 | beyond[1] << 10 | beyond[2] << 11] == 0 {
+                        return;
+                    }
+                    for (a, beyond) in beyond.into_iter().enumerate() {
                         let corners = b.t.face_case[2 * a][case] as usize;
-                        emit(&b.t.octahedra[a][centre | by(a) << 1 | corners << 2], i);
+                        emit(&b.t.octahedra[a][centre | beyond << 1 | corners << 2], i);
                     }
                     return;
                 }
@@ -579,6 +686,7 @@ impl<V: SampleSlabs, X: Extractor> Passes<'_, V, X> {
             });
         }
         assert_eq!(t_out, out_triangles, "internal: slab {k} triangles off their count");
+        MASK_STORE.set((store, store_before));
     }
 }
 
@@ -601,16 +709,18 @@ impl<V: SampleSlabs + Sync, X: Extractor + Sync> Passes<'_, V, X> {
         let words = bits.words;
         // PASS 1b: centre bits, and the uniform cells of each layer.
         let mut centres = Bits { words, row0: 0, data: huge_vec(ny * nz * words, 0) };
-        let mut cell_stats = vec![[0u64; 2]; nz];
-        for_each_chunk_with(&mut centres.data, ny * words, &mut cell_stats, |k, plane, cs| {
-            *cs = self.bcc_centres(bits, k, plane);
+        let mut active = Bits { words, row0: 0, data: huge_vec(ny * nz * words, 0) };
+        let mut per_layer: Vec<_> = active.data.chunks_mut(ny * words).map(|a| (a, [0u64; 2])).collect();
+        for_each_chunk_with(&mut centres.data, ny * words, &mut per_layer, |k, plane, (active, cs)| {
+            *cs = self.bcc_centres(bits, k, plane, active);
         });
+        let cell_stats: Vec<[u64; 2]> = per_layer.into_iter().map(|(_, cs)| cs).collect();
         let stats = WalkStats {
             cells: self.range.num_cells(),
             cells_outside: cell_stats.iter().map(|c| c[0]).sum(),
             cells_inside: cell_stats.iter().map(|c| c[1]).sum(),
         };
-        let b = Bcc { t, centres: &centres };
+        let b = Bcc { t, centres: &centres, active: &active };
         // PASS 2: count.
         let mut counts = vec![BccRow::default(); ny * nz];
         for_each_chunk(&mut counts, ny, |k, plane| self.bcc_count_plane(&b, bits, k, plane));
@@ -655,14 +765,15 @@ impl<X: Extractor + Sync> Ctx<'_, X> {
         let plane = ny * words;
         bits.data.resize(4 * plane, 0);
         let mut centres = Bits { words, row0: 0, data: vec![0u64; 3 * plane] };
+        let mut active = Bits { words, row0: 0, data: vec![0u64; 3 * plane] };
         let mut table = BccTable::window(3 * ny);
         let add = |cs: [u64; 2], out: &mut StreamStats| {
             out.walk.cells_outside += cs[0];
             out.walk.cells_inside += cs[1];
         };
-        add(self.on(ring).bcc_centres(bits, 0, &mut centres.data[..plane]), out);
+        add(self.on(ring).bcc_centres(bits, 0, &mut centres.data[..plane], &mut active.data[..plane]), out);
         {
-            let b = Bcc { t, centres: &centres };
+            let b = Bcc { t, centres: &centres, active: &active };
             self.on(ring).bcc_count_plane(&b, bits, 0, &mut table.counts[..ny]);
         }
         let mut start = [0u64; 3];
@@ -673,8 +784,14 @@ impl<X: Extractor + Sync> Ctx<'_, X> {
             let next = (k + 1 - p0) * ny;
             if k + 1 < nz {
                 let at = next * words;
-                add(self.on(ring).bcc_centres(bits, k + 1, &mut centres.data[at..at + plane]), out);
-                let b = Bcc { t, centres: &centres };
+                let cs = self.on(ring).bcc_centres(
+                    bits,
+                    k + 1,
+                    &mut centres.data[at..at + plane],
+                    &mut active.data[at..at + plane],
+                );
+                add(cs, out);
+                let b = Bcc { t, centres: &centres, active: &active };
                 self.on(ring).bcc_count_plane(&b, bits, k + 1, &mut table.counts[next..next + ny]);
             } else {
                 table.counts[next..next + ny].fill(BccRow::default());
@@ -682,7 +799,7 @@ impl<X: Extractor + Sync> Ctx<'_, X> {
             table.restart(p0 * ny, start)?;
             let [dv, dt, _] = table.plane_sizes(k, ny);
             let nv = if self.normals { dv } else { 0 };
-            let b = Bcc { t, centres: &centres };
+            let b = Bcc { t, centres: &centres, active: &active };
             // SAFETY: `bcc_fill_plane` returns only after writing every slot of its slab
             // (asserted row by row and per slab).
             unsafe {
@@ -699,6 +816,8 @@ impl<X: Extractor + Sync> Ctx<'_, X> {
                 bits.row0 += ny;
                 centres.data.copy_within(plane.., 0);
                 centres.row0 += ny;
+                active.data.copy_within(plane.., 0);
+                active.row0 += ny;
             }
             if k + 3 < nz {
                 load(k + 3, ring, bits)?;

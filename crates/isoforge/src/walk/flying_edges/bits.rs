@@ -121,17 +121,58 @@ impl RankedMask {
     }
     /// Recomputes the prefix popcounts after `mask` changed.
     pub(super) fn rank_prefix(&mut self) {
-        let mut acc = 0;
-        for (b, m) in self.before.iter_mut().zip(&self.mask) {
-            *b = acc;
-            acc += m.count_ones();
-        }
+        rank_prefix(&self.mask, &mut self.before);
     }
     /// Number of set bits below bit `i`.
     #[inline(always)]
     pub(super) fn rank(&self, i: usize) -> u32 {
         let (w, b) = (i / 64, i % 64);
         self.before[w] + (self.mask[w] & ((1u64 << b) - 1)).count_ones()
+    }
+    /// The mask and its prefix popcounts, as [`RankedRef`].
+    #[inline]
+    pub(super) fn as_ref(&self) -> RankedRef<'_> {
+        RankedRef { mask: &self.mask, before: &self.before }
+    }
+}
+
+/// The prefix popcounts of `mask` into `before` (the set bits in the words before each).
+#[inline]
+pub(super) fn rank_prefix(mask: &[u64], before: &mut [u32]) {
+    let mut acc = 0;
+    for (b, m) in before.iter_mut().zip(mask) {
+        *b = acc;
+        acc += m.count_ones();
+    }
+}
+
+/// A crossing mask and its prefix popcounts (see [`rank_prefix`]), borrowed from a
+/// [`RankedMask`] or a store of many.
+#[derive(Clone, Copy)]
+pub(super) struct RankedRef<'a> {
+    mask: &'a [u64],
+    before: &'a [u32],
+}
+
+impl<'a> RankedRef<'a> {
+    /// `mask` with prefix popcounts `before` (of the same length).
+    #[inline]
+    pub(super) fn new(mask: &'a [u64], before: &'a [u32]) -> Self {
+        assert_eq!(mask.len(), before.len(), "a ranked mask has one prefix per word");
+        RankedRef { mask, before }
+    }
+    /// Number of set bits below bit `i`, without bounds checks (the inner loop of the counted
+    /// fills; checked in debug builds).
+    ///
+    /// # Safety
+    /// `i` must lie in the mask: `i < 64 · words`.
+    #[inline(always)]
+    pub(super) unsafe fn rank_unchecked(&self, i: usize) -> u32 {
+        let (w, b) = (i / 64, i % 64);
+        debug_assert!(w < self.mask.len());
+        // SAFETY: `new` and `RankedMask` give `mask` and `before` the same length, and `w` is
+        // below it by the caller's promise.
+        unsafe { self.before.get_unchecked(w) + (self.mask.get_unchecked(w) & ((1u64 << b) - 1)).count_ones() }
     }
 }
 

@@ -219,10 +219,16 @@ impl<V: SampleSlabs + Sync, X: Extractor + Sync> Passes<'_, V, X> {
 #[inline]
 pub(super) fn centre_value<V: SampleSlabs>(vol: &V, bx: &PointBox, iso: Iso, [i, j, k]: [usize; 3]) -> f32 {
     let z = bx.lo[2] + k as u32;
-    let (s0, s1) = (vol.slab(z), vol.slab(z + 1));
-    let (a, b) = (bx.in_slab(i, j), bx.in_slab(i, j + 1));
+    centre_in(vol.slab(z), vol.slab(z + 1), bx.in_slab(i, j), bx.in_slab(i, j + 1), iso)
+}
+
+/// [`centre_value`] of the cell whose corners are samples `a`, `a + 1`, `b`, `b + 1` of slabs
+/// `s0` (its lower z) and `s1`, for walkers that hold the slabs.
+#[inline(always)]
+pub(super) fn centre_in<S: Sample>(s0: &[S], s1: &[S], a: usize, b: usize, iso: Iso) -> f32 {
+    let (a0, b0, a1, b1) = (&s0[a..a + 2], &s0[b..b + 2], &s1[a..a + 2], &s1[b..b + 2]);
     let mut acc = 0.0f64;
-    for at in [s0[a], s0[a + 1], s0[b], s0[b + 1], s1[a], s1[a + 1], s1[b], s1[b + 1]] {
+    for at in [a0[0], a0[1], b0[0], b0[1], a1[0], a1[1], b1[0], b1[1]] {
         acc += 0.125 * at.to_f64();
     }
     iso.offset(acc)
