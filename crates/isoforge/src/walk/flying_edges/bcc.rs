@@ -31,8 +31,8 @@
 use std::cell::Cell;
 
 use super::bits::{
-    case_at, cell_rows, for_each_bit, mark_active, mask_tail, popcount, rank_prefix, uniform_block, Bits, RankedMask,
-    RankedRef,
+    cell_rows, for_each_bit, for_each_case, mark_active, mask_tail, popcount, rank_prefix, uniform_block, Bits,
+    RankedMask, RankedRef,
 };
 use super::families::{X, Y, Z};
 use super::fill::{fill_planes, Counted, FillOut, RowTable};
@@ -406,8 +406,8 @@ impl<V: SampleSlabs, X: Extractor> Passes<'_, V, X> {
             self.bcc_visit(b.active, r, [j, k], &mut visit);
             let rows = cell_rows(bits, r, ny);
             let mut tris = 0;
-            for_each_bit(&visit, |i| {
-                tris += self.bcc_cell_count(b.t, b.centres, case_at(&rows, i), [i, j, k]);
+            for_each_case(&rows, &visit, |i, case| {
+                tris += self.bcc_cell_count(b.t, b.centres, case, [i, j, k]);
             });
             c.tris = tris;
         }
@@ -653,8 +653,8 @@ impl<V: SampleSlabs, X: Extractor> Passes<'_, V, X> {
                     t_out += 1;
                 }
             };
-            for_each_bit(&visit, |i| {
-                let case = case_at(&rows, i) as usize;
+            for_each_case(&rows, &visit, |i, case| {
+                let case = case as usize;
                 let centre = bit(cr, i) as usize;
                 let by = |a: usize| match a {
                     0 => bit(cr, i - 1) as usize,
