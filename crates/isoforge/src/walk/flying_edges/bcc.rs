@@ -427,7 +427,6 @@ impl<V: SampleSlabs, X: Extractor> Passes<'_, V, X> {
         let s1 = if k + 1 < nz { self.vol.slab(z + 1) } else { s0 };
         let plane = table.base(k * ny);
         let stride = bx.row_stride();
-        let recording = self.record != crate::mesh::KeyRecord::None;
         let offset = |a: V::Sample| self.iso.offset(a.to_f64());
         // Ranked crossing masks of every family of every row of the plane (those of a family
         // not crossed in its row are left unset: no triangle names them). The vertices walk
@@ -477,13 +476,7 @@ impl<V: SampleSlabs, X: Extractor> Passes<'_, V, X> {
             cur_j = Some(j);
             let at = bx.in_slab(0, j);
             let mut push = |(p, n, key): ([f32; 3], Option<[f32; 3]>, VertexKey)| {
-                out.set_position(out_v, p);
-                if let Some(n) = n {
-                    out.set_normal(out_v, n);
-                }
-                if recording && self.records(&key) {
-                    out.keys().push(((plane[0] + out_v as u64) as u32, key));
-                }
+                self.put_vertex(out, out_v, plane[0], p, n, key);
                 out_v += 1;
             };
             // A crossing on segment `key` with offset values `d0` at its end a, `d1` at b.

@@ -260,7 +260,6 @@ impl<V: SampleSlabs, X: Extractor> Passes<'_, V, X> {
         let mut out_v = 0usize;
         let mut mask = vec![0u64; words];
         let mut ymask = vec![0u64; words];
-        let recording = self.record != crate::mesh::KeyRecord::None;
         let offset = |a: V::Sample| self.iso.offset(a.to_f64());
         // Vertices of the slab's rows: each family's crossings in turn (x-, y-, z-edges, then
         // the diagonals the extractor names), then room for the vertices its cells place. The
@@ -308,13 +307,7 @@ impl<V: SampleSlabs, X: Extractor> Passes<'_, V, X> {
                         }
                         VertexKey::Cell { .. } => unreachable!("families name edges and segments"),
                     };
-                    out.set_position(out_v, p);
-                    if let Some(n) = n {
-                        out.set_normal(out_v, n);
-                    }
-                    if recording && self.records(&key) {
-                        out.keys().push(((plane[0] + out_v as u64) as u32, key));
-                    }
+                    self.put_vertex(out, out_v, plane[0], p, n, key);
                     out_v += 1;
                 });
             }

@@ -43,7 +43,7 @@ pub use stream::StreamStats;
 use self::bits::Bits;
 use self::count::{CaseCounts, RowCount};
 use self::families::Walked;
-use self::fill::{fill_planes, RowTable};
+use self::fill::{fill_planes, FillOut, RowTable};
 use super::{range_of, Progress, WalkStats, Walker};
 use crate::cube::{CellRange, VertexKey};
 use crate::error::{Error, Result};
@@ -320,6 +320,27 @@ impl<V, X> Passes<'_, V, X> {
             KeyRecord::None => false,
             KeyRecord::All => true,
             KeyRecord::Boundary(r) => crate::mesh::touches_boundary(key, &r),
+        }
+    }
+
+    /// Writes vertex `at` of a slab's output (`first`: the slab's first vertex id) with its
+    /// normal when there is one, and records its key when this walk records it.
+    #[inline(always)]
+    fn put_vertex(
+        &self,
+        out: &mut impl FillOut,
+        at: usize,
+        first: u64,
+        p: [f32; 3],
+        n: Option<[f32; 3]>,
+        key: VertexKey,
+    ) {
+        out.set_position(at, p);
+        if let Some(n) = n {
+            out.set_normal(at, n);
+        }
+        if self.record != KeyRecord::None && self.records(&key) {
+            out.keys().push(((first + at as u64) as u32, key));
         }
     }
 }
