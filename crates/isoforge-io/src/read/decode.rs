@@ -4,7 +4,7 @@
 use std::io::{BufRead, Read};
 use std::path::Path;
 
-use isoforge::grid::{AnyGrid, DType, DenseGrid, Lattice, Sample};
+use isoforge::grid::{AnyGrid, DType, DenseGrid, Lattice, NonFinite, Sample};
 
 use crate::error::{Ctx, Result};
 use crate::limits::Limits;
@@ -29,6 +29,20 @@ pub(crate) fn read_file(ctx: Ctx, path: &Path, max: u64) -> Result<Vec<u8>> {
     crate::file::read_all(ctx, path, max)
 }
 
+/// Rejects a volume with a NaN or infinite sample (`first`: the first one, if any), naming it.
+pub(crate) fn ensure_finite(ctx: Ctx, first: Option<NonFinite>) -> Result<()> {
+    match first {
+        None => Ok(()),
+        Some(nf) => {
+            let [i, j, k] = nf.ijk;
+            Err(ctx.bad(format!(
+                "sample ({i}, {j}, {k}) is {}: volumes must be finite (replace or mask such samples before meshing)",
+                nf.value
+            )))
+        }
+    }
+}
+
 /// Decodes exactly `lattice.num_points()` samples of `dtype` and rejects non-finite values.
 pub(crate) fn decode(ctx: Ctx, lattice: Lattice, dtype: DType, big_endian: bool, bytes: &[u8]) -> Result<AnyGrid> {
     fn go<S: Sample>(ctx: Ctx, lattice: Lattice, big_endian: bool, bytes: &[u8]) -> Result<AnyGrid>
@@ -38,13 +52,7 @@ pub(crate) fn decode(ctx: Ctx, lattice: Lattice, dtype: DType, big_endian: bool,
         let size = S::DTYPE.size();
         let data: Vec<S> = bytes.chunks_exact(size).map(|c| S::from_bytes(c, big_endian)).collect();
         let grid = DenseGrid::new(lattice, data).map_err(|e| ctx.lib(e))?;
-        if let Some(nf) = grid.first_non_finite() {
-            let [i, j, k] = nf.ijk;
-            return Err(ctx.bad(format!(
-                "sample ({i}, {j}, {k}) is {}: volumes must be finite (replace or mask such samples before meshing)",
-                nf.value
-            )));
-        }
+        ensure_finite(ctx, grid.first_non_finite())?;
         Ok(grid.into())
     }
     isoforge::with_dtype!(dtype, S => go::<S>(ctx, lattice, big_endian, bytes))
@@ -180,13 +188,7 @@ pub(crate) fn ascii_grid(ctx: Ctx, r: impl Read, lattice: Lattice, dtype: DType)
             return Err(ctx.bad(format!("ASCII data has {} values, the header declares {n}", data.len())));
         }
         let grid = DenseGrid::new(lattice, data).map_err(|e| ctx.lib(e))?;
-        if let Some(nf) = grid.first_non_finite() {
-            let [i, j, k] = nf.ijk;
-            return Err(ctx.bad(format!(
-                "sample ({i}, {j}, {k}) is {}: volumes must be finite (replace or mask such samples before meshing)",
-                nf.value
-            )));
-        }
+        ensure_finite(ctx, grid.first_non_finite())?;
         Ok(grid.into())
     }
     match dtype {

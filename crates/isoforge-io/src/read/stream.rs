@@ -5,7 +5,7 @@
 use std::io::{BufReader, Read, Seek, SeekFrom};
 use std::path::{Path, PathBuf};
 
-use isoforge::grid::{as_bytes_mut, AnyGrid, DType, DenseGrid, Lattice, Sample};
+use isoforge::grid::{as_bytes_mut, AnyGrid, DType, DenseGrid, Lattice, NonFinite, Sample};
 use isoforge::walk::Progress;
 
 use super::decode;
@@ -144,13 +144,7 @@ impl VolumeReader {
                 g
             }
         };
-        if let Some(nf) = grid.first_non_finite() {
-            let [i, j, k] = nf.ijk;
-            return Err(self.ctx().bad(format!(
-                "sample ({i}, {j}, {k}) is {}: volumes must be finite (replace or mask such samples before meshing)",
-                nf.value
-            )));
-        }
+        decode::ensure_finite(self.ctx(), grid.first_non_finite())?;
         match self.scale {
             None => Ok(grid),
             Some((slope, inter)) => self.scaled(grid, slope, inter),
@@ -290,13 +284,11 @@ impl VolumeReader {
         let result = result.and_then(|()| if k + 1 == nz { self.check_trailer(&mut r) } else { Ok(()) });
         self.body = Body::Stream(r);
         result?;
-        if let Some(i) = out.iter().position(|v| !v.is_finite()) {
-            let (x, y) = (i % nx as usize, i / nx as usize);
-            return Err(self.ctx().bad(format!(
-                "sample ({x}, {y}, {k}) is {}: volumes must be finite (replace or mask such samples before meshing)",
-                out[i].to_f64()
-            )));
-        }
+        let first = out.iter().position(|v| !v.is_finite()).map(|i| NonFinite {
+            ijk: [(i % nx as usize) as u32, (i / nx as usize) as u32, k],
+            value: out[i].to_f64(),
+        });
+        decode::ensure_finite(self.ctx(), first)?;
         self.next_k += 1;
         Ok(())
     }
