@@ -178,6 +178,7 @@ fn durable() -> bool {
 }
 
 /// Whether temporary files should be named (no `O_TMPFILE`): forced by `ISOFORGE_TEMP=named`.
+#[cfg(target_os = "linux")]
 fn force_named() -> bool {
     std::env::var_os("ISOFORGE_TEMP").is_some_and(|v| v == "named")
 }
