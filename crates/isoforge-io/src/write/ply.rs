@@ -361,34 +361,44 @@ fn copy_span(
 /// Copies `len` bytes of `from` at `from_at` into `to` at `to_at` (neither file's position is
 /// used or moved): in the kernel (`copy_file_range`) where it can, else through a buffer.
 fn copy_at(from: &std::fs::File, from_at: u64, to: &std::fs::File, to_at: u64, len: u64) -> io::Result<()> {
+    let done = copy_in_kernel(from, from_at, to, to_at, len)?;
+    copy_buffered(from, from_at + done, to, to_at + done, len - done)
+}
+
+/// The part of [`copy_at`] the kernel copies (`copy_file_range`), from the start: all of it, or
+/// what it did before saying it cannot copy between these files.
+#[cfg(target_os = "linux")]
+fn copy_in_kernel(from: &std::fs::File, from_at: u64, to: &std::fs::File, to_at: u64, len: u64) -> io::Result<u64> {
+    use std::os::fd::AsRawFd;
     let mut done = 0u64;
-    #[cfg(target_os = "linux")]
-    {
-        use std::os::fd::AsRawFd;
-        while done < len {
-            let (mut off_in, mut off_out) = ((from_at + done) as libc::loff_t, (to_at + done) as libc::loff_t);
-            let want = usize::try_from(len - done).unwrap_or(usize::MAX).min(1 << 30);
-            // SAFETY: both descriptors are open files borrowed for the call; the offsets are
-            // locals the kernel updates; no memory of ours is read or written.
-            let n =
-                unsafe { libc::copy_file_range(from.as_raw_fd(), &mut off_in, to.as_raw_fd(), &mut off_out, want, 0) };
-            if n > 0 {
-                done += n as u64;
-                continue;
-            }
-            if n == 0 {
-                return Err(io::Error::new(io::ErrorKind::UnexpectedEof, "a scratch file ended early"));
-            }
-            let e = io::Error::last_os_error();
-            match e.raw_os_error() {
-                Some(libc::EINTR) => continue,
-                // Not supported between these files: copy through a buffer below.
-                Some(libc::ENOSYS | libc::EXDEV | libc::EINVAL | libc::EOPNOTSUPP | libc::EBADF) => break,
-                _ => return Err(e),
-            }
+    while done < len {
+        let (mut off_in, mut off_out) = ((from_at + done) as libc::loff_t, (to_at + done) as libc::loff_t);
+        let want = usize::try_from(len - done).unwrap_or(usize::MAX).min(1 << 30);
+        // SAFETY: both descriptors are open files borrowed for the call; the offsets are locals
+        // the kernel updates; no memory of ours is read or written.
+        let n = unsafe { libc::copy_file_range(from.as_raw_fd(), &mut off_in, to.as_raw_fd(), &mut off_out, want, 0) };
+        if n > 0 {
+            done += n as u64;
+            continue;
+        }
+        if n == 0 {
+            return Err(io::Error::new(io::ErrorKind::UnexpectedEof, "a scratch file ended early"));
+        }
+        let e = io::Error::last_os_error();
+        match e.raw_os_error() {
+            Some(libc::EINTR) => continue,
+            // Not supported between these files: the rest goes through a buffer.
+            Some(libc::ENOSYS | libc::EXDEV | libc::EINVAL | libc::EOPNOTSUPP | libc::EBADF) => break,
+            _ => return Err(e),
         }
     }
-    copy_buffered(from, from_at + done, to, to_at + done, len - done)
+    Ok(done)
+}
+
+/// No in-kernel copy off Linux: everything goes through the buffer.
+#[cfg(not(target_os = "linux"))]
+fn copy_in_kernel(_: &std::fs::File, _: u64, _: &std::fs::File, _: u64, _: u64) -> io::Result<u64> {
+    Ok(0)
 }
 
 /// [`copy_at`] through a 1 MiB buffer (platforms and file pairs without an in-kernel copy).
