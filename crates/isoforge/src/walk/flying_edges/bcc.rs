@@ -31,8 +31,8 @@
 use std::cell::Cell;
 
 use super::bits::{
-    cell_rows, for_each_bit, for_each_case, mark_active, mask_tail, popcount, rank_prefix, uniform_block, Bits,
-    RankedMask, RankedRef,
+    cell_mask, cell_rows, for_each_bit, for_each_case, mark_active, mask_tail, popcount, rank_prefix, uniform_block,
+    Bits, RankedMask, RankedRef,
 };
 use super::families::{X, Y, Z};
 use super::fill::{fill_planes, Counted, FillOut, RowTable};
@@ -260,6 +260,52 @@ impl<V: SampleSlabs, X: Extractor> Passes<'_, V, X> {
         cs
     }
 
+    /// Word by word, the crossings of families X … CCL + 2 (all but the boundary-face diagonals)
+    /// of row `r` = (j, k), which starts a cell row (j + 1 < ny, k + 1 < nz): `each(w, m)` with
+    /// `m[f]` word w of [`bcc_mask`](Self::bcc_mask)'s family f (0 where it has none). The corner
+    /// words are built once for the edges and the eight centre → corner families.
+    #[inline(always)]
+    fn bcc_row_words(
+        &self,
+        bits: &Bits,
+        cb: &Bits,
+        r: usize,
+        [j, k]: [usize; 2],
+        mut each: impl FnMut(usize, &[u64; BD]),
+    ) {
+        let [nx, ny, _] = self.bx.dims;
+        let words = bits.words;
+        let rows = cell_rows(bits, r, ny);
+        let c = cb.row(r);
+        let cy = if j > 0 { cb.row(r - 1) } else { c };
+        let cz = if k > 0 { cb.row(r - ny) } else { c };
+        let mut carry = 0;
+        for w in 0..words {
+            let (cm, pm) = (cell_mask(w, nx - 1), cell_mask(w, nx));
+            let mut corners = [0u64; 8];
+            for (q, row) in rows.iter().enumerate() {
+                let next = if w + 1 < words { row[w + 1] << 63 } else { 0 };
+                corners[2 * q] = row[w];
+                corners[2 * q + 1] = (row[w] >> 1) | next;
+            }
+            let cw = c[w];
+            let mut m = [0u64; BD];
+            m[X] = (corners[0] ^ corners[1]) & cm;
+            m[Y] = (corners[0] ^ corners[2]) & pm;
+            m[Z] = (corners[0] ^ corners[4]) & pm;
+            for (q, &corner) in corners.iter().enumerate() {
+                m[CC + q] = (cw ^ corner) & cm;
+            }
+            // Cell 0 has no lower x neighbour.
+            let first = if w == 0 { !1 } else { !0 };
+            m[CCL] = (cw ^ (cw << 1 | carry)) & cm & first;
+            carry = cw >> 63;
+            m[CCL + 1] = (cw ^ cy[w]) & cm;
+            m[CCL + 2] = (cw ^ cz[w]) & cm;
+            each(w, &m);
+        }
+    }
+
     /// Family `f`'s crossings in row `r` = (j, k) into `out`; false when the row has none.
     #[inline]
     fn bcc_mask(&self, f: usize, bits: &Bits, cb: &Bits, r: usize, [j, k]: [usize; 2], out: &mut [u64]) -> bool {
@@ -307,15 +353,16 @@ impl<V: SampleSlabs, X: Extractor> Passes<'_, V, X> {
                 }
                 let rows = cell_rows(bits, r, ny);
                 let fc = FACE_CORNERS[face];
-                for w in 0..words {
-                    out[w] = corner_word(&rows, fc[0], w) ^ corner_word(&rows, fc[2], w);
-                }
                 if axis == 0 {
                     // One cell of the row has this face on the boundary.
                     let i = if upper { last[0] } else { 0 };
-                    let b = bit(out, i);
+                    let corner = |c: u8| bit(rows[((c >> 1) & 3) as usize], i + (c & 1) as usize);
                     out.fill(0);
-                    out[i / 64] = b << (i % 64);
+                    out[i / 64] = (corner(fc[0]) ^ corner(fc[2])) << (i % 64);
+                    return true;
+                }
+                for w in 0..words {
+                    out[w] = corner_word(&rows, fc[0], w) ^ corner_word(&rows, fc[2], w);
                 }
             }
         }
@@ -395,12 +442,21 @@ impl<V: SampleSlabs, X: Extractor> Passes<'_, V, X> {
             if skip {
                 continue;
             }
-            for f in 0..BCC_FAMILIES {
+            // Rows on the last y or z plane start edges only.
+            let cell_row = j + 1 < ny && k + 1 < nz;
+            if cell_row {
+                self.bcc_row_words(bits, b.centres, r, [j, k], |_, m| {
+                    for (v, m) in c.v.iter_mut().zip(m) {
+                        *v += m.count_ones();
+                    }
+                });
+            }
+            for f in if cell_row { BD..BCC_FAMILIES } else { 0..CC } {
                 if self.bcc_mask(f, bits, b.centres, r, [j, k], &mut mask) {
                     c.v[f] = popcount(&mask);
                 }
             }
-            if j + 1 >= ny || k + 1 >= nz {
+            if !cell_row {
                 continue;
             }
             self.bcc_visit(b.active, r, [j, k], &mut visit);
@@ -485,10 +541,21 @@ impl<V: SampleSlabs, X: Extractor> Passes<'_, V, X> {
                 let n = self.normals.then(|| segment::segment_normal(self.vol, key, q, d0, self.iso));
                 (segment::world_point(self.vol, q), n, VertexKey::Segment(key))
             };
+            // The masks of all families but the boundary diagonals at once (rows starting a cell
+            // row), the others one by one.
+            let cell_row = j + 1 < ny && k + 1 < nz;
+            if cell_row {
+                let row = &mut store[j * row_words..(j + 1) * row_words];
+                self.bcc_row_words(bits, b.centres, r, [j, k], |w, m| {
+                    for (f, &m) in m.iter().enumerate() {
+                        row[f * words + w] = m;
+                    }
+                });
+            }
             for f in 0..BCC_FAMILIES {
                 let at_f = (j * BCC_FAMILIES + f) * words..(j * BCC_FAMILIES + f + 1) * words;
                 let mask = &mut store[at_f.clone()];
-                if c.v[f] == 0 || !self.bcc_mask(f, bits, b.centres, r, [j, k], mask) {
+                if c.v[f] == 0 || !((cell_row && f < BD) || self.bcc_mask(f, bits, b.centres, r, [j, k], mask)) {
                     continue;
                 }
                 rank_prefix(mask, &mut store_before[at_f]);
