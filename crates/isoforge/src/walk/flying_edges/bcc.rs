@@ -29,6 +29,7 @@
 //! tabulated fields take the keyed path.
 
 use std::cell::Cell;
+use std::sync::atomic::{AtomicU64, Ordering};
 
 use super::bits::{
     cell_mask, cell_rows, for_each_bit, for_each_case, mark_active, mask_tail, popcount, rank_prefix, uniform_block,
@@ -138,6 +139,15 @@ const SLOT_SOURCE: [(usize, Src); SLOTS] = {
     t
 };
 const SLOTS: usize = 33;
+/// The slots of the x-edges of rows C and E: row E of cell row j is row C of j + 1.
+const X_OF_C: usize = 2;
+const X_OF_E: usize = 3;
+const _: () = assert!(
+    SLOT_SOURCE[X_OF_C].0 == X
+        && matches!(SLOT_SOURCE[X_OF_C].1, Src::C)
+        && SLOT_SOURCE[X_OF_E].0 == X
+        && matches!(SLOT_SOURCE[X_OF_E].1, Src::E)
+);
 
 /// For each numbered segment (`BCC_SEGMENTS` in extract/tetrahedra.rs): its mask slot and the
 /// offset of its owner from the cell's i.
@@ -206,11 +216,29 @@ fn corner_word(rows: &[&[u64]; 4], c: u8, w: usize) -> u64 {
     }
 }
 
+/// Ranked masks of every family of every row of a plane: masks, prefix popcounts.
+type Store = (Vec<u64>, Vec<u32>);
+
+/// A thread's mask stores for [`Passes::bcc_fill_plane`], kept for its next plane: allocating and
+/// zeroing ~1 MB per plane cost ~6 % of the walk's instructions. `last` holds the plane it filled
+/// last, named by `of` (walk, plane): when that is the plane just below, the triangles read the
+/// slots of the row under from it.
+#[derive(Default)]
+struct MaskStores {
+    last: Store,
+    spare: Store,
+    of: Option<(u64, usize)>,
+}
+
 thread_local! {
-    /// The ranked mask store of [`Passes::bcc_fill_plane`] (masks, prefix popcounts), kept by
-    /// each thread for its next plane: allocating and zeroing ~1 MB per plane cost ~6 % of the
-    /// walk's instructions.
-    static MASK_STORE: Cell<(Vec<u64>, Vec<u32>)> = const { Cell::new((Vec::new(), Vec::new())) };
+    static MASK_STORE: Cell<MaskStores> =
+        const { Cell::new(MaskStores { last: (Vec::new(), Vec::new()), spare: (Vec::new(), Vec::new()), of: None }) };
+}
+
+/// A number no other walk takes, naming its planes in the threads' mask stores.
+pub(super) fn walk_id() -> u64 {
+    static NEXT: AtomicU64 = AtomicU64::new(0);
+    NEXT.fetch_add(1, Ordering::Relaxed)
 }
 
 /// What a counted body-centred walk shares besides [`Passes`].
@@ -220,6 +248,8 @@ pub(super) struct Bcc<'a> {
     pub(super) centres: &'a Bits,
     /// Active cells ([`mark_active`]), laid out as `centres`.
     pub(super) active: &'a Bits,
+    /// The walk's [`walk_id`].
+    pub(super) walk: u64,
 }
 
 impl<V: SampleSlabs, X: Extractor> Passes<'_, V, X> {
@@ -487,10 +517,15 @@ impl<V: SampleSlabs, X: Extractor> Passes<'_, V, X> {
         // Ranked crossing masks of every family of every row of the plane (those of a family
         // not crossed in its row are left unset: no triangle names them). The vertices walk
         // them, and the triangles of the plane's cell rows find in them all their slots but
-        // those of rows C, E and `Under` (7 of 33). The thread's store from its last plane, grown
-        // if need be: every entry read is written first, so it is not cleared.
+        // those of rows C, E and `Under` (7 of 33; `Under` too when this thread filled plane
+        // k − 1 last). The thread's spare store, grown if need be: every entry read is written
+        // first, so it is not cleared.
         let row_words = BCC_FAMILIES * words;
-        let (mut store, mut store_before) = MASK_STORE.take();
+        let MaskStores { last: under, spare: (mut store, mut store_before), of } = MASK_STORE.take();
+        let under_kept = k > 0 && of == Some((b.walk, k - 1));
+        let keep = |store, store_before, under| {
+            MASK_STORE.set(MaskStores { last: (store, store_before), spare: under, of: Some((b.walk, k)) })
+        };
         store.resize(ny * row_words, 0);
         store_before.resize(ny * row_words, 0);
         let mut out_v = 0usize;
@@ -631,26 +666,33 @@ impl<V: SampleSlabs, X: Extractor> Passes<'_, V, X> {
         assert_eq!(out_v, out_vertices, "internal: slab {k} vertices off their count");
         if k + 1 >= nz {
             assert_eq!(out_triangles, 0, "internal: triangles counted past the last layer");
-            MASK_STORE.set((store, store_before));
+            keep(store, store_before, under);
             return;
         }
         // Triangles of the cell rows of layer k: slots of rows A, B and `Below` from the store,
-        // the others into `own`.
+        // `Under` from the last plane's when kept, the others into `own`; row C's x-edges are the
+        // last cell row's row E's when it was j − 1.
         let mut own: [RankedMask; SLOTS] = std::array::from_fn(|_| RankedMask::new(words));
         let mut base = [0u32; SLOTS];
         let mut visit = vec![0u64; words];
         let mut t_out = 0usize;
         let last = [nx - 2, ny - 2, nz - 2];
+        let mut last_row = None;
         for j in 0..ny - 1 {
             let r = k * ny + j;
             if table.count(r).tris == 0 {
                 continue;
             }
+            let carried = last_row.is_some_and(|l| l + 1 == j);
+            if carried {
+                own.swap(X_OF_C, X_OF_E);
+            }
+            last_row = Some(j);
             for (slot, &(f, src)) in SLOT_SOURCE.iter().enumerate() {
                 let (row, jk) = match src {
-                    Src::C => (r + ny, [j, k + 1]),
+                    Src::C if !(carried && slot == X_OF_C) => (r + ny, [j, k + 1]),
                     Src::E => (r + ny + 1, [j + 1, k + 1]),
-                    Src::Under if k > 0 => (r - ny, [j, k - 1]),
+                    Src::Under if k > 0 && !under_kept => (r - ny, [j, k - 1]),
                     _ => continue,
                 };
                 if table.count(row).v[f] != 0 {
@@ -675,11 +717,11 @@ impl<V: SampleSlabs, X: Extractor> Passes<'_, V, X> {
                     continue;
                 }
                 base[slot] = table.base(row)[0] as u32 + rc.before(f);
-                masks[slot] = if matches!(src, Src::C | Src::E | Src::Under) {
-                    own[slot].as_ref()
-                } else {
-                    let at = (j_row * BCC_FAMILIES + f) * words..(j_row * BCC_FAMILIES + f + 1) * words;
-                    RankedRef::new(&store[at.clone()], &store_before[at])
+                let at = (j_row * BCC_FAMILIES + f) * words..(j_row * BCC_FAMILIES + f + 1) * words;
+                masks[slot] = match src {
+                    Src::Under if under_kept => RankedRef::new(&under.0[at.clone()], &under.1[at]),
+                    Src::C | Src::E | Src::Under => own[slot].as_ref(),
+                    _ => RankedRef::new(&store[at.clone()], &store_before[at]),
                 };
             }
             self.bcc_visit(b.active, r, [j, k], &mut visit);
@@ -746,7 +788,7 @@ impl<V: SampleSlabs, X: Extractor> Passes<'_, V, X> {
             });
         }
         assert_eq!(t_out, out_triangles, "internal: slab {k} triangles off their count");
-        MASK_STORE.set((store, store_before));
+        keep(store, store_before, under);
     }
 }
 
@@ -780,7 +822,7 @@ impl<V: SampleSlabs + Sync, X: Extractor + Sync> Passes<'_, V, X> {
             cells_outside: cell_stats.iter().map(|c| c[0]).sum(),
             cells_inside: cell_stats.iter().map(|c| c[1]).sum(),
         };
-        let b = Bcc { t, centres: &centres, active: &active };
+        let b = Bcc { t, centres: &centres, active: &active, walk: walk_id() };
         // PASS 2: count.
         let mut counts = vec![BccRow::default(); ny * nz];
         for_each_chunk(&mut counts, ny, |k, plane| self.bcc_count_plane(&b, bits, k, plane));
@@ -827,13 +869,14 @@ impl<X: Extractor + Sync> Ctx<'_, X> {
         let mut centres = Bits { words, row0: 0, data: vec![0u64; 3 * plane] };
         let mut active = Bits { words, row0: 0, data: vec![0u64; 3 * plane] };
         let mut table = BccTable::window(3 * ny);
+        let walk = walk_id();
         let add = |cs: [u64; 2], out: &mut StreamStats| {
             out.walk.cells_outside += cs[0];
             out.walk.cells_inside += cs[1];
         };
         add(self.on(ring).bcc_centres(bits, 0, &mut centres.data[..plane], &mut active.data[..plane]), out);
         {
-            let b = Bcc { t, centres: &centres, active: &active };
+            let b = Bcc { t, centres: &centres, active: &active, walk };
             self.on(ring).bcc_count_plane(&b, bits, 0, &mut table.counts[..ny]);
         }
         let mut start = [0u64; 3];
@@ -851,7 +894,7 @@ impl<X: Extractor + Sync> Ctx<'_, X> {
                     &mut active.data[at..at + plane],
                 );
                 add(cs, out);
-                let b = Bcc { t, centres: &centres, active: &active };
+                let b = Bcc { t, centres: &centres, active: &active, walk };
                 self.on(ring).bcc_count_plane(&b, bits, k + 1, &mut table.counts[next..next + ny]);
             } else {
                 table.counts[next..next + ny].fill(BccRow::default());
@@ -859,7 +902,7 @@ impl<X: Extractor + Sync> Ctx<'_, X> {
             table.restart(p0 * ny, start)?;
             let [dv, dt, _] = table.plane_sizes(k, ny);
             let nv = if self.normals { dv } else { 0 };
-            let b = Bcc { t, centres: &centres, active: &active };
+            let b = Bcc { t, centres: &centres, active: &active, walk };
             // SAFETY: `bcc_fill_plane` returns only after writing every slot of its slab
             // (asserted row by row and per slab).
             unsafe {
