@@ -309,9 +309,11 @@ impl<V: SampleSlabs, X: Extractor> Passes<'_, V, X> {
         let c = cb.row(r);
         let cy = if j > 0 { cb.row(r - 1) } else { c };
         let cz = if k > 0 { cb.row(r - ny) } else { c };
+        // Every word but the last is whole, for the points and for the cells.
+        let tail = (cell_mask(words - 1, nx - 1), cell_mask(words - 1, nx));
         let mut carry = 0;
         for w in 0..words {
-            let (cm, pm) = (cell_mask(w, nx - 1), cell_mask(w, nx));
+            let (cm, pm) = if w + 1 < words { (!0, !0) } else { tail };
             let mut corners = [0u64; 8];
             for (q, row) in rows.iter().enumerate() {
                 let next = if w + 1 < words { row[w + 1] << 63 } else { 0 };
@@ -400,17 +402,17 @@ impl<V: SampleSlabs, X: Extractor> Passes<'_, V, X> {
         true
     }
 
-    /// The triangles of box cell (i, j, k) whose corner case is `case` (centre bits from `cb`).
+    /// The triangles of box cell (i, j, k) whose corner case is `case`, with the centre bits of
+    /// its cell row and of those below it on y and z (when they exist) in `[cr, cy, cz]`.
     #[inline(always)]
-    fn bcc_cell_count(&self, t: &BodyCentredTables, cb: &Bits, case: u8, [i, j, k]: [usize; 3]) -> u32 {
+    fn bcc_cell_count(&self, t: &BodyCentredTables, [cr, cy, cz]: [&[u64]; 3], case: u8, [i, j, k]: [usize; 3]) -> u32 {
         let [nx, ny, nz] = self.bx.dims;
-        let r = k * self.bx.dims[1] + j;
-        let centre = bit(cb.row(r), i) as usize;
+        let centre = bit(cr, i) as usize;
         let interior = i > 0 && j > 0 && k > 0 && i + 2 < nx && j + 2 < ny && k + 2 < nz;
         let by = |a: usize| match a {
-            0 => bit(cb.row(r), i - 1) as usize,
-            1 => bit(cb.row(r - 1), i) as usize,
-            _ => bit(cb.row(r - ny), i) as usize,
+            0 => bit(cr, i - 1) as usize,
+            1 => bit(cy, i) as usize,
+            _ => bit(cz, i) as usize,
         };
         if interior {
             let x = case as usize | centre << 8 | by(0) << 9 | by(1) << 10 | by(2) << 11;
@@ -458,8 +460,15 @@ impl<V: SampleSlabs, X: Extractor> Passes<'_, V, X> {
         let mut visit = vec![0u64; words];
         let dims = self.bx.dims;
         // Whether the points of cell row (j, k) and those of the next rows on y and z are all on
-        // one side (the row on the lattice's last y or z plane: its points and the next ones).
-        let uniform = |r: usize, jk: [usize; 2]| uniform_block(bits, r, jk, dims);
+        // one side (the row on the lattice's last y or z plane: its points and the next ones):
+        // for a cell row, whether it has no active cell (neighbouring cells share corners).
+        let uniform = |r: usize, [j, k]: [usize; 2]| {
+            if dims[0] > 1 && j + 1 < ny && k + 1 < nz {
+                b.active.row(r).iter().all(|&w| w == 0).then(|| (bits.row(r)[0] & 1) as u8)
+            } else {
+                uniform_block(bits, r, [j, k], dims)
+            }
+        };
         let mut below = None;
         for (j, c) in out.iter_mut().enumerate() {
             let r = k * ny + j;
@@ -491,9 +500,12 @@ impl<V: SampleSlabs, X: Extractor> Passes<'_, V, X> {
             }
             self.bcc_visit(b.active, r, [j, k], &mut visit);
             let rows = cell_rows(bits, r, ny);
+            let cr = b.centres.row(r);
+            let cy = if j > 0 { b.centres.row(r - 1) } else { cr };
+            let cz = if k > 0 { b.centres.row(r - ny) } else { cr };
             let mut tris = 0;
             for_each_case(&rows, &visit, |i, case| {
-                tris += self.bcc_cell_count(b.t, b.centres, case, [i, j, k]);
+                tris += self.bcc_cell_count(b.t, [cr, cy, cz], case, [i, j, k]);
             });
             c.tris = tris;
         }
