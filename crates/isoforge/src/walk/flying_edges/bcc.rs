@@ -29,10 +29,11 @@
 //! tabulated fields take the keyed path.
 
 use std::cell::Cell;
+use std::sync::atomic::{AtomicU64, Ordering};
 
 use super::bits::{
-    cell_rows, for_each_bit, for_each_case, mark_active, mask_tail, popcount, rank_prefix, uniform_block, Bits,
-    RankedMask, RankedRef,
+    cell_mask, cell_rows, for_each_bit, for_each_case, mark_active, mask_tail, popcount, rank_prefix, uniform_block,
+    Bits, RankedMask, RankedRef,
 };
 use super::families::{X, Y, Z};
 use super::fill::{fill_planes, Counted, FillOut, RowTable};
@@ -138,6 +139,15 @@ const SLOT_SOURCE: [(usize, Src); SLOTS] = {
     t
 };
 const SLOTS: usize = 33;
+/// The slots of the x-edges of rows C and E: row E of cell row j is row C of j + 1.
+const X_OF_C: usize = 2;
+const X_OF_E: usize = 3;
+const _: () = assert!(
+    SLOT_SOURCE[X_OF_C].0 == X
+        && matches!(SLOT_SOURCE[X_OF_C].1, Src::C)
+        && SLOT_SOURCE[X_OF_E].0 == X
+        && matches!(SLOT_SOURCE[X_OF_E].1, Src::E)
+);
 
 /// For each numbered segment (`BCC_SEGMENTS` in extract/tetrahedra.rs): its mask slot and the
 /// offset of its owner from the cell's i.
@@ -206,11 +216,29 @@ fn corner_word(rows: &[&[u64]; 4], c: u8, w: usize) -> u64 {
     }
 }
 
+/// Ranked masks of every family of every row of a plane: masks, prefix popcounts.
+type Store = (Vec<u64>, Vec<u32>);
+
+/// A thread's mask stores for [`Passes::bcc_fill_plane`], kept for its next plane: allocating and
+/// zeroing ~1 MB per plane cost ~6 % of the walk's instructions. `last` holds the plane it filled
+/// last, named by `of` (walk, plane): when that is the plane just below, the triangles read the
+/// slots of the row under from it.
+#[derive(Default)]
+struct MaskStores {
+    last: Store,
+    spare: Store,
+    of: Option<(u64, usize)>,
+}
+
 thread_local! {
-    /// The ranked mask store of [`Passes::bcc_fill_plane`] (masks, prefix popcounts), kept by
-    /// each thread for its next plane: allocating and zeroing ~1 MB per plane cost ~6 % of the
-    /// walk's instructions.
-    static MASK_STORE: Cell<(Vec<u64>, Vec<u32>)> = const { Cell::new((Vec::new(), Vec::new())) };
+    static MASK_STORE: Cell<MaskStores> =
+        const { Cell::new(MaskStores { last: (Vec::new(), Vec::new()), spare: (Vec::new(), Vec::new()), of: None }) };
+}
+
+/// A number no other walk takes, naming its planes in the threads' mask stores.
+pub(super) fn walk_id() -> u64 {
+    static NEXT: AtomicU64 = AtomicU64::new(0);
+    NEXT.fetch_add(1, Ordering::Relaxed)
 }
 
 /// What a counted body-centred walk shares besides [`Passes`].
@@ -220,6 +248,8 @@ pub(super) struct Bcc<'a> {
     pub(super) centres: &'a Bits,
     /// Active cells ([`mark_active`]), laid out as `centres`.
     pub(super) active: &'a Bits,
+    /// The walk's [`walk_id`].
+    pub(super) walk: u64,
 }
 
 impl<V: SampleSlabs, X: Extractor> Passes<'_, V, X> {
@@ -258,6 +288,54 @@ impl<V: SampleSlabs, X: Extractor> Passes<'_, V, X> {
             mask_tail(o, nx - 1);
         }
         cs
+    }
+
+    /// Word by word, the crossings of families X … CCL + 2 (all but the boundary-face diagonals)
+    /// of row `r` = (j, k), which starts a cell row (j + 1 < ny, k + 1 < nz): `each(w, m)` with
+    /// `m[f]` word w of [`bcc_mask`](Self::bcc_mask)'s family f (0 where it has none). The corner
+    /// words are built once for the edges and the eight centre → corner families.
+    #[inline(always)]
+    fn bcc_row_words(
+        &self,
+        bits: &Bits,
+        cb: &Bits,
+        r: usize,
+        [j, k]: [usize; 2],
+        mut each: impl FnMut(usize, &[u64; BD]),
+    ) {
+        let [nx, ny, _] = self.bx.dims;
+        let words = bits.words;
+        let rows = cell_rows(bits, r, ny);
+        let c = cb.row(r);
+        let cy = if j > 0 { cb.row(r - 1) } else { c };
+        let cz = if k > 0 { cb.row(r - ny) } else { c };
+        // Every word but the last is whole, for the points and for the cells.
+        let tail = (cell_mask(words - 1, nx - 1), cell_mask(words - 1, nx));
+        let mut carry = 0;
+        for w in 0..words {
+            let (cm, pm) = if w + 1 < words { (!0, !0) } else { tail };
+            let mut corners = [0u64; 8];
+            for (q, row) in rows.iter().enumerate() {
+                let next = if w + 1 < words { row[w + 1] << 63 } else { 0 };
+                corners[2 * q] = row[w];
+                corners[2 * q + 1] = (row[w] >> 1) | next;
+            }
+            let cw = c[w];
+            let mut m = [0u64; BD];
+            m[X] = (corners[0] ^ corners[1]) & cm;
+            m[Y] = (corners[0] ^ corners[2]) & pm;
+            m[Z] = (corners[0] ^ corners[4]) & pm;
+            for (q, &corner) in corners.iter().enumerate() {
+                m[CC + q] = (cw ^ corner) & cm;
+            }
+            // Cell 0 has no lower x neighbour.
+            let first = if w == 0 { !1 } else { !0 };
+            m[CCL] = (cw ^ (cw << 1 | carry)) & cm & first;
+            carry = cw >> 63;
+            m[CCL + 1] = (cw ^ cy[w]) & cm;
+            m[CCL + 2] = (cw ^ cz[w]) & cm;
+            each(w, &m);
+        }
     }
 
     /// Family `f`'s crossings in row `r` = (j, k) into `out`; false when the row has none.
@@ -307,15 +385,16 @@ impl<V: SampleSlabs, X: Extractor> Passes<'_, V, X> {
                 }
                 let rows = cell_rows(bits, r, ny);
                 let fc = FACE_CORNERS[face];
-                for w in 0..words {
-                    out[w] = corner_word(&rows, fc[0], w) ^ corner_word(&rows, fc[2], w);
-                }
                 if axis == 0 {
                     // One cell of the row has this face on the boundary.
                     let i = if upper { last[0] } else { 0 };
-                    let b = bit(out, i);
+                    let corner = |c: u8| bit(rows[((c >> 1) & 3) as usize], i + (c & 1) as usize);
                     out.fill(0);
-                    out[i / 64] = b << (i % 64);
+                    out[i / 64] = (corner(fc[0]) ^ corner(fc[2])) << (i % 64);
+                    return true;
+                }
+                for w in 0..words {
+                    out[w] = corner_word(&rows, fc[0], w) ^ corner_word(&rows, fc[2], w);
                 }
             }
         }
@@ -323,17 +402,17 @@ impl<V: SampleSlabs, X: Extractor> Passes<'_, V, X> {
         true
     }
 
-    /// The triangles of box cell (i, j, k) whose corner case is `case` (centre bits from `cb`).
+    /// The triangles of box cell (i, j, k) whose corner case is `case`, with the centre bits of
+    /// its cell row and of those below it on y and z (when they exist) in `[cr, cy, cz]`.
     #[inline(always)]
-    fn bcc_cell_count(&self, t: &BodyCentredTables, cb: &Bits, case: u8, [i, j, k]: [usize; 3]) -> u32 {
+    fn bcc_cell_count(&self, t: &BodyCentredTables, [cr, cy, cz]: [&[u64]; 3], case: u8, [i, j, k]: [usize; 3]) -> u32 {
         let [nx, ny, nz] = self.bx.dims;
-        let r = k * self.bx.dims[1] + j;
-        let centre = bit(cb.row(r), i) as usize;
+        let centre = bit(cr, i) as usize;
         let interior = i > 0 && j > 0 && k > 0 && i + 2 < nx && j + 2 < ny && k + 2 < nz;
         let by = |a: usize| match a {
-            0 => bit(cb.row(r), i - 1) as usize,
-            1 => bit(cb.row(r - 1), i) as usize,
-            _ => bit(cb.row(r - ny), i) as usize,
+            0 => bit(cr, i - 1) as usize,
+            1 => bit(cy, i) as usize,
+            _ => bit(cz, i) as usize,
         };
         if interior {
             let x = case as usize | centre << 8 | by(0) << 9 | by(1) << 10 | by(2) << 11;
@@ -381,8 +460,15 @@ impl<V: SampleSlabs, X: Extractor> Passes<'_, V, X> {
         let mut visit = vec![0u64; words];
         let dims = self.bx.dims;
         // Whether the points of cell row (j, k) and those of the next rows on y and z are all on
-        // one side (the row on the lattice's last y or z plane: its points and the next ones).
-        let uniform = |r: usize, jk: [usize; 2]| uniform_block(bits, r, jk, dims);
+        // one side (the row on the lattice's last y or z plane: its points and the next ones):
+        // for a cell row, whether it has no active cell (neighbouring cells share corners).
+        let uniform = |r: usize, [j, k]: [usize; 2]| {
+            if dims[0] > 1 && j + 1 < ny && k + 1 < nz {
+                b.active.row(r).iter().all(|&w| w == 0).then(|| (bits.row(r)[0] & 1) as u8)
+            } else {
+                uniform_block(bits, r, [j, k], dims)
+            }
+        };
         let mut below = None;
         for (j, c) in out.iter_mut().enumerate() {
             let r = k * ny + j;
@@ -395,19 +481,31 @@ impl<V: SampleSlabs, X: Extractor> Passes<'_, V, X> {
             if skip {
                 continue;
             }
-            for f in 0..BCC_FAMILIES {
+            // Rows on the last y or z plane start edges only.
+            let cell_row = j + 1 < ny && k + 1 < nz;
+            if cell_row {
+                self.bcc_row_words(bits, b.centres, r, [j, k], |_, m| {
+                    for (v, m) in c.v.iter_mut().zip(m) {
+                        *v += m.count_ones();
+                    }
+                });
+            }
+            for f in if cell_row { BD..BCC_FAMILIES } else { 0..CC } {
                 if self.bcc_mask(f, bits, b.centres, r, [j, k], &mut mask) {
                     c.v[f] = popcount(&mask);
                 }
             }
-            if j + 1 >= ny || k + 1 >= nz {
+            if !cell_row {
                 continue;
             }
             self.bcc_visit(b.active, r, [j, k], &mut visit);
             let rows = cell_rows(bits, r, ny);
+            let cr = b.centres.row(r);
+            let cy = if j > 0 { b.centres.row(r - 1) } else { cr };
+            let cz = if k > 0 { b.centres.row(r - ny) } else { cr };
             let mut tris = 0;
             for_each_case(&rows, &visit, |i, case| {
-                tris += self.bcc_cell_count(b.t, b.centres, case, [i, j, k]);
+                tris += self.bcc_cell_count(b.t, [cr, cy, cz], case, [i, j, k]);
             });
             c.tris = tris;
         }
@@ -431,10 +529,15 @@ impl<V: SampleSlabs, X: Extractor> Passes<'_, V, X> {
         // Ranked crossing masks of every family of every row of the plane (those of a family
         // not crossed in its row are left unset: no triangle names them). The vertices walk
         // them, and the triangles of the plane's cell rows find in them all their slots but
-        // those of rows C, E and `Under` (7 of 33). The thread's store from its last plane, grown
-        // if need be: every entry read is written first, so it is not cleared.
+        // those of rows C, E and `Under` (7 of 33; `Under` too when this thread filled plane
+        // k − 1 last). The thread's spare store, grown if need be: every entry read is written
+        // first, so it is not cleared.
         let row_words = BCC_FAMILIES * words;
-        let (mut store, mut store_before) = MASK_STORE.take();
+        let MaskStores { last: under, spare: (mut store, mut store_before), of } = MASK_STORE.take();
+        let under_kept = k > 0 && of == Some((b.walk, k - 1));
+        let keep = |store, store_before, under| {
+            MASK_STORE.set(MaskStores { last: (store, store_before), spare: under, of: Some((b.walk, k)) })
+        };
         store.resize(ny * row_words, 0);
         store_before.resize(ny * row_words, 0);
         let mut out_v = 0usize;
@@ -485,10 +588,21 @@ impl<V: SampleSlabs, X: Extractor> Passes<'_, V, X> {
                 let n = self.normals.then(|| segment::segment_normal(self.vol, key, q, d0, self.iso));
                 (segment::world_point(self.vol, q), n, VertexKey::Segment(key))
             };
+            // The masks of all families but the boundary diagonals at once (rows starting a cell
+            // row), the others one by one.
+            let cell_row = j + 1 < ny && k + 1 < nz;
+            if cell_row {
+                let row = &mut store[j * row_words..(j + 1) * row_words];
+                self.bcc_row_words(bits, b.centres, r, [j, k], |w, m| {
+                    for (f, &m) in m.iter().enumerate() {
+                        row[f * words + w] = m;
+                    }
+                });
+            }
             for f in 0..BCC_FAMILIES {
                 let at_f = (j * BCC_FAMILIES + f) * words..(j * BCC_FAMILIES + f + 1) * words;
                 let mask = &mut store[at_f.clone()];
-                if c.v[f] == 0 || !self.bcc_mask(f, bits, b.centres, r, [j, k], mask) {
+                if c.v[f] == 0 || !((cell_row && f < BD) || self.bcc_mask(f, bits, b.centres, r, [j, k], mask)) {
                     continue;
                 }
                 rank_prefix(mask, &mut store_before[at_f]);
@@ -564,26 +678,33 @@ impl<V: SampleSlabs, X: Extractor> Passes<'_, V, X> {
         assert_eq!(out_v, out_vertices, "internal: slab {k} vertices off their count");
         if k + 1 >= nz {
             assert_eq!(out_triangles, 0, "internal: triangles counted past the last layer");
-            MASK_STORE.set((store, store_before));
+            keep(store, store_before, under);
             return;
         }
         // Triangles of the cell rows of layer k: slots of rows A, B and `Below` from the store,
-        // the others into `own`.
+        // `Under` from the last plane's when kept, the others into `own`; row C's x-edges are the
+        // last cell row's row E's when it was j − 1.
         let mut own: [RankedMask; SLOTS] = std::array::from_fn(|_| RankedMask::new(words));
         let mut base = [0u32; SLOTS];
         let mut visit = vec![0u64; words];
         let mut t_out = 0usize;
         let last = [nx - 2, ny - 2, nz - 2];
+        let mut last_row = None;
         for j in 0..ny - 1 {
             let r = k * ny + j;
             if table.count(r).tris == 0 {
                 continue;
             }
+            let carried = last_row.is_some_and(|l| l + 1 == j);
+            if carried {
+                own.swap(X_OF_C, X_OF_E);
+            }
+            last_row = Some(j);
             for (slot, &(f, src)) in SLOT_SOURCE.iter().enumerate() {
                 let (row, jk) = match src {
-                    Src::C => (r + ny, [j, k + 1]),
+                    Src::C if !(carried && slot == X_OF_C) => (r + ny, [j, k + 1]),
                     Src::E => (r + ny + 1, [j + 1, k + 1]),
-                    Src::Under if k > 0 => (r - ny, [j, k - 1]),
+                    Src::Under if k > 0 && !under_kept => (r - ny, [j, k - 1]),
                     _ => continue,
                 };
                 if table.count(row).v[f] != 0 {
@@ -608,11 +729,11 @@ impl<V: SampleSlabs, X: Extractor> Passes<'_, V, X> {
                     continue;
                 }
                 base[slot] = table.base(row)[0] as u32 + rc.before(f);
-                masks[slot] = if matches!(src, Src::C | Src::E | Src::Under) {
-                    own[slot].as_ref()
-                } else {
-                    let at = (j_row * BCC_FAMILIES + f) * words..(j_row * BCC_FAMILIES + f + 1) * words;
-                    RankedRef::new(&store[at.clone()], &store_before[at])
+                let at = (j_row * BCC_FAMILIES + f) * words..(j_row * BCC_FAMILIES + f + 1) * words;
+                masks[slot] = match src {
+                    Src::Under if under_kept => RankedRef::new(&under.0[at.clone()], &under.1[at]),
+                    Src::C | Src::E | Src::Under => own[slot].as_ref(),
+                    _ => RankedRef::new(&store[at.clone()], &store_before[at]),
                 };
             }
             self.bcc_visit(b.active, r, [j, k], &mut visit);
@@ -679,7 +800,7 @@ impl<V: SampleSlabs, X: Extractor> Passes<'_, V, X> {
             });
         }
         assert_eq!(t_out, out_triangles, "internal: slab {k} triangles off their count");
-        MASK_STORE.set((store, store_before));
+        keep(store, store_before, under);
     }
 }
 
@@ -713,7 +834,7 @@ impl<V: SampleSlabs + Sync, X: Extractor + Sync> Passes<'_, V, X> {
             cells_outside: cell_stats.iter().map(|c| c[0]).sum(),
             cells_inside: cell_stats.iter().map(|c| c[1]).sum(),
         };
-        let b = Bcc { t, centres: &centres, active: &active };
+        let b = Bcc { t, centres: &centres, active: &active, walk: walk_id() };
         // PASS 2: count.
         let mut counts = vec![BccRow::default(); ny * nz];
         for_each_chunk(&mut counts, ny, |k, plane| self.bcc_count_plane(&b, bits, k, plane));
@@ -760,13 +881,14 @@ impl<X: Extractor + Sync> Ctx<'_, X> {
         let mut centres = Bits { words, row0: 0, data: vec![0u64; 3 * plane] };
         let mut active = Bits { words, row0: 0, data: vec![0u64; 3 * plane] };
         let mut table = BccTable::window(3 * ny);
+        let walk = walk_id();
         let add = |cs: [u64; 2], out: &mut StreamStats| {
             out.walk.cells_outside += cs[0];
             out.walk.cells_inside += cs[1];
         };
         add(self.on(ring).bcc_centres(bits, 0, &mut centres.data[..plane], &mut active.data[..plane]), out);
         {
-            let b = Bcc { t, centres: &centres, active: &active };
+            let b = Bcc { t, centres: &centres, active: &active, walk };
             self.on(ring).bcc_count_plane(&b, bits, 0, &mut table.counts[..ny]);
         }
         let mut start = [0u64; 3];
@@ -784,7 +906,7 @@ impl<X: Extractor + Sync> Ctx<'_, X> {
                     &mut active.data[at..at + plane],
                 );
                 add(cs, out);
-                let b = Bcc { t, centres: &centres, active: &active };
+                let b = Bcc { t, centres: &centres, active: &active, walk };
                 self.on(ring).bcc_count_plane(&b, bits, k + 1, &mut table.counts[next..next + ny]);
             } else {
                 table.counts[next..next + ny].fill(BccRow::default());
@@ -792,7 +914,7 @@ impl<X: Extractor + Sync> Ctx<'_, X> {
             table.restart(p0 * ny, start)?;
             let [dv, dt, _] = table.plane_sizes(k, ny);
             let nv = if self.normals { dv } else { 0 };
-            let b = Bcc { t, centres: &centres, active: &active };
+            let b = Bcc { t, centres: &centres, active: &active, walk };
             // SAFETY: `bcc_fill_plane` returns only after writing every slot of its slab
             // (asserted row by row and per slab).
             unsafe {
