@@ -487,6 +487,14 @@ fn issue_10_nonsense_geometry_is_refused_naming_file_field_and_value() {
         &mrc([2, 2, 2], [1, 1, 1], [3e38, 3e38, 3e38], [0.0; 3]),
         &["CELLA / MX MY MZ, ORIGIN: lattice", "reach"],
     );
+    // A float16 map (MODE 12) with a NaN: the same message as every reader's.
+    let mut half = mrc([2, 2, 2], [2, 2, 2], [2.0; 3], [0.0; 3]);
+    half[12..16].copy_from_slice(&12i32.to_le_bytes());
+    half.truncate(1024);
+    for s in 0..8 {
+        half.extend_from_slice(&(if s == 5 { 0x7e00u16 } else { 0x3c00 }).to_le_bytes());
+    }
+    check("half.mrc", &half, &["sample (1, 0, 1) is NaN: volumes must be finite"]);
     // DICOM: PixelSpacing.
     for (name, spacing, needle) in [
         ("dcm_zero", "0\\0.7", "PixelSpacing [0.0, 0.7]: 0 is not a positive distance"),

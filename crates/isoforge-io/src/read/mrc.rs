@@ -116,10 +116,7 @@ pub fn open_mrc(path: &Path, limits: &Limits) -> Result<VolumeReader> {
         .chunks_exact(2)
         .map(|b| half_to_f32(if big { u16::from_be_bytes([b[0], b[1]]) } else { u16::from_le_bytes([b[0], b[1]]) }))
         .collect();
-    if let Some(k) = values.iter().position(|v| !v.is_finite()) {
-        let [nx, ny, _] = dims.map(|d| d as usize);
-        return Err(ctx.bad(format!("sample ({}, {}, {}) is {}", k % nx, k / nx % ny, k / (nx * ny), values[k])));
-    }
+    // Non-finite samples are rejected by `read_grid`, as for every reader.
     let grid = DenseGrid::new(lattice, values).map_err(|e| ctx.lib(e))?;
     Ok(VolumeReader::decoded(ctx, AnyGrid::F32(grid)))
 }

@@ -284,7 +284,7 @@ impl VolumeReader {
         let result = result.and_then(|()| if k + 1 == nz { self.check_trailer(&mut r) } else { Ok(()) });
         self.body = Body::Stream(r);
         result?;
-        let first = out.iter().position(|v| !v.is_finite()).map(|i| NonFinite {
+        let first = isoforge::grid::first_non_finite(out).map(|i| NonFinite {
             ijk: [(i % nx as usize) as u32, (i / nx as usize) as u32, k],
             value: out[i].to_f64(),
         });

@@ -101,12 +101,7 @@ impl<S: Sample> DenseGrid<S> {
 
     /// The first sample that is NaN or infinite, if any.
     pub fn first_non_finite(&self) -> Option<NonFinite> {
-        // Blocks tested without an early exit (a loop the compiler vectorises), then the first
-        // failing block searched: a whole-volume scan at memory speed.
-        const BLOCK: usize = 256;
-        let (b, block) =
-            self.data.chunks(BLOCK).enumerate().find(|(_, c)| !c.iter().fold(true, |ok, v| ok & v.is_finite()))?;
-        let lin = b * BLOCK + block.iter().position(|v| !v.is_finite())?;
+        let lin = super::sample::first_non_finite(&self.data)?;
         Some(NonFinite { ijk: self.lattice.ijk(lin), value: self.data[lin].to_f64() })
     }
 

@@ -16,4 +16,4 @@ pub use histogram::Histogram;
 pub use lattice::{Lattice, WorldSpace, IDENTITY};
 pub(crate) use resample::blend;
 pub use resample::{downsample_mean, upsample_trilinear};
-pub use sample::{as_bytes, as_bytes_mut, DType, Sample, Threshold};
+pub use sample::{as_bytes, as_bytes_mut, first_non_finite, DType, Sample, Threshold};

@@ -131,6 +131,16 @@ impl<S: PartialOrd + Copy> Threshold<S> {
     }
 }
 
+/// The index of the first NaN or infinite sample, if any (never for integer samples).
+pub fn first_non_finite<S: Sample>(samples: &[S]) -> Option<usize> {
+    // Blocks tested without an early exit (a loop the compiler vectorises), then the first
+    // failing block searched: a scan at memory speed.
+    const BLOCK: usize = 256;
+    let (b, block) =
+        samples.chunks(BLOCK).enumerate().find(|(_, c)| !c.iter().fold(true, |ok, v| ok & v.is_finite()))?;
+    Some(b * BLOCK + block.iter().position(|v| !v.is_finite())?)
+}
+
 /// Views samples as bytes, to read files straight into a grid's storage.
 pub fn as_bytes_mut<S: Sample>(samples: &mut [S]) -> &mut [u8] {
     let len = std::mem::size_of_val(samples);
