@@ -267,11 +267,36 @@ impl Scratch {
         v
     }
 
-    /// `n` row counts, with whatever they held.
+    /// `n` row counts, with whatever they held. Newly allocated ones are zero pages straight from
+    /// the allocator (calloc), first touched by the count pass that writes them, on every thread,
+    /// instead of faulted in and zeroed by one thread before it (`vec!` writes a struct's zeros
+    /// element by element).
     fn sized_counts(&mut self, n: usize) -> Vec<RowCount> {
         let mut v = std::mem::take(&mut self.counts);
+        if v.capacity() < n {
+            v = zeroed_counts(n);
+        }
         v.resize(n, RowCount::default());
         v
+    }
+}
+
+/// `n` zero row counts in freshly allocated zeroed memory.
+fn zeroed_counts(n: usize) -> Vec<RowCount> {
+    let layout = std::alloc::Layout::array::<RowCount>(n).expect("row counts fit the address space");
+    if layout.size() == 0 {
+        return Vec::new();
+    }
+    // SAFETY: `layout` has a non-zero size. The block it returns (checked for null) is allocated
+    // by the global allocator with `RowCount`'s alignment and room for exactly `n` of them, as
+    // `Vec::from_raw_parts` requires; its bytes are zero, and a `RowCount` of zero bytes (all its
+    // fields are `u32`) is `RowCount::default()`, so all `n` elements are initialised.
+    unsafe {
+        let p = std::alloc::alloc_zeroed(layout).cast::<RowCount>();
+        if p.is_null() {
+            std::alloc::handle_alloc_error(layout);
+        }
+        Vec::from_raw_parts(p, n, n)
     }
 }
 
