@@ -586,3 +586,69 @@ impl<V: SampleSlabs, X: Extractor, O: FillOut> Cell for FillCell<'_, V, X, O> {
         self.state.q += 1;
     }
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// Row counts with every field varying from row to row.
+    fn counts(n: usize) -> Vec<RowCount> {
+        (0..n as u32)
+            .map(|i| RowCount {
+                v: [i * 7 % 5, i % 3, 1, i % 2, 0, i * 5 % 3, 0],
+                placed: i % 2,
+                tris: i * 3 % 4,
+                quads: i / 3 % 2,
+            })
+            .collect()
+    }
+
+    /// Each row's first vertex and each plane's first vertex, triangle and quad are the running
+    /// sums of the rows before it: in the whole table, and in a streaming window of two planes
+    /// restarted at each plane from the whole table's sums.
+    #[test]
+    fn first_vertices_and_plane_bases_are_running_sums() {
+        let (ny, nz) = (5, 4);
+        let all = counts(ny * nz);
+        let table = RowTable::prefix(all.clone(), ny, Vec::new()).unwrap();
+        let mut acc = [0u64; 3];
+        for (r, c) in all.iter().enumerate() {
+            if r % ny == 0 {
+                assert_eq!(table.plane_base(r / ny), acc, "plane {}", r / ny);
+            }
+            assert_eq!(table.first_vertex(r), acc[0], "row {r}");
+            for (a, s) in acc.iter_mut().zip(c.sums()) {
+                *a += s;
+            }
+        }
+        assert!(acc.iter().all(|&a| a > 0));
+        assert_eq!(table.plane_base(nz), acc);
+        assert_eq!(table.totals(), acc.map(|a| a as usize));
+        let mut window = RowTable::<RowCount>::window(2, ny);
+        for k in 0..nz - 1 {
+            window.counts.copy_from_slice(&all[k * ny..(k + 2) * ny]);
+            window.restart(k * ny, table.plane_base(k)).unwrap();
+            for r in k * ny..(k + 2) * ny {
+                assert_eq!(window.first_vertex(r), table.first_vertex(r), "window at {k}, row {r}");
+            }
+            assert_eq!(window.plane_sizes(k, ny), table.plane_sizes(k, ny));
+            assert_eq!(window.plane_base(k + 2), table.plane_base(k + 2));
+        }
+    }
+
+    /// Vertex ids are `u32`: a table of exactly `MeshBuilder::MAX_VERTICES` vertices is built
+    /// (its rows' first vertices exact), one more vertex fails with `Error::Limit`.
+    #[test]
+    fn vertex_sums_stop_at_u32_ids() {
+        let rows = |a: u32, b: u32| {
+            vec![RowCount { placed: a, ..Default::default() }, RowCount { placed: b, ..Default::default() }]
+        };
+        let half = (MeshBuilder::MAX_VERTICES / 2) as u32;
+        assert_eq!(2 * half as u64, MeshBuilder::MAX_VERTICES);
+        let table = RowTable::prefix(rows(half, half), 1, Vec::new()).unwrap();
+        assert_eq!([table.first_vertex(0), table.first_vertex(1)], [0, half as u64]);
+        assert_eq!(table.totals()[0] as u64, MeshBuilder::MAX_VERTICES);
+        let over = RowTable::prefix(rows(half, half + 1), 1, Vec::new());
+        assert!(matches!(over, Err(Error::Limit { what: "mesh vertices", .. })), "{:?}", over.err());
+    }
+}
