@@ -523,7 +523,7 @@ impl<V: SampleSlabs, X: Extractor> Passes<'_, V, X> {
         let z = bx.lo[2] + k as u32;
         let s0 = self.vol.slab(z);
         let s1 = if k + 1 < nz { self.vol.slab(z + 1) } else { s0 };
-        let plane = table.base(k * ny);
+        let plane = table.plane_base(k);
         let stride = bx.row_stride();
         let offset = |a: V::Sample| self.iso.offset(a.to_f64());
         // Ranked crossing masks of every family of every row of the plane (those of a family
@@ -566,7 +566,7 @@ impl<V: SampleSlabs, X: Extractor> Passes<'_, V, X> {
         for j in 0..ny {
             let r = k * ny + j;
             let c = table.count(r);
-            assert_eq!(plane[0] + out_v as u64, table.base(r)[0], "internal: row {r} starts off its count");
+            assert_eq!(plane[0] + out_v as u64, table.first_vertex(r), "internal: row {r} starts off its count");
             if c.vertices() == 0 {
                 continue;
             }
@@ -728,7 +728,7 @@ impl<V: SampleSlabs, X: Extractor> Passes<'_, V, X> {
                 if rc.v[f] == 0 {
                     continue;
                 }
-                base[slot] = table.base(row)[0] as u32 + rc.before(f);
+                base[slot] = table.first_vertex(row) as u32 + rc.before(f);
                 let at = (j_row * BCC_FAMILIES + f) * words..(j_row * BCC_FAMILIES + f + 1) * words;
                 masks[slot] = match src {
                     Src::Under if under_kept => RankedRef::new(&under.0[at.clone()], &under.1[at]),
@@ -839,7 +839,7 @@ impl<V: SampleSlabs + Sync, X: Extractor + Sync> Passes<'_, V, X> {
         let mut counts = vec![BccRow::default(); ny * nz];
         for_each_chunk(&mut counts, ny, |k, plane| self.bcc_count_plane(&b, bits, k, plane));
         // PASS 3: prefix sums.
-        let table = BccTable::prefix(counts, Vec::new())?;
+        let table = BccTable::prefix(counts, ny, Vec::new())?;
         // PASS 4: fill, one task per slab, each owning its slots of the exactly allocated output.
         // SAFETY: `bcc_fill_plane` returns only after writing every slot of its slab (asserted
         // row by row and per slab).
@@ -880,7 +880,7 @@ impl<X: Extractor + Sync> Ctx<'_, X> {
         bits.data.resize(4 * plane, 0);
         let mut centres = Bits { words, row0: 0, data: vec![0u64; 3 * plane] };
         let mut active = Bits { words, row0: 0, data: vec![0u64; 3 * plane] };
-        let mut table = BccTable::window(3 * ny);
+        let mut table = BccTable::window(3, ny);
         let walk = walk_id();
         let add = |cs: [u64; 2], out: &mut StreamStats| {
             out.walk.cells_outside += cs[0];
@@ -925,7 +925,7 @@ impl<X: Extractor + Sync> Ctx<'_, X> {
             out.triangles += dt as u64;
             if k >= 1 {
                 // Slide the windows up one plane.
-                start = table.base(k * ny);
+                start = table.plane_base(k);
                 table.counts.copy_within(ny.., 0);
                 bits.data.copy_within(plane.., 0);
                 bits.row0 += ny;

@@ -420,7 +420,7 @@ impl RowMasks {
         let rows = [r, r + 1, r + ny, r + ny + 1];
         for (slot, &(f, q)) in SLOT_SOURCE[..8].iter().enumerate() {
             let row = rows[q];
-            self.base[slot] = table.base(row)[0] as u32 + table.count(row).before(f);
+            self.base[slot] = table.first_vertex(row) as u32 + table.count(row).before(f);
         }
         self.loaded = Some(r);
     }
@@ -455,7 +455,7 @@ impl RowMasks {
             if !walked.mask(f, bits, row, jk, dims, &mut self.masks[slot].mask) {
                 self.masks[slot].mask.fill(0);
             }
-            self.base[slot] = table.base(row)[0] as u32 + table.count(row).before(f);
+            self.base[slot] = table.first_vertex(row) as u32 + table.count(row).before(f);
             self.masks[slot].rank_prefix();
         }
     }
@@ -524,7 +524,7 @@ mod tests {
             for (i, c) in counts.iter_mut().enumerate() {
                 c.v = [i as u32 % 5, 3 * i as u32 % 7, i as u32 % 2, 0, 0, 0, 0];
             }
-            let table = RowTable::prefix(counts, Vec::new()).unwrap();
+            let table = RowTable::prefix(counts, ny, Vec::new()).unwrap();
             let (mut fused, mut by_family) = (RowMasks::new(words), RowMasks::new(words));
             for k in 0..nz - 1 {
                 for j in 0..ny - 1 {

@@ -8,7 +8,7 @@ use crate::extract::{CellCounts, Decision, Extractor};
 use crate::volume::SampleSlabs;
 
 /// Counts of one row (its segments' crossings, by family) and of the cell row starting at it
-/// (its cells' output).
+/// (its cells' output). Only `u32`s: zero bytes are its default (`zeroed_counts` relies on it).
 #[derive(Clone, Copy, Default, Debug)]
 pub(super) struct RowCount {
     /// Crossings per family (see `families.rs`), numbered in this order.

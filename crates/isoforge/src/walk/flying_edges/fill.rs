@@ -30,68 +30,92 @@ impl Counted for RowCount {
     }
 }
 
-/// Row counts and each row's first vertex, triangle and quad, for box rows `row0 ..` (all rows
-/// in memory, a window of planes when streaming). `C`: the counts of one row (the extractors'
-/// [`RowCount`], mt-bcc's `BccRow`).
+/// Row counts, each row's first vertex and each plane's first vertex, triangle and quad, for box
+/// rows `row0 ..` (whole planes of `ny` rows: all of them in memory, a window when streaming).
+/// `C`: the counts of one row (the extractors' [`RowCount`], mt-bcc's `BccRow`).
+///
+/// Only the vertex sum is kept per row (4 bytes, against the 40 of `RowCount`): the fills number
+/// a row's vertices from it, while triangles and quads are written per plane, from the plane's
+/// first. Vertex ids are `u32` ([`MeshBuilder::MAX_VERTICES`], checked by every
+/// [`restart`](RowTable::restart)), so a row's first vertex fits too.
 pub(super) struct RowTable<C = RowCount> {
     pub(super) counts: Vec<C>,
-    /// `[vertex, triangle, quad]` before each row; one more entry holds the totals.
-    base: Vec<[u64; 3]>,
+    /// The first vertex of each row.
+    first: Vec<u32>,
+    /// `[vertex, triangle, quad]` before each plane; one more entry holds the totals.
+    planes: Vec<[u64; 3]>,
+    /// Rows per plane.
+    ny: usize,
+    /// The first row held (a multiple of `ny`).
     pub(super) row0: usize,
 }
 
 impl<C: Counted> RowTable<C> {
-    /// PASS 3: running sums over all rows, in `base`'s buffer (its contents dropped).
+    /// PASS 3: running sums over all rows (`ny` a plane), in `first`'s buffer (its contents
+    /// dropped).
     ///
     /// # Errors
     /// [`Error::Limit`] past `u32` vertex indices.
-    pub(super) fn prefix(counts: Vec<C>, mut base: Vec<[u64; 3]>) -> Result<Self> {
-        base.clear();
-        base.resize(counts.len() + 1, [0; 3]);
-        let mut table = RowTable { counts, base, row0: 0 };
+    pub(super) fn prefix(counts: Vec<C>, ny: usize, first: Vec<u32>) -> Result<Self> {
+        let mut table = RowTable { counts, first, planes: Vec::new(), ny, row0: 0 };
         table.restart(0, [0; 3])?;
         Ok(table)
     }
 
-    /// A table for a window of `rows` rows (streaming: the counts are set later, the sums with
-    /// [`restart`](RowTable::restart)).
-    pub(super) fn window(rows: usize) -> Self {
-        RowTable { counts: vec![C::default(); rows], base: vec![[0; 3]; rows + 1], row0: 0 }
+    /// A table for a window of `planes` planes of `ny` rows (streaming: the counts are set later,
+    /// the sums with [`restart`](RowTable::restart)).
+    pub(super) fn window(planes: usize, ny: usize) -> Self {
+        let rows = planes * ny;
+        RowTable {
+            counts: vec![C::default(); rows],
+            first: Vec::with_capacity(rows),
+            planes: Vec::with_capacity(planes + 1),
+            ny,
+            row0: 0,
+        }
     }
 
-    /// Recomputes the running sums from `start` (the bases of row `row0`, the first held).
+    /// Recomputes the running sums from `start` (the sums before row `row0`, the first held, which
+    /// starts a plane).
     ///
     /// # Errors
     /// [`Error::Limit`] past `u32` vertex indices.
     pub(super) fn restart(&mut self, row0: usize, start: [u64; 3]) -> Result<()> {
+        debug_assert_eq!(row0 % self.ny, 0, "a table starts at a plane");
         self.row0 = row0;
+        self.first.clear();
+        self.first.reserve(self.counts.len());
+        self.planes.clear();
+        self.planes.reserve(self.counts.len() / self.ny + 1);
         let mut acc = start;
-        for (b, c) in self.base.iter_mut().zip(&self.counts) {
-            *b = acc;
-            let s = c.sums();
-            for (a, s) in acc.iter_mut().zip(s) {
-                *a += s;
+        for plane in self.counts.chunks(self.ny) {
+            self.planes.push(acc);
+            for c in plane {
+                // Past u32 the check below fails the walk, so the truncated ids are never used.
+                self.first.push(acc[0] as u32);
+                for (a, s) in acc.iter_mut().zip(c.sums()) {
+                    *a += s;
+                }
             }
         }
-        if let Some(last) = self.base.last_mut() {
-            *last = acc;
-        }
+        self.planes.push(acc);
         check_vertices(acc[0])
     }
 
-    /// The buffers of the counts and of the sums, for reuse.
-    pub(super) fn into_parts(self) -> (Vec<C>, Vec<[u64; 3]>) {
-        (self.counts, self.base)
+    /// The buffers of the counts and of the rows' first vertices, for reuse.
+    pub(super) fn into_parts(self) -> (Vec<C>, Vec<u32>) {
+        (self.counts, self.first)
     }
 
     /// Vertices, triangles and quads of all rows.
     pub(super) fn totals(&self) -> [usize; 3] {
-        self.base[self.base.len() - 1].map(|x| x as usize)
+        self.planes[self.planes.len() - 1].map(|x| x as usize)
     }
 
     /// Vertices, triangles and quads of the `ny` rows of box plane `k`.
     pub(super) fn plane_sizes(&self, k: usize, ny: usize) -> [usize; 3] {
-        let (a, b) = (self.base(k * ny), self.base((k + 1) * ny));
+        debug_assert_eq!(ny, self.ny);
+        let (a, b) = (self.plane_base(k), self.plane_base(k + 1));
         [0, 1, 2].map(|i| (b[i] - a[i]) as usize)
     }
 
@@ -100,9 +124,17 @@ impl<C: Counted> RowTable<C> {
         &self.counts[r - self.row0]
     }
 
+    /// The first vertex of row `r`.
     #[inline(always)]
-    pub(super) fn base(&self, r: usize) -> [u64; 3] {
-        self.base[r - self.row0]
+    pub(super) fn first_vertex(&self, r: usize) -> u64 {
+        self.first[r - self.row0] as u64
+    }
+
+    /// `[vertex, triangle, quad]` before box plane `k` (`k` one past the last plane held: the
+    /// sums of all of them).
+    #[inline(always)]
+    pub(super) fn plane_base(&self, k: usize) -> [u64; 3] {
+        self.planes[k - self.row0 / self.ny]
     }
 }
 
@@ -255,7 +287,7 @@ impl<V: SampleSlabs, X: Extractor> Passes<'_, V, X> {
         let z = bx.lo[2] + k as u32;
         let s0 = self.vol.slab(z);
         let s1 = if k + 1 < nz { self.vol.slab(z + 1) } else { s0 };
-        let plane = table.base(k * ny);
+        let plane = table.plane_base(k);
         let stride = bx.row_stride();
         let mut out_v = 0usize;
         let mut mask = vec![0u64; words];
@@ -277,7 +309,7 @@ impl<V: SampleSlabs, X: Extractor> Passes<'_, V, X> {
                 self.prefetch_row(bits, k, j + PREFETCH_ROWS, s0, s1, &mut ymask);
             }
             let r = k * ny + j;
-            assert_eq!(plane[0] + out_v as u64, table.base(r)[0], "internal: row {r} starts off its count");
+            assert_eq!(plane[0] + out_v as u64, table.first_vertex(r), "internal: row {r} starts off its count");
             if !has_crossings(r) {
                 out_v += table.count(r).placed as usize;
                 continue;
@@ -334,7 +366,7 @@ impl<V: SampleSlabs, X: Extractor> Passes<'_, V, X> {
             let rows = cell_rows(bits, r, ny);
             mark_active(rows, nx - 1, &mut active);
             ranked.load(bits, r, [j, k], bx.dims, &self.walked, table);
-            state.next_placed = table.base(r)[0] + c.before(FAMILIES) as u64;
+            state.next_placed = table.first_vertex(r) + c.before(FAMILIES) as u64;
             let parity = self.walked.parity0 + j + k;
             for_each_case(&rows, &active, |i, case| {
                 let l = [i, j, k];
@@ -374,7 +406,7 @@ impl<V: SampleSlabs, X: Extractor> Passes<'_, V, X> {
             });
             assert_eq!(
                 state.next_placed,
-                table.base(r)[0] + c.vertices() as u64,
+                table.first_vertex(r) + c.vertices() as u64,
                 "internal: row {r} placed vertices off their count"
             );
         }
@@ -552,5 +584,71 @@ impl<V: SampleSlabs, X: Extractor, O: FillOut> Cell for FillCell<'_, V, X, O> {
         let q = if self.p.reverse { [q[0].0, q[3].0, q[2].0, q[1].0] } else { q.map(|v| v.0) };
         self.out.set_quad(self.state.q, q);
         self.state.q += 1;
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// Row counts with every field varying from row to row.
+    fn counts(n: usize) -> Vec<RowCount> {
+        (0..n as u32)
+            .map(|i| RowCount {
+                v: [i * 7 % 5, i % 3, 1, i % 2, 0, i * 5 % 3, 0],
+                placed: i % 2,
+                tris: i * 3 % 4,
+                quads: i / 3 % 2,
+            })
+            .collect()
+    }
+
+    /// Each row's first vertex and each plane's first vertex, triangle and quad are the running
+    /// sums of the rows before it: in the whole table, and in a streaming window of two planes
+    /// restarted at each plane from the whole table's sums.
+    #[test]
+    fn first_vertices_and_plane_bases_are_running_sums() {
+        let (ny, nz) = (5, 4);
+        let all = counts(ny * nz);
+        let table = RowTable::prefix(all.clone(), ny, Vec::new()).unwrap();
+        let mut acc = [0u64; 3];
+        for (r, c) in all.iter().enumerate() {
+            if r % ny == 0 {
+                assert_eq!(table.plane_base(r / ny), acc, "plane {}", r / ny);
+            }
+            assert_eq!(table.first_vertex(r), acc[0], "row {r}");
+            for (a, s) in acc.iter_mut().zip(c.sums()) {
+                *a += s;
+            }
+        }
+        assert!(acc.iter().all(|&a| a > 0));
+        assert_eq!(table.plane_base(nz), acc);
+        assert_eq!(table.totals(), acc.map(|a| a as usize));
+        let mut window = RowTable::<RowCount>::window(2, ny);
+        for k in 0..nz - 1 {
+            window.counts.copy_from_slice(&all[k * ny..(k + 2) * ny]);
+            window.restart(k * ny, table.plane_base(k)).unwrap();
+            for r in k * ny..(k + 2) * ny {
+                assert_eq!(window.first_vertex(r), table.first_vertex(r), "window at {k}, row {r}");
+            }
+            assert_eq!(window.plane_sizes(k, ny), table.plane_sizes(k, ny));
+            assert_eq!(window.plane_base(k + 2), table.plane_base(k + 2));
+        }
+    }
+
+    /// Vertex ids are `u32`: a table of exactly `MeshBuilder::MAX_VERTICES` vertices is built
+    /// (its rows' first vertices exact), one more vertex fails with `Error::Limit`.
+    #[test]
+    fn vertex_sums_stop_at_u32_ids() {
+        let rows = |a: u32, b: u32| {
+            vec![RowCount { placed: a, ..Default::default() }, RowCount { placed: b, ..Default::default() }]
+        };
+        let half = (MeshBuilder::MAX_VERTICES / 2) as u32;
+        assert_eq!(2 * half as u64, MeshBuilder::MAX_VERTICES);
+        let table = RowTable::prefix(rows(half, half), 1, Vec::new()).unwrap();
+        assert_eq!([table.first_vertex(0), table.first_vertex(1)], [0, half as u64]);
+        assert_eq!(table.totals()[0] as u64, MeshBuilder::MAX_VERTICES);
+        let over = RowTable::prefix(rows(half, half + 1), 1, Vec::new());
+        assert!(matches!(over, Err(Error::Limit { what: "mesh vertices", .. })), "{:?}", over.err());
     }
 }

@@ -8,7 +8,8 @@
 //!                   bit rows); every cell row → its active cells' triangles, quads and placed
 //!                   vertices (the extractor's counts: a table per case, the values where the
 //!                   case does not decide; those cells' decisions are kept for the fill)
-//! PASS 3 prefix     running sums → each row's first vertex, triangle and quad; exact allocation
+//! PASS 3 prefix     running sums → each row's first vertex, each plane's first vertex, triangle
+//!                   and quad; exact allocation
 //! PASS 4 fill       every slab in parallel writes its rows' vertices and its cells' polygons at
 //!                   those offsets, no locks; an edge's vertex id = its row's base + its rank in
 //!                   the row; the extractor sees each active cell through `Cell` (with its
@@ -221,8 +222,8 @@ fn walk_in_memory<V: SampleSlabs + Sync, X: Extractor + Sync>(
     walked
 }
 
-/// The buffers of an in-memory walk that do not outlive it (bit rows, row counts and their
-/// running sums), kept by the thread between walks up to [`Scratch::KEEP_BYTES`]: a repeated
+/// The buffers of an in-memory walk that do not outlive it (bit rows, row counts and the rows'
+/// first vertices), kept by the thread between walks up to [`Scratch::KEEP_BYTES`]: a repeated
 /// extraction reuses them instead of having fresh pages faulted in and zeroed. No pass reads
 /// what it has not written in the same walk (classify writes every word of every bit row, count
 /// every row count, the prefix every sum), so they are never cleared.
@@ -230,7 +231,7 @@ fn walk_in_memory<V: SampleSlabs + Sync, X: Extractor + Sync>(
 struct Scratch {
     bits: Vec<u64>,
     counts: Vec<RowCount>,
-    base: Vec<[u64; 3]>,
+    first: Vec<u32>,
 }
 
 thread_local! {
@@ -250,7 +251,7 @@ impl Scratch {
     fn keep(self) {
         let bytes = self.bits.capacity() * std::mem::size_of::<u64>()
             + self.counts.capacity() * std::mem::size_of::<RowCount>()
-            + self.base.capacity() * std::mem::size_of::<[u64; 3]>();
+            + self.first.capacity() * std::mem::size_of::<u32>();
         if bytes <= Self::KEEP_BYTES {
             SCRATCH.with(|s| s.set(self));
         }
@@ -266,11 +267,36 @@ impl Scratch {
         v
     }
 
-    /// `n` row counts, with whatever they held.
+    /// `n` row counts, with whatever they held. Newly allocated ones are zero pages straight from
+    /// the allocator (calloc), first touched by the count pass that writes them, on every thread,
+    /// instead of faulted in and zeroed by one thread before it (`vec!` writes a struct's zeros
+    /// element by element).
     fn sized_counts(&mut self, n: usize) -> Vec<RowCount> {
         let mut v = std::mem::take(&mut self.counts);
+        if v.capacity() < n {
+            v = zeroed_counts(n);
+        }
         v.resize(n, RowCount::default());
         v
+    }
+}
+
+/// `n` zero row counts in freshly allocated zeroed memory.
+fn zeroed_counts(n: usize) -> Vec<RowCount> {
+    let layout = std::alloc::Layout::array::<RowCount>(n).expect("row counts fit the address space");
+    if layout.size() == 0 {
+        return Vec::new();
+    }
+    // SAFETY: `layout` has a non-zero size. The block it returns (checked for null) is allocated
+    // by the global allocator with `RowCount`'s alignment and room for exactly `n` of them, as
+    // `Vec::from_raw_parts` requires; its bytes are zero, and a `RowCount` of zero bytes (all its
+    // fields are `u32`) is `RowCount::default()`, so all `n` elements are initialised.
+    unsafe {
+        let p = std::alloc::alloc_zeroed(layout).cast::<RowCount>();
+        if p.is_null() {
+            std::alloc::handle_alloc_error(layout);
+        }
+        Vec::from_raw_parts(p, n, n)
     }
 }
 
@@ -297,7 +323,7 @@ impl<V: SampleSlabs + Sync, X: Extractor + Sync> Passes<'_, V, X> {
         stats.cells_outside = cell_stats.iter().map(|c| c.0[0]).sum();
         stats.cells_inside = cell_stats.iter().map(|c| c.0[1]).sum();
         // PASS 3: prefix sums.
-        let table = RowTable::prefix(counts, std::mem::take(&mut scratch.base))?;
+        let table = RowTable::prefix(counts, ny, std::mem::take(&mut scratch.first))?;
         // PASS 4: fill, one task per slab, each owning its slots of the exactly allocated output.
         // SAFETY: `fill_plane` returns only after writing every slot of its slab (asserted row by
         // row).
@@ -307,7 +333,7 @@ impl<V: SampleSlabs + Sync, X: Extractor + Sync> Passes<'_, V, X> {
             })
         };
         out.set_assembled(mesh, keys);
-        (scratch.counts, scratch.base) = table.into_parts();
+        (scratch.counts, scratch.first) = table.into_parts();
         Ok(stats)
     }
 }

@@ -174,7 +174,7 @@ impl FlyingEdgesWalker<'_> {
         let progress = self.progress;
         match x.counting() {
             Counting::Known => {
-                let mut rows = RowTable::window(2 * ny);
+                let mut rows = RowTable::window(2, ny);
                 let mut start = [0u64; 3];
                 // The count pass's decisions for slab k and for slab k + 1.
                 let (mut decisions, mut next_decisions) = (Vec::new(), Vec::new());
@@ -208,7 +208,7 @@ impl FlyingEdgesWalker<'_> {
                     out.vertices += dv as u64;
                     out.triangles += dt as u64;
                     out.quads += dq as u64;
-                    start = rows.base((k + 1) * ny);
+                    start = rows.plane_base(k + 1);
                     // Slide the windows up one slab.
                     rows.counts.copy_within(ny.., 0);
                     std::mem::swap(&mut decisions, &mut next_decisions);
