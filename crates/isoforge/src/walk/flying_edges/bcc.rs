@@ -32,7 +32,7 @@ use std::cell::Cell;
 use std::sync::atomic::{AtomicU64, Ordering};
 
 use super::bits::{
-    cell_mask, cell_rows, for_each_bit, for_each_case, mark_active, mask_tail, popcount, rank_prefix, uniform_block,
+    cell_mask, cell_rows, for_each_bcc_cell, for_each_bit, mark_active, mask_tail, popcount, rank_prefix, uniform_block,
     Bits, RankedMask, RankedRef,
 };
 use super::families::{X, Y, Z};
@@ -72,9 +72,15 @@ impl BccRow {
     fn vertices(&self) -> u32 {
         self.v.iter().sum()
     }
+    /// The id of each family's first vertex, the row's first being `first`.
     #[inline]
-    fn before(&self, f: usize) -> u32 {
-        self.v[..f].iter().sum()
+    fn family_bases(&self, first: u64) -> [u32; BCC_FAMILIES] {
+        let mut at = first as u32;
+        self.v.map(|n| {
+            let base = at;
+            at += n;
+            base
+        })
     }
 }
 
@@ -402,28 +408,23 @@ impl<V: SampleSlabs, X: Extractor> Passes<'_, V, X> {
         true
     }
 
-    /// The triangles of box cell (i, j, k) whose corner case is `case`, with the centre bits of
-    /// its cell row and of those below it on y and z (when they exist) in `[cr, cy, cz]`.
+    /// The triangles of box cell (i, j, k) whose case and centre bits are `x` (as
+    /// [`for_each_bcc_cell`] gives them).
     #[inline(always)]
-    fn bcc_cell_count(&self, t: &BodyCentredTables, [cr, cy, cz]: [&[u64]; 3], case: u8, [i, j, k]: [usize; 3]) -> u32 {
+    fn bcc_cell_count(&self, t: &BodyCentredTables, x: usize, [i, j, k]: [usize; 3]) -> u32 {
         let [nx, ny, nz] = self.bx.dims;
-        let centre = bit(cr, i) as usize;
         let interior = i > 0 && j > 0 && k > 0 && i + 2 < nx && j + 2 < ny && k + 2 < nz;
-        let by = |a: usize| match a {
-            0 => bit(cr, i - 1) as usize,
-            1 => bit(cy, i) as usize,
-            _ => bit(cz, i) as usize,
-        };
         if interior {
-            let x = case as usize | centre << 8 | by(0) << 9 | by(1) << 10 | by(2) << 11;
-            return t.interior[x] as u32;
+            return t.interior[x & 4095] as u32;
         }
+        let (case, centre) = (x & 255, x >> 8 & 1);
+        let by = |a: usize| x >> (9 + a) & 1;
         let l = [i, j, k];
         let last = [nx - 2, ny - 2, nz - 2];
         let mut n = 0;
         for f in 0..6 {
             let a = f / 2;
-            let corners = t.face_case[f][case as usize] as usize;
+            let corners = t.face_case[f][case] as usize;
             let boundary = if f % 2 == 0 { l[a] == 0 } else { l[a] == last[a] };
             if boundary {
                 n += t.pyramids[f][centre | corners << 1].triangle_count as u32;
@@ -504,8 +505,8 @@ impl<V: SampleSlabs, X: Extractor> Passes<'_, V, X> {
             let cy = if j > 0 { b.centres.row(r - 1) } else { cr };
             let cz = if k > 0 { b.centres.row(r - ny) } else { cr };
             let mut tris = 0;
-            for_each_case(&rows, &visit, |i, case| {
-                tris += self.bcc_cell_count(b.t, [cr, cy, cz], case, [i, j, k]);
+            for_each_bcc_cell(&rows, [cr, cy, cz], &visit, |i, x| {
+                tris += self.bcc_cell_count(b.t, x, [i, j, k]);
             });
             c.tris = tris;
         }
@@ -714,6 +715,15 @@ impl<V: SampleSlabs, X: Extractor> Passes<'_, V, X> {
                 }
             }
             let mut masks = [RankedRef::new(&[], &[]); SLOTS];
+            // Each source row's family bases, once per cell row.
+            let mut bases = [[0u32; BCC_FAMILIES]; 6];
+            for (src, row) in [(Src::A, r), (Src::B, r + 1), (Src::C, r + ny), (Src::E, r + ny + 1)]
+                .into_iter()
+                .chain((j > 0).then_some((Src::Below, r - 1)))
+                .chain((k > 0).then_some((Src::Under, r - ny)))
+            {
+                bases[src as usize] = table.count(row).family_bases(table.base(row)[0]);
+            }
             for (slot, &(f, src)) in SLOT_SOURCE.iter().enumerate() {
                 let (row, j_row) = match src {
                     Src::A => (r, j),
@@ -728,7 +738,7 @@ impl<V: SampleSlabs, X: Extractor> Passes<'_, V, X> {
                 if rc.v[f] == 0 {
                     continue;
                 }
-                base[slot] = table.base(row)[0] as u32 + rc.before(f);
+                base[slot] = bases[src as usize][f];
                 let at = (j_row * BCC_FAMILIES + f) * words..(j_row * BCC_FAMILIES + f + 1) * words;
                 masks[slot] = match src {
                     Src::Under if under_kept => RankedRef::new(&under.0[at.clone()], &under.1[at]),
@@ -767,19 +777,14 @@ impl<V: SampleSlabs, X: Extractor> Passes<'_, V, X> {
                     t_out += 1;
                 }
             };
-            for_each_case(&rows, &visit, |i, case| {
-                let case = case as usize;
-                let centre = bit(cr, i) as usize;
-                let by = |a: usize| match a {
-                    0 => bit(cr, i - 1) as usize,
-                    1 => bit(cy, i) as usize,
-                    _ => bit(cz, i) as usize,
-                };
+            for_each_bcc_cell(&rows, [cr, cy, cz], &visit, |i, x| {
+                let (case, centre) = (x & 255, x >> 8 & 1);
+                let by = |a: usize| x >> (9 + a) & 1;
                 if inner_row && i > 0 && i + 2 < nx {
-                    let beyond = [by(0), by(1), by(2)];
-                    if b.t.interior[case | centre << 8 | beyond[0] << 9 | beyond[1] << 10 | beyond[2] << 11] == 0 {
+                    if b.t.interior[x & 4095] == 0 {
                         return;
                     }
+                    let beyond = [by(0), by(1), by(2)];
                     for (a, beyond) in beyond.into_iter().enumerate() {
                         let corners = b.t.face_case[2 * a][case] as usize;
                         emit(&b.t.octahedra[a][centre | beyond << 1 | corners << 2], i);
