@@ -32,8 +32,8 @@ use std::cell::Cell;
 use std::sync::atomic::{AtomicU64, Ordering};
 
 use super::bits::{
-    cell_mask, cell_rows, for_each_bcc_cell, for_each_bit, mark_active, mask_tail, popcount, rank_prefix, uniform_block,
-    Bits, RankedMask, RankedRef,
+    cell_mask, cell_rows, for_each_bcc_cell, for_each_bit, mark_active, mask_tail, popcount, rank_prefix,
+    uniform_block, Bits, RankedMask, RankedRef,
 };
 use super::families::{X, Y, Z};
 use super::fill::{fill_planes, Counted, FillOut, RowTable};
@@ -265,9 +265,11 @@ impl<V: SampleSlabs, X: Extractor> Passes<'_, V, X> {
     pub(super) fn bcc_centres(&self, bits: &Bits, k: usize, out: &mut [u64], active: &mut [u64]) -> [u64; 2] {
         let [nx, ny, nz] = self.bx.dims;
         let words = bits.words;
-        out.fill(0);
-        active.fill(0);
         let mut cs = [0u64; 2];
+        // The rows below write every word of theirs: the last row (and the last plane) has no cells.
+        let cells_end = if k + 1 >= nz { 0 } else { (ny - 1) * words };
+        out[cells_end..].fill(0);
+        active[cells_end..].fill(0);
         if k + 1 >= nz {
             return cs;
         }
@@ -344,6 +346,19 @@ impl<V: SampleSlabs, X: Extractor> Passes<'_, V, X> {
         }
     }
 
+    /// Whether cell row (j, k) has cells on box face `face` (`2 · axis + upper`): all of them do
+    /// on x (one cell each), on y and z the first or last cell row of the axis.
+    #[inline]
+    fn bcc_on_face(&self, face: usize, [j, k]: [usize; 2]) -> bool {
+        let [_, ny, nz] = self.bx.dims;
+        let (at, last) = match face / 2 {
+            0 => return true,
+            1 => (j, ny - 2),
+            _ => (k, nz - 2),
+        };
+        at == if face % 2 == 1 { last } else { 0 }
+    }
+
     /// Family `f`'s crossings in row `r` = (j, k) into `out`; false when the row has none.
     #[inline]
     fn bcc_mask(&self, f: usize, bits: &Bits, cb: &Bits, r: usize, [j, k]: [usize; 2], out: &mut [u64]) -> bool {
@@ -383,17 +398,15 @@ impl<V: SampleSlabs, X: Extractor> Passes<'_, V, X> {
             }
             _ => {
                 let face = f - BD;
-                let last = [nx - 2, ny - 2, nz - 2];
-                let at = [0, j, k];
                 let (axis, upper) = (face / 2, face % 2 == 1);
-                if axis > 0 && at[axis] != if upper { last[axis] } else { 0 } {
+                if !self.bcc_on_face(face, [j, k]) {
                     return false;
                 }
                 let rows = cell_rows(bits, r, ny);
                 let fc = FACE_CORNERS[face];
                 if axis == 0 {
                     // One cell of the row has this face on the boundary.
-                    let i = if upper { last[0] } else { 0 };
+                    let i = if upper { nx - 2 } else { 0 };
                     let corner = |c: u8| bit(rows[((c >> 1) & 3) as usize], i + (c & 1) as usize);
                     out.fill(0);
                     out[i / 64] = (corner(fc[0]) ^ corner(fc[2])) << (i % 64);
@@ -408,15 +421,12 @@ impl<V: SampleSlabs, X: Extractor> Passes<'_, V, X> {
         true
     }
 
-    /// The triangles of box cell (i, j, k) whose case and centre bits are `x` (as
-    /// [`for_each_bcc_cell`] gives them).
+    /// The triangles of box cell (i, j, k) on a face of the box or next to one, whose case and
+    /// centre bits are `x` (as [`for_each_bcc_cell`] gives them); interior cells read
+    /// `BodyCentredTables::interior` instead.
     #[inline(always)]
     fn bcc_cell_count(&self, t: &BodyCentredTables, x: usize, [i, j, k]: [usize; 3]) -> u32 {
         let [nx, ny, nz] = self.bx.dims;
-        let interior = i > 0 && j > 0 && k > 0 && i + 2 < nx && j + 2 < ny && k + 2 < nz;
-        if interior {
-            return t.interior[x & 4095] as u32;
-        }
         let (case, centre) = (x & 255, x >> 8 & 1);
         let by = |a: usize| x >> (9 + a) & 1;
         let l = [i, j, k];
@@ -440,22 +450,19 @@ impl<V: SampleSlabs, X: Extractor> Passes<'_, V, X> {
     fn bcc_visit(&self, active: &Bits, r: usize, [j, k]: [usize; 2], visit: &mut [u64]) {
         let [nx, ny, _] = self.bx.dims;
         let here = active.row(r);
-        for w in 0..visit.len() {
-            let carry = if w > 0 { here[w - 1] >> 63 } else { 0 };
-            visit[w] = here[w] | here[w] << 1 | carry;
+        // A missing neighbour row reads as this row (its cells are in `visit` anyway).
+        let below = if j > 0 { active.row(r - 1) } else { here };
+        let under = if k > 0 { active.row(r - ny) } else { here };
+        let mut carry = 0;
+        for (w, ((v, &h), (&y, &z))) in visit.iter_mut().zip(here).zip(below.iter().zip(under)).enumerate() {
+            *v = (h | h << 1 | carry | y | z) & cell_mask(w, nx - 1);
+            carry = h >> 63;
         }
-        if j > 0 {
-            visit.iter_mut().zip(active.row(r - 1)).for_each(|(x, b)| *x |= b);
-        }
-        if k > 0 {
-            visit.iter_mut().zip(active.row(r - ny)).for_each(|(x, b)| *x |= b);
-        }
-        mask_tail(visit, nx - 1);
     }
 
     /// PASS 2 for the rows of plane `k` into `out`.
     pub(super) fn bcc_count_plane(&self, b: &Bcc<'_>, bits: &Bits, k: usize, out: &mut [BccRow]) {
-        let [_, ny, nz] = self.bx.dims;
+        let [nx, ny, nz] = self.bx.dims;
         let words = bits.words;
         let mut mask = vec![0u64; words];
         let mut visit = vec![0u64; words];
@@ -492,6 +499,9 @@ impl<V: SampleSlabs, X: Extractor> Passes<'_, V, X> {
                 });
             }
             for f in if cell_row { BD..BCC_FAMILIES } else { 0..CC } {
+                if cell_row && !self.bcc_on_face(f - BD, [j, k]) {
+                    continue;
+                }
                 if self.bcc_mask(f, bits, b.centres, r, [j, k], &mut mask) {
                     c.v[f] = popcount(&mask);
                 }
@@ -505,8 +515,13 @@ impl<V: SampleSlabs, X: Extractor> Passes<'_, V, X> {
             let cy = if j > 0 { b.centres.row(r - 1) } else { cr };
             let cz = if k > 0 { b.centres.row(r - ny) } else { cr };
             let mut tris = 0;
+            let inner_row = j > 0 && k > 0 && j + 2 < ny && k + 2 < nz;
             for_each_bcc_cell(&rows, [cr, cy, cz], &visit, |i, x| {
-                tris += self.bcc_cell_count(b.t, x, [i, j, k]);
+                tris += if inner_row && i > 0 && i + 2 < nx {
+                    b.t.interior[x & 4095] as u32
+                } else {
+                    self.bcc_cell_count(b.t, x, [i, j, k])
+                };
             });
             c.tris = tris;
         }
@@ -595,8 +610,8 @@ impl<V: SampleSlabs, X: Extractor> Passes<'_, V, X> {
             if cell_row {
                 let row = &mut store[j * row_words..(j + 1) * row_words];
                 self.bcc_row_words(bits, b.centres, r, [j, k], |w, m| {
-                    for (f, &m) in m.iter().enumerate() {
-                        row[f * words + w] = m;
+                    for (at, &m) in row[w..].iter_mut().step_by(words).zip(m) {
+                        *at = m;
                     }
                 });
             }
@@ -691,6 +706,7 @@ impl<V: SampleSlabs, X: Extractor> Passes<'_, V, X> {
         let mut t_out = 0usize;
         let last = [nx - 2, ny - 2, nz - 2];
         let mut last_row = None;
+        let mut bases = [[0u32; BCC_FAMILIES]; 6];
         for j in 0..ny - 1 {
             let r = k * ny + j;
             if table.count(r).tris == 0 {
@@ -715,11 +731,21 @@ impl<V: SampleSlabs, X: Extractor> Passes<'_, V, X> {
                 }
             }
             let mut masks = [RankedRef::new(&[], &[]); SLOTS];
-            // Each source row's family bases, once per cell row.
-            let mut bases = [[0u32; BCC_FAMILIES]; 6];
-            for (src, row) in [(Src::A, r), (Src::B, r + 1), (Src::C, r + ny), (Src::E, r + ny + 1)]
-                .into_iter()
-                .chain((j > 0).then_some((Src::Below, r - 1)))
+            // Each source row's family bases, once per cell row (rows A, C and `Below` are the
+            // last cell row's B, E and A when it was j − 1).
+            let sources = [(Src::A, r), (Src::C, r + ny), (Src::B, r + 1), (Src::E, r + ny + 1)];
+            let fresh = if carried {
+                bases[Src::Below as usize] = bases[Src::A as usize];
+                bases[Src::A as usize] = bases[Src::B as usize];
+                bases[Src::C as usize] = bases[Src::E as usize];
+                &sources[2..]
+            } else {
+                &sources[..]
+            };
+            for (src, row) in fresh
+                .iter()
+                .copied()
+                .chain((j > 0 && !carried).then_some((Src::Below, r - 1)))
                 .chain((k > 0).then_some((Src::Under, r - ny)))
             {
                 bases[src as usize] = table.count(row).family_bases(table.base(row)[0]);
