@@ -745,8 +745,8 @@ impl<V: SampleSlabs, X: Extractor> Passes<'_, V, X> {
             for (src, row) in fresh
                 .iter()
                 .copied()
-                .chain((j > 0 && !carried).then_some((Src::Below, r - 1)))
-                .chain((k > 0).then_some((Src::Under, r - ny)))
+                .chain((j > 0 && !carried).then(|| (Src::Below, r - 1)))
+                .chain((k > 0).then(|| (Src::Under, r - ny)))
             {
                 bases[src as usize] = table.count(row).family_bases(table.base(row)[0]);
             }
