@@ -32,8 +32,8 @@ use std::cell::Cell;
 use std::sync::atomic::{AtomicU64, Ordering};
 
 use super::bits::{
-    cell_mask, cell_rows, for_each_bit, for_each_case, mark_active, mask_tail, popcount, rank_prefix, uniform_block,
-    Bits, RankedMask, RankedRef,
+    cell_mask, cell_rows, for_each_bcc_cell, for_each_bit, mark_active, mask_tail, popcount, rank_prefix,
+    uniform_block, Bits, RankedMask, RankedRef,
 };
 use super::families::{X, Y, Z};
 use super::fill::{fill_planes, Counted, FillOut, RowTable};
@@ -72,9 +72,15 @@ impl BccRow {
     fn vertices(&self) -> u32 {
         self.v.iter().sum()
     }
+    /// The id of each family's first vertex, the row's first being `first`.
     #[inline]
-    fn before(&self, f: usize) -> u32 {
-        self.v[..f].iter().sum()
+    fn family_bases(&self, first: u64) -> [u32; BCC_FAMILIES] {
+        let mut at = first as u32;
+        self.v.map(|n| {
+            let base = at;
+            at += n;
+            base
+        })
     }
 }
 
@@ -259,9 +265,11 @@ impl<V: SampleSlabs, X: Extractor> Passes<'_, V, X> {
     pub(super) fn bcc_centres(&self, bits: &Bits, k: usize, out: &mut [u64], active: &mut [u64]) -> [u64; 2] {
         let [nx, ny, nz] = self.bx.dims;
         let words = bits.words;
-        out.fill(0);
-        active.fill(0);
         let mut cs = [0u64; 2];
+        // The rows below write every word of theirs: the last row (and the last plane) has no cells.
+        let cells_end = if k + 1 >= nz { 0 } else { (ny - 1) * words };
+        out[cells_end..].fill(0);
+        active[cells_end..].fill(0);
         if k + 1 >= nz {
             return cs;
         }
@@ -338,6 +346,19 @@ impl<V: SampleSlabs, X: Extractor> Passes<'_, V, X> {
         }
     }
 
+    /// Whether cell row (j, k) has cells on box face `face` (`2 · axis + upper`): all of them do
+    /// on x (one cell each), on y and z the first or last cell row of the axis.
+    #[inline]
+    fn bcc_on_face(&self, face: usize, [j, k]: [usize; 2]) -> bool {
+        let [_, ny, nz] = self.bx.dims;
+        let (at, last) = match face / 2 {
+            0 => return true,
+            1 => (j, ny - 2),
+            _ => (k, nz - 2),
+        };
+        at == if face % 2 == 1 { last } else { 0 }
+    }
+
     /// Family `f`'s crossings in row `r` = (j, k) into `out`; false when the row has none.
     #[inline]
     fn bcc_mask(&self, f: usize, bits: &Bits, cb: &Bits, r: usize, [j, k]: [usize; 2], out: &mut [u64]) -> bool {
@@ -377,17 +398,15 @@ impl<V: SampleSlabs, X: Extractor> Passes<'_, V, X> {
             }
             _ => {
                 let face = f - BD;
-                let last = [nx - 2, ny - 2, nz - 2];
-                let at = [0, j, k];
                 let (axis, upper) = (face / 2, face % 2 == 1);
-                if axis > 0 && at[axis] != if upper { last[axis] } else { 0 } {
+                if !self.bcc_on_face(face, [j, k]) {
                     return false;
                 }
                 let rows = cell_rows(bits, r, ny);
                 let fc = FACE_CORNERS[face];
                 if axis == 0 {
                     // One cell of the row has this face on the boundary.
-                    let i = if upper { last[0] } else { 0 };
+                    let i = if upper { nx - 2 } else { 0 };
                     let corner = |c: u8| bit(rows[((c >> 1) & 3) as usize], i + (c & 1) as usize);
                     out.fill(0);
                     out[i / 64] = (corner(fc[0]) ^ corner(fc[2])) << (i % 64);
@@ -402,28 +421,20 @@ impl<V: SampleSlabs, X: Extractor> Passes<'_, V, X> {
         true
     }
 
-    /// The triangles of box cell (i, j, k) whose corner case is `case`, with the centre bits of
-    /// its cell row and of those below it on y and z (when they exist) in `[cr, cy, cz]`.
+    /// The triangles of box cell (i, j, k) on a face of the box or next to one, whose case and
+    /// centre bits are `x` (as [`for_each_bcc_cell`] gives them); interior cells read
+    /// `BodyCentredTables::interior` instead.
     #[inline(always)]
-    fn bcc_cell_count(&self, t: &BodyCentredTables, [cr, cy, cz]: [&[u64]; 3], case: u8, [i, j, k]: [usize; 3]) -> u32 {
+    fn bcc_cell_count(&self, t: &BodyCentredTables, x: usize, [i, j, k]: [usize; 3]) -> u32 {
         let [nx, ny, nz] = self.bx.dims;
-        let centre = bit(cr, i) as usize;
-        let interior = i > 0 && j > 0 && k > 0 && i + 2 < nx && j + 2 < ny && k + 2 < nz;
-        let by = |a: usize| match a {
-            0 => bit(cr, i - 1) as usize,
-            1 => bit(cy, i) as usize,
-            _ => bit(cz, i) as usize,
-        };
-        if interior {
-            let x = case as usize | centre << 8 | by(0) << 9 | by(1) << 10 | by(2) << 11;
-            return t.interior[x] as u32;
-        }
+        let (case, centre) = (x & 255, x >> 8 & 1);
+        let by = |a: usize| x >> (9 + a) & 1;
         let l = [i, j, k];
         let last = [nx - 2, ny - 2, nz - 2];
         let mut n = 0;
         for f in 0..6 {
             let a = f / 2;
-            let corners = t.face_case[f][case as usize] as usize;
+            let corners = t.face_case[f][case] as usize;
             let boundary = if f % 2 == 0 { l[a] == 0 } else { l[a] == last[a] };
             if boundary {
                 n += t.pyramids[f][centre | corners << 1].triangle_count as u32;
@@ -439,22 +450,19 @@ impl<V: SampleSlabs, X: Extractor> Passes<'_, V, X> {
     fn bcc_visit(&self, active: &Bits, r: usize, [j, k]: [usize; 2], visit: &mut [u64]) {
         let [nx, ny, _] = self.bx.dims;
         let here = active.row(r);
-        for w in 0..visit.len() {
-            let carry = if w > 0 { here[w - 1] >> 63 } else { 0 };
-            visit[w] = here[w] | here[w] << 1 | carry;
+        // A missing neighbour row reads as this row (its cells are in `visit` anyway).
+        let below = if j > 0 { active.row(r - 1) } else { here };
+        let under = if k > 0 { active.row(r - ny) } else { here };
+        let mut carry = 0;
+        for (w, ((v, &h), (&y, &z))) in visit.iter_mut().zip(here).zip(below.iter().zip(under)).enumerate() {
+            *v = (h | h << 1 | carry | y | z) & cell_mask(w, nx - 1);
+            carry = h >> 63;
         }
-        if j > 0 {
-            visit.iter_mut().zip(active.row(r - 1)).for_each(|(x, b)| *x |= b);
-        }
-        if k > 0 {
-            visit.iter_mut().zip(active.row(r - ny)).for_each(|(x, b)| *x |= b);
-        }
-        mask_tail(visit, nx - 1);
     }
 
     /// PASS 2 for the rows of plane `k` into `out`.
     pub(super) fn bcc_count_plane(&self, b: &Bcc<'_>, bits: &Bits, k: usize, out: &mut [BccRow]) {
-        let [_, ny, nz] = self.bx.dims;
+        let [nx, ny, nz] = self.bx.dims;
         let words = bits.words;
         let mut mask = vec![0u64; words];
         let mut visit = vec![0u64; words];
@@ -491,6 +499,9 @@ impl<V: SampleSlabs, X: Extractor> Passes<'_, V, X> {
                 });
             }
             for f in if cell_row { BD..BCC_FAMILIES } else { 0..CC } {
+                if cell_row && !self.bcc_on_face(f - BD, [j, k]) {
+                    continue;
+                }
                 if self.bcc_mask(f, bits, b.centres, r, [j, k], &mut mask) {
                     c.v[f] = popcount(&mask);
                 }
@@ -504,8 +515,13 @@ impl<V: SampleSlabs, X: Extractor> Passes<'_, V, X> {
             let cy = if j > 0 { b.centres.row(r - 1) } else { cr };
             let cz = if k > 0 { b.centres.row(r - ny) } else { cr };
             let mut tris = 0;
-            for_each_case(&rows, &visit, |i, case| {
-                tris += self.bcc_cell_count(b.t, [cr, cy, cz], case, [i, j, k]);
+            let inner_row = j > 0 && k > 0 && j + 2 < ny && k + 2 < nz;
+            for_each_bcc_cell(&rows, [cr, cy, cz], &visit, |i, x| {
+                tris += if inner_row && i > 0 && i + 2 < nx {
+                    b.t.interior[x & 4095] as u32
+                } else {
+                    self.bcc_cell_count(b.t, x, [i, j, k])
+                };
             });
             c.tris = tris;
         }
@@ -690,6 +706,7 @@ impl<V: SampleSlabs, X: Extractor> Passes<'_, V, X> {
         let mut t_out = 0usize;
         let last = [nx - 2, ny - 2, nz - 2];
         let mut last_row = None;
+        let mut bases = [[0u32; BCC_FAMILIES]; 6];
         for j in 0..ny - 1 {
             let r = k * ny + j;
             if table.count(r).tris == 0 {
@@ -714,6 +731,25 @@ impl<V: SampleSlabs, X: Extractor> Passes<'_, V, X> {
                 }
             }
             let mut masks = [RankedRef::new(&[], &[]); SLOTS];
+            // Each source row's family bases, once per cell row (rows A, C and `Below` are the
+            // last cell row's B, E and A when it was j − 1).
+            let sources = [(Src::A, r), (Src::C, r + ny), (Src::B, r + 1), (Src::E, r + ny + 1)];
+            let fresh = if carried {
+                bases[Src::Below as usize] = bases[Src::A as usize];
+                bases[Src::A as usize] = bases[Src::B as usize];
+                bases[Src::C as usize] = bases[Src::E as usize];
+                &sources[2..]
+            } else {
+                &sources[..]
+            };
+            for (src, row) in fresh
+                .iter()
+                .copied()
+                .chain((j > 0 && !carried).then(|| (Src::Below, r - 1)))
+                .chain((k > 0).then(|| (Src::Under, r - ny)))
+            {
+                bases[src as usize] = table.count(row).family_bases(table.first_vertex(row));
+            }
             for (slot, &(f, src)) in SLOT_SOURCE.iter().enumerate() {
                 let (row, j_row) = match src {
                     Src::A => (r, j),
@@ -728,7 +764,7 @@ impl<V: SampleSlabs, X: Extractor> Passes<'_, V, X> {
                 if rc.v[f] == 0 {
                     continue;
                 }
-                base[slot] = table.first_vertex(row) as u32 + rc.before(f);
+                base[slot] = bases[src as usize][f];
                 let at = (j_row * BCC_FAMILIES + f) * words..(j_row * BCC_FAMILIES + f + 1) * words;
                 masks[slot] = match src {
                     Src::Under if under_kept => RankedRef::new(&under.0[at.clone()], &under.1[at]),
@@ -767,19 +803,14 @@ impl<V: SampleSlabs, X: Extractor> Passes<'_, V, X> {
                     t_out += 1;
                 }
             };
-            for_each_case(&rows, &visit, |i, case| {
-                let case = case as usize;
-                let centre = bit(cr, i) as usize;
-                let by = |a: usize| match a {
-                    0 => bit(cr, i - 1) as usize,
-                    1 => bit(cy, i) as usize,
-                    _ => bit(cz, i) as usize,
-                };
+            for_each_bcc_cell(&rows, [cr, cy, cz], &visit, |i, x| {
+                let (case, centre) = (x & 255, x >> 8 & 1);
+                let by = |a: usize| x >> (9 + a) & 1;
                 if inner_row && i > 0 && i + 2 < nx {
-                    let beyond = [by(0), by(1), by(2)];
-                    if b.t.interior[case | centre << 8 | beyond[0] << 9 | beyond[1] << 10 | beyond[2] << 11] == 0 {
+                    if b.t.interior[x & 4095] == 0 {
                         return;
                     }
+                    let beyond = [by(0), by(1), by(2)];
                     for (a, beyond) in beyond.into_iter().enumerate() {
                         let corners = b.t.face_case[2 * a][case] as usize;
                         emit(&b.t.octahedra[a][centre | beyond << 1 | corners << 2], i);

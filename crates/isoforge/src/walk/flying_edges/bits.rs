@@ -178,77 +178,108 @@ impl<'a> RankedRef<'a> {
 
 /// Calls `f(i, case)` for every set bit `i` of `active`, in order, with cell i's case as
 /// [`case_at`] gives it for cell row `rows`: the word's eight corner bit words are built once
-/// ([`CornerWords`]) and each active cell's case read from them (`case_at` per cell was 12 % of a
+/// ([`WordPairs`]) and each active cell's case read from them (`case_at` per cell was 12 % of a
 /// dense extraction's instructions).
 #[inline(always)]
 pub(super) fn for_each_case(rows: &[&[u64]; 4], active: &[u64], mut f: impl FnMut(usize, u8)) {
+    for_each_cell_bits(active, |w| rows.map(|row| corner_pair(row, w)), |i, x| f(i, x as u8));
+}
+
+/// Calls `f(i, x)` for every set bit `i` of `active`, in order, where bit q of `x` is bit i of
+/// word q of the 2N words `words(w)` gives for i's word w (corner words, centre words…), built
+/// once per word.
+#[inline(always)]
+pub(super) fn for_each_cell_bits<const N: usize>(
+    active: &[u64],
+    words: impl Fn(usize) -> [[u64; 2]; N],
+    mut f: impl FnMut(usize, u32),
+) {
     for (w, &word) in active.iter().enumerate() {
         if word == 0 {
             continue;
         }
-        let corners = CornerWords::new(rows, w);
+        let pairs = WordPairs::new(words(w));
         let mut m = word;
         while m != 0 {
             let b = m.trailing_zeros() as usize;
-            f(w * 64 + b, corners.case(b));
+            f(w * 64 + b, pairs.bits(b));
             m &= m - 1;
         }
     }
 }
 
-/// Word `w` of each corner's bits for the cells of a cell row (A, B, C, E): bit b of corner c
-/// (x + 2y + 4z) is that corner of cell 64w + b. On x86-64, corners 2q and 2q + 1 (row q at x
-/// and x + 1) share a 128-bit register, so a case is four shifts and four sign-bit masks.
-struct CornerWords {
-    #[cfg(target_arch = "x86_64")]
-    pairs: [std::arch::x86_64::__m128i; 4],
-    #[cfg(not(target_arch = "x86_64"))]
-    corners: [u64; 8],
+/// Word `w` of corners x and x + 1 of a row's cells: bit b of the pair is point 64w + b and the
+/// one after it.
+#[inline(always)]
+fn corner_pair(row: &[u64], w: usize) -> [u64; 2] {
+    let next = if w + 1 < row.len() { row[w + 1] << 63 } else { 0 };
+    [row[w], (row[w] >> 1) | next]
 }
 
-impl CornerWords {
+/// [`for_each_cell_bits`] for the cells of a body-centred cell row (`rows` A, B, C, E, centre
+/// rows `[cr, cy, cz]` of it and of the cell rows below it on y and z): `x` = the case (bits
+/// 0–7), the cell's centre (8), the centres of its lower neighbours on x, y, z (9, 10, 11; cell
+/// 0's x neighbour reads 0), the index of `BodyCentredTables::interior`.
+#[inline(always)]
+pub(super) fn for_each_bcc_cell(
+    rows: &[&[u64]; 4],
+    [cr, cy, cz]: [&[u64]; 3],
+    active: &[u64],
+    mut f: impl FnMut(usize, usize),
+) {
+    let words = |w: usize| {
+        let [a, b, c, e] = rows.map(|row| corner_pair(row, w));
+        let before = if w > 0 { cr[w - 1] >> 63 } else { 0 };
+        [a, b, c, e, [cr[w], cr[w] << 1 | before], [cy[w], cz[w]]]
+    };
+    for_each_cell_bits(active, words, |i, x| f(i, x as usize));
+}
+
+/// Bit words in pairs, bit b of all of them read at once. On x86-64 each pair shares a 128-bit
+/// register, so reading is one shift and one sign-bit mask per pair.
+struct WordPairs<const N: usize> {
+    #[cfg(target_arch = "x86_64")]
+    pairs: [std::arch::x86_64::__m128i; N],
+    #[cfg(not(target_arch = "x86_64"))]
+    pairs: [[u64; 2]; N],
+}
+
+impl<const N: usize> WordPairs<N> {
     #[inline(always)]
-    fn new(rows: &[&[u64]; 4], w: usize) -> Self {
-        let pair = |row: &[u64]| {
-            let next = if w + 1 < row.len() { row[w + 1] << 63 } else { 0 };
-            [row[w], (row[w] >> 1) | next]
-        };
+    fn new(pairs: [[u64; 2]; N]) -> Self {
         #[cfg(target_arch = "x86_64")]
         {
             use std::arch::x86_64::_mm_set_epi64x;
             // SAFETY: SSE2 is part of x86-64.
-            let pairs = rows.map(|row| {
-                let [x0, x1] = pair(row);
-                unsafe { _mm_set_epi64x(x1 as i64, x0 as i64) }
-            });
-            CornerWords { pairs }
+            let pairs = pairs.map(|[x0, x1]| unsafe { _mm_set_epi64x(x1 as i64, x0 as i64) });
+            WordPairs { pairs }
         }
         #[cfg(not(target_arch = "x86_64"))]
         {
-            let mut corners = [0u64; 8];
-            for (q, row) in rows.iter().enumerate() {
-                [corners[2 * q], corners[2 * q + 1]] = pair(row);
-            }
-            CornerWords { corners }
+            WordPairs { pairs }
         }
     }
 
-    /// The case of cell 64w + b.
+    /// Bit b of word q at bit q.
     #[inline(always)]
-    fn case(&self, b: usize) -> u8 {
+    fn bits(&self, b: usize) -> u32 {
         #[cfg(target_arch = "x86_64")]
         {
             use std::arch::x86_64::{_mm_castsi128_pd, _mm_cvtsi64_si128, _mm_movemask_pd, _mm_sll_epi64};
             // SAFETY: SSE2 is part of x86-64. Bit b of each lane moves to its sign bit.
             unsafe {
                 let by = _mm_cvtsi64_si128((63 - b) as i64);
-                let bits = |q: usize| _mm_movemask_pd(_mm_castsi128_pd(_mm_sll_epi64(self.pairs[q], by))) as u8;
-                bits(0) | bits(1) << 2 | bits(2) << 4 | bits(3) << 6
+                let mut x = 0;
+                for (q, &pair) in self.pairs.iter().enumerate() {
+                    x |= (_mm_movemask_pd(_mm_castsi128_pd(_mm_sll_epi64(pair, by))) as u32) << (2 * q);
+                }
+                x
             }
         }
         #[cfg(not(target_arch = "x86_64"))]
         {
-            (0..8).fold(0u8, |case, c| case | (((self.corners[c] >> b) & 1) as u8) << c)
+            let bit = |x: u64| ((x >> b) & 1) as u32;
+            (0..N).fold(0, |x, q| x | bit(self.pairs[q][0]) << (2 * q) | bit(self.pairs[q][1]) << (2 * q + 1))
         }
     }
 }
@@ -263,18 +294,17 @@ pub(super) fn mark_active(rows: [&[u64]; 4], cells: usize, active: &mut [u64]) -
     let words = a.len();
     let column = |w: usize| (a[w] ^ b[w]) | (a[w] ^ c[w]) | (a[w] ^ e[w]);
     let (mut outside, mut inside) = (0u64, 0u64);
+    // One pass, each word's column carried to the next.
+    let mut d = column(0);
     for w in 0..words {
-        let d = column(w);
-        let next_d = if w + 1 < words { column(w + 1) << 63 } else { 0 };
-        let next_a = if w + 1 < words { a[w + 1] << 63 } else { 0 };
-        let a_shift = (a[w] >> 1) | next_a;
-        active[w] = d | (d >> 1) | next_d | (a[w] ^ a_shift);
-    }
-    mask_tail(active, cells);
-    for w in 0..words {
-        let idle = !active[w] & cell_mask(w, cells);
+        let (next_d, next_a) = if w + 1 < words { (column(w + 1), a[w + 1]) } else { (0, 0) };
+        let cm = cell_mask(w, cells);
+        let act = (d | (d >> 1) | (next_d << 63) | (a[w] ^ ((a[w] >> 1) | (next_a << 63)))) & cm;
+        active[w] = act;
+        let idle = !act & cm;
         inside += (idle & a[w]).count_ones() as u64;
         outside += (idle & !a[w]).count_ones() as u64;
+        d = next_d;
     }
     (outside, inside)
 }

@@ -227,10 +227,14 @@ pub(super) fn centre_value<V: SampleSlabs>(vol: &V, bx: &PointBox, iso: Iso, [i,
 #[inline(always)]
 pub(super) fn centre_in<S: Sample>(s0: &[S], s1: &[S], a: usize, b: usize, iso: Iso) -> f32 {
     let (a0, b0, a1, b1) = (&s0[a..a + 2], &s0[b..b + 2], &s1[a..a + 2], &s1[b..b + 2]);
-    let mut acc = 0.0f64;
-    for at in [a0[0], a0[1], b0[0], b0[1], a1[0], a1[1], b1[0], b1[1]] {
-        acc += 0.125 * at.to_f64();
-    }
+    let v = [a0[0], a0[1], b0[0], b0[1], a1[0], a1[1], b1[0], b1[1]].map(|s| s.to_f64());
+    let acc = if S::DTYPE.is_float() {
+        v.iter().fold(0.0f64, |acc, &v| acc + 0.125 * v)
+    } else {
+        // Integers (at most 32 bits): every eighth and every partial sum is exact in f64, so
+        // summing first, in any order, and scaling once gives the same bits.
+        ((v[0] + v[1]) + (v[2] + v[3]) + ((v[4] + v[5]) + (v[6] + v[7]))) * 0.125
+    };
     iso.offset(acc)
 }
 
