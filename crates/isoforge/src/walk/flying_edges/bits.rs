@@ -503,8 +503,9 @@ mod tests {
     use super::*;
     use crate::extract::Segments;
 
-    /// Cases read from a word's corner words are `case_at`'s, on rows of 1–3 words with sparse,
-    /// dense and full active masks.
+    /// Cases read from a word's corner words are `case_at`'s, and mt-bcc's cell reads (case and
+    /// centre bits at once) are the bits read one by one, on rows of 1–3 words with sparse, dense
+    /// and full active masks.
     #[test]
     fn word_cases_are_case_at() {
         let mut state = 0x9e37_79b9_7f4a_7c15u64;
@@ -533,6 +534,24 @@ mod tests {
                 let mut want = Vec::new();
                 for_each_bit(&active, |i| want.push((i, case_at(&rows, i))));
                 assert_eq!(seen, want, "{words} words, density {density}");
+                // mt-bcc's reads: the case, then the centre bits of the cell and of its lower
+                // neighbours on x (none for cell 0), y and z.
+                let centres: Vec<Vec<u64>> = (0..3).map(|_| (0..words).map(|_| next()).collect()).collect();
+                let [cr, cy, cz] = [&centres[0][..], &centres[1][..], &centres[2][..]];
+                let bit = |row: &[u64], i: usize| ((row[i / 64] >> (i % 64)) & 1) as usize;
+                let mut seen = Vec::new();
+                for_each_bcc_cell(&rows, [cr, cy, cz], &active, |i, x| seen.push((i, x)));
+                let mut want = Vec::new();
+                for_each_bit(&active, |i| {
+                    let before = if i > 0 { bit(cr, i - 1) } else { 0 };
+                    let x = case_at(&rows, i) as usize
+                        | bit(cr, i) << 8
+                        | before << 9
+                        | bit(cy, i) << 10
+                        | bit(cz, i) << 11;
+                    want.push((i, x));
+                });
+                assert_eq!(seen, want, "bcc cells: {words} words, density {density}");
             }
         }
     }
