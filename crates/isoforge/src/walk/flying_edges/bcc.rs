@@ -61,7 +61,7 @@ const BD: usize = 14;
 pub(super) const BCC_FAMILIES: usize = 20;
 
 /// Counts of one row: crossings per family, and the triangles of the cell row starting at it.
-#[derive(Clone, Copy, Default, Debug)]
+#[derive(Clone, Copy, Default, Debug, bytemuck::Zeroable)]
 pub(super) struct BccRow {
     pub(super) v: [u32; BCC_FAMILIES],
     pub(super) tris: u32,
@@ -74,8 +74,8 @@ impl BccRow {
     }
     /// The id of each family's first vertex, the row's first being `first`.
     #[inline]
-    fn family_bases(&self, first: u64) -> [u32; BCC_FAMILIES] {
-        let mut at = first as u32;
+    fn family_bases(&self, first: u32) -> [u32; BCC_FAMILIES] {
+        let mut at = first;
         self.v.map(|n| {
             let base = at;
             at += n;
@@ -203,6 +203,94 @@ const SEGMENT_SLOT: [(u8, i8); 41] = {
     }
     t
 };
+
+/// The solids of [`BodyCentredTables`] with their segments named as this walker finds their
+/// vertices: each distinct crossed segment once, as `slot << 2 | (offset + 1)` ([`SEGMENT_SLOT`]),
+/// and the triangles as positions in that list. Besides each octahedron and pyramid, one merged
+/// program per cell away from the lattice's faces (by the 12-bit index of
+/// [`BodyCentredTables::interior`]): the triangles of its three lower octahedra in their order,
+/// each shared segment ranked once (one lookup per cell instead of three solids).
+struct SolidPrograms {
+    /// Per program: its first segment, its first triangle, their counts.
+    spans: Vec<(u32, u32, u8, u8)>,
+    segments: Vec<u8>,
+    triangles: Vec<[u8; 3]>,
+}
+
+/// Cell indices of [`BodyCentredTables::interior`].
+const INTERIOR: usize = 4096;
+
+impl SolidPrograms {
+    /// The merged program of an interior cell with index `x`.
+    const fn interior(x: usize) -> usize {
+        x
+    }
+    /// The program of octahedron `pattern` around a lower face on axis `a`.
+    const fn octahedron(a: usize, pattern: usize) -> usize {
+        INTERIOR + 64 * a + pattern
+    }
+    /// The program of pyramid `pattern` on face `f`.
+    const fn pyramid(f: usize, pattern: usize) -> usize {
+        INTERIOR + 3 * 64 + 32 * f + pattern
+    }
+
+    /// The programs, built once.
+    fn get() -> &'static Self {
+        static PROGRAMS: std::sync::OnceLock<SolidPrograms> = std::sync::OnceLock::new();
+        PROGRAMS.get_or_init(|| {
+            let t = BodyCentredTables::get();
+            let mut p = SolidPrograms { spans: Vec::new(), segments: Vec::new(), triangles: Vec::new() };
+            let octahedron = |a: usize, x: usize| {
+                let (case, centre) = (x & 255, x >> 8 & 1);
+                &t.octahedra[a][centre | (x >> (9 + a) & 1) << 1 | (t.face_case[2 * a][case] as usize) << 2]
+            };
+            for x in 0..INTERIOR {
+                p.push(&[0, 1, 2].map(|a| octahedron(a, x)));
+            }
+            for solids in &t.octahedra {
+                solids.iter().for_each(|s| p.push(&[s]));
+            }
+            for solids in &t.pyramids {
+                solids.iter().for_each(|s| p.push(&[s]));
+            }
+            p
+        })
+    }
+
+    /// Appends the program of `solids`' triangles, in order.
+    fn push(&mut self, solids: &[&BccSolid]) {
+        let (seg, tri) = (self.segments.len(), self.triangles.len());
+        let mut named: Vec<u8> = Vec::new();
+        for s in solids {
+            for t in &s.triangles[..s.triangle_count as usize] {
+                let tri = t.map(|q| {
+                    let n = s.segments[q as usize];
+                    let at = named.iter().position(|&m| m == n).unwrap_or_else(|| {
+                        named.push(n);
+                        named.len() - 1
+                    });
+                    at as u8
+                });
+                self.triangles.push(tri);
+            }
+        }
+        self.segments.extend(named.iter().map(|&n| {
+            let (slot, off) = SEGMENT_SLOT[n as usize];
+            slot << 2 | (off + 1) as u8
+        }));
+        let (ns, nt) = (self.segments.len() - seg, self.triangles.len() - tri);
+        assert!(ns < 64 && nt < 256, "a body-centred program has {ns} segments, {nt} triangles");
+        self.spans.push((seg as u32, tri as u32, ns as u8, nt as u8));
+    }
+
+    /// Program `p`: its segments and triangles.
+    #[inline(always)]
+    fn program(&self, p: usize) -> (&[u8], &[[u8; 3]]) {
+        let (seg, tri, ns, nt) = self.spans[p];
+        let (seg, tri) = (seg as usize, tri as usize);
+        (&self.segments[seg..seg + ns as usize], &self.triangles[tri..tri + nt as usize])
+    }
+}
 
 /// Bit `i` of a row, across words.
 #[inline(always)]
@@ -582,7 +670,7 @@ impl<V: SampleSlabs, X: Extractor> Passes<'_, V, X> {
         for j in 0..ny {
             let r = k * ny + j;
             let c = table.count(r);
-            assert_eq!(plane[0] + out_v as u64, table.first_vertex(r), "internal: row {r} starts off its count");
+            assert_eq!(plane[0] + out_v as u64, table.first_vertex(r) as u64, "internal: row {r} starts off its count");
             if c.vertices() == 0 {
                 continue;
             }
@@ -594,15 +682,17 @@ impl<V: SampleSlabs, X: Extractor> Passes<'_, V, X> {
             cur.fill(f32::NAN);
             cur_j = Some(j);
             let at = bx.in_slab(0, j);
-            let mut push = |(p, n, key): ([f32; 3], Option<[f32; 3]>, VertexKey)| {
+            // Keys by reference: read only when recorded (moving them through the closures by
+            // value was ~4 % of the walk, in stalled copies).
+            let mut push = |(p, n): ([f32; 3], Option<[f32; 3]>), key: &VertexKey| {
                 self.put_vertex(out, out_v, plane[0], p, n, key);
                 out_v += 1;
             };
             // A crossing on segment `key` with offset values `d0` at its end a, `d1` at b.
-            let on_segment = |key: SegmentKey, d0: f32, d1: f32| {
-                let q = segment::segment_point(self.vol, key, d0, d1, self.iso);
-                let n = self.normals.then(|| segment::segment_normal(self.vol, key, q, d0, self.iso));
-                (segment::world_point(self.vol, q), n, VertexKey::Segment(key))
+            let on_segment = |key: &SegmentKey, d0: f32, d1: f32| {
+                let q = segment::segment_point(self.vol, *key, d0, d1, self.iso);
+                let n = self.normals.then(|| segment::segment_normal(self.vol, *key, q, d0, self.iso));
+                (segment::world_point(self.vol, q), n)
             };
             // The masks of all families but the boundary diagonals at once (rows starting a cell
             // row), the others one by one.
@@ -635,7 +725,7 @@ impl<V: SampleSlabs, X: Extractor> Passes<'_, V, X> {
                         let VertexKey::Edge(e) = key else { unreachable!("edge families name edges") };
                         let (d0, d1) = (sample(i, ends[0]), sample(i, ends[1]));
                         let (p, t) = edge_crossing(self.vol, e, d0, d1, self.iso);
-                        push((p, self.normals.then(|| edge_normal(self.vol, e, t, d0, self.iso)), key));
+                        push((p, self.normals.then(|| edge_normal(self.vol, e, t, d0, self.iso))), &key);
                     }),
                     // Centre → corner c (`SegmentKey::of_cell`'s order: the end with the lower
                     // doubled coordinates first, here decided on x).
@@ -646,11 +736,12 @@ impl<V: SampleSlabs, X: Extractor> Passes<'_, V, X> {
                             let cd = centre_doubled(i);
                             let kd = [0, 1, 2].map(|a| cd[a] - 1 + 2 * o[a] as u32);
                             let (vc, vk) = (cached(&mut cur, at, i), sample(i, o));
-                            if o[0] == 1 {
-                                push(on_segment(SegmentKey { a: cd, b: kd }, vc, vk));
+                            let (key, d0, d1) = if o[0] == 1 {
+                                (SegmentKey { a: cd, b: kd }, vc, vk)
                             } else {
-                                push(on_segment(SegmentKey { a: kd, b: cd }, vk, vc));
-                            }
+                                (SegmentKey { a: kd, b: cd }, vk, vc)
+                            };
+                            push(on_segment(&key, d0, d1), &VertexKey::Segment(key));
                         });
                     }
                     // Centre of the lower neighbour on axis a → centre (the neighbour's end first).
@@ -666,7 +757,8 @@ impl<V: SampleSlabs, X: Extractor> Passes<'_, V, X> {
                                 _ => centre_at(sm, s0, at, i),
                             };
                             let vc = cached(&mut cur, at, i);
-                            push(on_segment(SegmentKey { a: nd, b: cd }, vn, vc));
+                            let key = SegmentKey { a: nd, b: cd };
+                            push(on_segment(&key, vn, vc), &VertexKey::Segment(key));
                         });
                     }
                     // Diagonal of a boundary face (rare: the generic route).
@@ -685,7 +777,7 @@ impl<V: SampleSlabs, X: Extractor> Passes<'_, V, X> {
                                 CellPoint::Corner(fc[2]),
                                 value,
                             );
-                            push(on_segment(key, d0, d1));
+                            push(on_segment(&key, d0, d1), &VertexKey::Segment(key));
                         });
                     }
                 }
@@ -704,6 +796,7 @@ impl<V: SampleSlabs, X: Extractor> Passes<'_, V, X> {
         let mut base = [0u32; SLOTS];
         let mut visit = vec![0u64; words];
         let mut t_out = 0usize;
+        let programs = SolidPrograms::get();
         let last = [nx - 2, ny - 2, nz - 2];
         let mut last_row = None;
         let mut bases = [[0u32; BCC_FAMILIES]; 6];
@@ -781,51 +874,44 @@ impl<V: SampleSlabs, X: Extractor> Passes<'_, V, X> {
             // Cell rows away from the lattice's y and z faces: cells away from all faces have just
             // the octahedra of their lower faces.
             let inner_row = j > 0 && k > 0 && j + 2 < ny && k + 2 < nz;
-            let mut emit = |solid: &BccSolid, i: usize| {
-                if solid.triangle_count == 0 {
+            let mut emit = |p: usize, i: usize| {
+                let (segments, triangles) = programs.program(p);
+                if triangles.is_empty() {
                     return;
                 }
-                // 16 ids so that `& 15` proves every index in bounds (solids name at most 12).
-                let mut ids = [0u32; 16];
-                for (id, &s) in ids.iter_mut().zip(&solid.segments[..solid.segment_count as usize]) {
-                    let (slot, off) = SEGMENT_SLOT[s as usize];
-                    let at = (i as isize + off as isize) as usize;
+                // 64 ids so that `& 63` proves every index in bounds (programs name fewer).
+                let mut ids = [0u32; 64];
+                for (id, &s) in ids.iter_mut().zip(segments) {
+                    let slot = (s >> 2) as usize;
+                    let at = (i + (s & 3) as usize).wrapping_sub(1);
                     debug_assert!(at < nx);
                     // SAFETY: `at` is a point of the row (i; i + 1 for the edges on the cell's
                     // upper x; i − 1, taken only when i > 0, for the x-lower octahedron's centre
                     // segments), so below nx ≤ 64 · words; the slot of a crossed segment was set
                     // above, its family being crossed in its row.
-                    *id = base[slot as usize] + unsafe { masks[slot as usize].rank_unchecked(at) };
+                    *id = base[slot] + unsafe { masks[slot].rank_unchecked(at) };
                 }
-                for tri in &solid.triangles[..solid.triangle_count as usize] {
-                    let [a, b2, c] = tri.map(|s| ids[(s & 15) as usize]);
+                for tri in triangles {
+                    let [a, b2, c] = tri.map(|s| ids[(s & 63) as usize]);
                     out.set_triangle(t_out, if self.reverse { [a, c, b2] } else { [a, b2, c] });
                     t_out += 1;
                 }
             };
             for_each_bcc_cell(&rows, [cr, cy, cz], &visit, |i, x| {
-                let (case, centre) = (x & 255, x >> 8 & 1);
-                let by = |a: usize| x >> (9 + a) & 1;
                 if inner_row && i > 0 && i + 2 < nx {
-                    if b.t.interior[x & 4095] == 0 {
-                        return;
-                    }
-                    let beyond = [by(0), by(1), by(2)];
-                    for (a, beyond) in beyond.into_iter().enumerate() {
-                        let corners = b.t.face_case[2 * a][case] as usize;
-                        emit(&b.t.octahedra[a][centre | beyond << 1 | corners << 2], i);
-                    }
+                    emit(SolidPrograms::interior(x & (INTERIOR - 1)), i);
                     return;
                 }
+                let (case, centre) = (x & 255, x >> 8 & 1);
                 let l = [i, j, k];
                 for f in 0..6 {
                     let a = f / 2;
                     let corners = b.t.face_case[f][case] as usize;
                     let boundary = if f % 2 == 0 { l[a] == 0 } else { l[a] == last[a] };
                     if boundary {
-                        emit(&b.t.pyramids[f][centre | corners << 1], i);
+                        emit(SolidPrograms::pyramid(f, centre | corners << 1), i);
                     } else if f % 2 == 0 {
-                        emit(&b.t.octahedra[a][centre | by(a) << 1 | corners << 2], i);
+                        emit(SolidPrograms::octahedron(a, centre | (x >> (9 + a) & 1) << 1 | corners << 2), i);
                     }
                 }
             });
@@ -867,7 +953,7 @@ impl<V: SampleSlabs + Sync, X: Extractor + Sync> Passes<'_, V, X> {
         };
         let b = Bcc { t, centres: &centres, active: &active, walk: walk_id() };
         // PASS 2: count.
-        let mut counts = vec![BccRow::default(); ny * nz];
+        let mut counts = bytemuck::zeroed_vec::<BccRow>(ny * nz);
         for_each_chunk(&mut counts, ny, |k, plane| self.bcc_count_plane(&b, bits, k, plane));
         // PASS 3: prefix sums.
         let table = BccTable::prefix(counts, ny, Vec::new())?;
@@ -973,5 +1059,56 @@ impl<X: Extractor + Sync> Ctx<'_, X> {
             }
         }
         Ok(())
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// Program `at`'s triangles, each as its three segments' codes.
+    fn expanded(p: &SolidPrograms, at: usize) -> Vec<[u8; 3]> {
+        let (segments, triangles) = p.program(at);
+        triangles.iter().map(|t| t.map(|q| segments[q as usize])).collect()
+    }
+
+    /// A solid's triangles through [`SEGMENT_SLOT`], as the programs code them.
+    fn coded(s: &BccSolid) -> Vec<[u8; 3]> {
+        let code = |n: u8| {
+            let (slot, off) = SEGMENT_SLOT[n as usize];
+            slot << 2 | (off + 1) as u8
+        };
+        s.triangles[..s.triangle_count as usize].iter().map(|t| t.map(|q| code(s.segments[q as usize]))).collect()
+    }
+
+    #[test]
+    fn programs_are_the_tabulated_solids_and_interior_cells_their_three_octahedra() {
+        let (p, t) = (SolidPrograms::get(), BodyCentredTables::get());
+        for (a, solids) in t.octahedra.iter().enumerate() {
+            for (pattern, s) in solids.iter().enumerate() {
+                assert_eq!(expanded(p, SolidPrograms::octahedron(a, pattern)), coded(s), "octahedron {a} {pattern}");
+            }
+        }
+        for (f, solids) in t.pyramids.iter().enumerate() {
+            for (pattern, s) in solids.iter().enumerate() {
+                assert_eq!(expanded(p, SolidPrograms::pyramid(f, pattern)), coded(s), "pyramid {f} {pattern}");
+            }
+        }
+        for x in 0..INTERIOR {
+            let (case, centre) = (x & 255, x >> 8 & 1);
+            let three: Vec<[u8; 3]> = (0..3)
+                .flat_map(|a| {
+                    let corners = t.face_case[2 * a][case] as usize;
+                    expanded(p, SolidPrograms::octahedron(a, centre | (x >> (9 + a) & 1) << 1 | corners << 2))
+                })
+                .collect();
+            assert_eq!(expanded(p, SolidPrograms::interior(x)), three, "cell index {x}");
+            assert_eq!(three.len(), t.interior[x] as usize, "cell index {x}");
+            let (segments, _) = p.program(SolidPrograms::interior(x));
+            let mut distinct = segments.to_vec();
+            distinct.sort_unstable();
+            distinct.dedup();
+            assert_eq!(distinct.len(), segments.len(), "cell index {x} names a segment twice");
+        }
     }
 }

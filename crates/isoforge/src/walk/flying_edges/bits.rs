@@ -450,7 +450,7 @@ impl RowMasks {
         let rows = [r, r + 1, r + ny, r + ny + 1];
         for (slot, &(f, q)) in SLOT_SOURCE[..8].iter().enumerate() {
             let row = rows[q];
-            self.base[slot] = table.first_vertex(row) as u32 + table.count(row).before(f);
+            self.base[slot] = table.first_vertex(row) + table.count(row).before(f);
         }
         self.loaded = Some(r);
     }
@@ -485,7 +485,7 @@ impl RowMasks {
             if !walked.mask(f, bits, row, jk, dims, &mut self.masks[slot].mask) {
                 self.masks[slot].mask.fill(0);
             }
-            self.base[slot] = table.first_vertex(row) as u32 + table.count(row).before(f);
+            self.base[slot] = table.first_vertex(row) + table.count(row).before(f);
             self.masks[slot].rank_prefix();
         }
     }

@@ -8,8 +8,9 @@ use crate::extract::{CellCounts, Decision, Extractor};
 use crate::volume::SampleSlabs;
 
 /// Counts of one row (its segments' crossings, by family) and of the cell row starting at it
-/// (its cells' output). Only `u32`s: zero bytes are its default (`zeroed_counts` relies on it).
-#[derive(Clone, Copy, Default, Debug)]
+/// (its cells' output). Only `u32`s: zero bytes are its default, so fresh tables come zeroed
+/// from the allocator (`bytemuck::zeroed_vec`).
+#[derive(Clone, Copy, Default, Debug, bytemuck::Zeroable)]
 pub(super) struct RowCount {
     /// Crossings per family (see `families.rs`), numbered in this order.
     pub(super) v: [u32; FAMILIES],

@@ -126,8 +126,8 @@ impl<C: Counted> RowTable<C> {
 
     /// The first vertex of row `r`.
     #[inline(always)]
-    pub(super) fn first_vertex(&self, r: usize) -> u64 {
-        self.first[r - self.row0] as u64
+    pub(super) fn first_vertex(&self, r: usize) -> u32 {
+        self.first[r - self.row0]
     }
 
     /// `[vertex, triangle, quad]` before box plane `k` (`k` one past the last plane held: the
@@ -309,7 +309,7 @@ impl<V: SampleSlabs, X: Extractor> Passes<'_, V, X> {
                 self.prefetch_row(bits, k, j + PREFETCH_ROWS, s0, s1, &mut ymask);
             }
             let r = k * ny + j;
-            assert_eq!(plane[0] + out_v as u64, table.first_vertex(r), "internal: row {r} starts off its count");
+            assert_eq!(plane[0] + out_v as u64, table.first_vertex(r) as u64, "internal: row {r} starts off its count");
             if !has_crossings(r) {
                 out_v += table.count(r).placed as usize;
                 continue;
@@ -339,7 +339,7 @@ impl<V: SampleSlabs, X: Extractor> Passes<'_, V, X> {
                         }
                         VertexKey::Cell { .. } => unreachable!("families name edges and segments"),
                     };
-                    self.put_vertex(out, out_v, plane[0], p, n, key);
+                    self.put_vertex(out, out_v, plane[0], p, n, &key);
                     out_v += 1;
                 });
             }
@@ -366,7 +366,7 @@ impl<V: SampleSlabs, X: Extractor> Passes<'_, V, X> {
             let rows = cell_rows(bits, r, ny);
             mark_active(rows, nx - 1, &mut active);
             ranked.load(bits, r, [j, k], bx.dims, &self.walked, table);
-            state.next_placed = table.first_vertex(r) + c.before(FAMILIES) as u64;
+            state.next_placed = table.first_vertex(r) as u64 + c.before(FAMILIES) as u64;
             let parity = self.walked.parity0 + j + k;
             for_each_case(&rows, &active, |i, case| {
                 let l = [i, j, k];
@@ -406,7 +406,7 @@ impl<V: SampleSlabs, X: Extractor> Passes<'_, V, X> {
             });
             assert_eq!(
                 state.next_placed,
-                table.first_vertex(r) + c.vertices() as u64,
+                table.first_vertex(r) as u64 + c.vertices() as u64,
                 "internal: row {r} placed vertices off their count"
             );
         }
@@ -616,7 +616,7 @@ mod tests {
             if r % ny == 0 {
                 assert_eq!(table.plane_base(r / ny), acc, "plane {}", r / ny);
             }
-            assert_eq!(table.first_vertex(r), acc[0], "row {r}");
+            assert_eq!(table.first_vertex(r) as u64, acc[0], "row {r}");
             for (a, s) in acc.iter_mut().zip(c.sums()) {
                 *a += s;
             }
@@ -646,7 +646,7 @@ mod tests {
         let half = (MeshBuilder::MAX_VERTICES / 2) as u32;
         assert_eq!(2 * half as u64, MeshBuilder::MAX_VERTICES);
         let table = RowTable::prefix(rows(half, half), 1, Vec::new()).unwrap();
-        assert_eq!([table.first_vertex(0), table.first_vertex(1)], [0, half as u64]);
+        assert_eq!([table.first_vertex(0), table.first_vertex(1)], [0, half]);
         assert_eq!(table.totals()[0] as u64, MeshBuilder::MAX_VERTICES);
         let over = RowTable::prefix(rows(half, half + 1), 1, Vec::new());
         assert!(matches!(over, Err(Error::Limit { what: "mesh vertices", .. })), "{:?}", over.err());

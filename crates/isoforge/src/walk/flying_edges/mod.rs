@@ -274,29 +274,10 @@ impl Scratch {
     fn sized_counts(&mut self, n: usize) -> Vec<RowCount> {
         let mut v = std::mem::take(&mut self.counts);
         if v.capacity() < n {
-            v = zeroed_counts(n);
+            v = bytemuck::zeroed_vec::<RowCount>(n);
         }
         v.resize(n, RowCount::default());
         v
-    }
-}
-
-/// `n` zero row counts in freshly allocated zeroed memory.
-fn zeroed_counts(n: usize) -> Vec<RowCount> {
-    let layout = std::alloc::Layout::array::<RowCount>(n).expect("row counts fit the address space");
-    if layout.size() == 0 {
-        return Vec::new();
-    }
-    // SAFETY: `layout` has a non-zero size. The block it returns (checked for null) is allocated
-    // by the global allocator with `RowCount`'s alignment and room for exactly `n` of them, as
-    // `Vec::from_raw_parts` requires; its bytes are zero, and a `RowCount` of zero bytes (all its
-    // fields are `u32`) is `RowCount::default()`, so all `n` elements are initialised.
-    unsafe {
-        let p = std::alloc::alloc_zeroed(layout).cast::<RowCount>();
-        if p.is_null() {
-            std::alloc::handle_alloc_error(layout);
-        }
-        Vec::from_raw_parts(p, n, n)
     }
 }
 
@@ -359,14 +340,14 @@ impl<V, X> Passes<'_, V, X> {
         first: u64,
         p: [f32; 3],
         n: Option<[f32; 3]>,
-        key: VertexKey,
+        key: &VertexKey,
     ) {
         out.set_position(at, p);
         if let Some(n) = n {
             out.set_normal(at, n);
         }
-        if self.record != KeyRecord::None && self.records(&key) {
-            out.keys().push(((first + at as u64) as u32, key));
+        if self.record != KeyRecord::None && self.records(key) {
+            out.keys().push(((first + at as u64) as u32, *key));
         }
     }
 }
