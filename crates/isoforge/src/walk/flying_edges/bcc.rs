@@ -39,13 +39,13 @@ use super::families::{X, Y, Z};
 use super::fill::{fill_planes, Counted, FillOut, RowTable};
 use super::keyed::centre_in;
 use super::stream::{fill_batch, Ctx, SlabRing, StreamStats};
-use super::{for_each_chunk, for_each_chunk_with, Passes, PointBox};
+use super::{for_each_chunk, for_each_chunk_with, reuse_words, reuse_zeroed, Passes, PointBox, Scratch};
 use crate::cube::{CellPoint, SegmentKey, VertexKey, FACE_CORNERS};
 use crate::error::{Error, Result};
 use crate::extract::tetrahedra::BccSolid;
 use crate::extract::{BodyCentredTables, Extractor};
 use crate::grid::Sample;
-use crate::mesh::{huge_vec, MeshBuilder, MeshSink, OwnedBatch};
+use crate::mesh::{MeshBuilder, MeshSink, OwnedBatch};
 use crate::volume::SampleSlabs;
 use crate::walk::segment;
 use crate::walk::{edge_crossing, edge_normal};
@@ -935,12 +935,13 @@ impl<V: SampleSlabs + Sync, X: Extractor + Sync> Passes<'_, V, X> {
         bits: &Bits,
         out: &mut MeshBuilder,
         progress: Option<&dyn Progress>,
+        scratch: &mut Scratch,
     ) -> Result<WalkStats> {
         let [_, ny, nz] = self.bx.dims;
         let words = bits.words;
         // PASS 1b: centre bits, and the uniform cells of each layer.
-        let mut centres = Bits { words, row0: 0, data: huge_vec(ny * nz * words, 0) };
-        let mut active = Bits { words, row0: 0, data: huge_vec(ny * nz * words, 0) };
+        let mut centres = Bits { words, row0: 0, data: reuse_words(&mut scratch.centres, ny * nz * words) };
+        let mut active = Bits { words, row0: 0, data: reuse_words(&mut scratch.active, ny * nz * words) };
         let mut per_layer: Vec<_> = active.data.chunks_mut(ny * words).map(|a| (a, [0u64; 2])).collect();
         for_each_chunk_with(&mut centres.data, ny * words, &mut per_layer, |k, plane, (active, cs)| {
             *cs = self.bcc_centres(bits, k, plane, active);
@@ -952,11 +953,11 @@ impl<V: SampleSlabs + Sync, X: Extractor + Sync> Passes<'_, V, X> {
             cells_inside: cell_stats.iter().map(|c| c[1]).sum(),
         };
         let b = Bcc { t, centres: &centres, active: &active, walk: walk_id() };
-        // PASS 2: count.
-        let mut counts = bytemuck::zeroed_vec::<BccRow>(ny * nz);
+        // PASS 2: count (every row's count is written: `bcc_count_plane` starts each from zero).
+        let mut counts = reuse_zeroed(&mut scratch.bcc_counts, ny * nz);
         for_each_chunk(&mut counts, ny, |k, plane| self.bcc_count_plane(&b, bits, k, plane));
         // PASS 3: prefix sums.
-        let table = BccTable::prefix(counts, ny, Vec::new())?;
+        let table = BccTable::prefix(counts, ny, std::mem::take(&mut scratch.first))?;
         // PASS 4: fill, one task per slab, each owning its slots of the exactly allocated output.
         // SAFETY: `bcc_fill_plane` returns only after writing every slot of its slab (asserted
         // row by row and per slab).
@@ -964,6 +965,8 @@ impl<V: SampleSlabs + Sync, X: Extractor + Sync> Passes<'_, V, X> {
             fill_planes(&table, ny, self.normals, progress, |k, slab| self.bcc_fill_plane(&b, bits, &table, k, slab))
         };
         out.set_assembled(mesh, keys);
+        (scratch.bcc_counts, scratch.first) = table.into_parts();
+        (scratch.centres, scratch.active) = (centres.data, active.data);
         Ok(stats)
     }
 }

@@ -208,12 +208,12 @@ fn walk_in_memory<V: SampleSlabs + Sync, X: Extractor + Sync>(
     let [_, ny, nz] = bx.dims;
     let words = bx.words();
     let mut scratch = Scratch::take();
-    let mut bits = Bits { words, row0: 0, data: scratch.sized_bits(ny * nz * words) };
+    let mut bits = Bits { words, row0: 0, data: reuse_words(&mut scratch.bits, ny * nz * words) };
     for_each_chunk(&mut bits.data, ny * words, |k, plane| {
         classify::classify_plane(vol, &bx, bx.lo[2] + k as u32, iso, plane);
     });
     let walked = match (x.counting(), x.body_centred()) {
-        (_, Some(t)) if bcc::applies(vol, &bx, &range) => p.bcc_counted(t, &bits, out, w.progress),
+        (_, Some(t)) if bcc::applies(vol, &bx, &range) => p.bcc_counted(t, &bits, out, w.progress, &mut scratch),
         (Counting::Known, _) => p.counted(&bits, out, w.progress, &mut scratch),
         (Counting::Unknown, _) => p.keyed(&bits, out, w.progress),
     };
@@ -223,15 +223,20 @@ fn walk_in_memory<V: SampleSlabs + Sync, X: Extractor + Sync>(
 }
 
 /// The buffers of an in-memory walk that do not outlive it (bit rows, row counts and the rows'
-/// first vertices), kept by the thread between walks up to [`Scratch::KEEP_BYTES`]: a repeated
-/// extraction reuses them instead of having fresh pages faulted in and zeroed. No pass reads
-/// what it has not written in the same walk (classify writes every word of every bit row, count
-/// every row count, the prefix every sum), so they are never cleared.
+/// first vertices; mt-bcc's centre and active-cell bits and its own row counts), kept by the
+/// thread between walks up to [`Scratch::KEEP_BYTES`]: a repeated extraction reuses them instead
+/// of having fresh pages faulted in and zeroed. No pass reads what it has not written in the same
+/// walk (classify writes every word of every bit row, the centre pass every centre and active
+/// word, count every row count, the prefix every sum), so they are never cleared.
 #[derive(Default)]
 struct Scratch {
     bits: Vec<u64>,
     counts: Vec<RowCount>,
     first: Vec<u32>,
+    /// mt-bcc's: centre bits, active cells, row counts (`bcc.rs`).
+    centres: Vec<u64>,
+    active: Vec<u64>,
+    bcc_counts: Vec<bcc::BccRow>,
 }
 
 thread_local! {
@@ -239,8 +244,9 @@ thread_local! {
 }
 
 impl Scratch {
-    /// Largest scratch a thread keeps between walks (a 512³ walk needs 32 MiB).
-    const KEEP_BYTES: usize = 64 << 20;
+    /// Largest scratch a thread keeps between walks (a 512³ walk needs 38 MB with mc, 73 MB with
+    /// mt-bcc).
+    const KEEP_BYTES: usize = 96 << 20;
 
     /// This thread's buffers (empty the first time, or while a walk holds them).
     fn take() -> Self {
@@ -249,36 +255,43 @@ impl Scratch {
 
     /// Gives the buffers back to the thread, unless they are larger than it keeps.
     fn keep(self) {
-        let bytes = self.bits.capacity() * std::mem::size_of::<u64>()
-            + self.counts.capacity() * std::mem::size_of::<RowCount>()
-            + self.first.capacity() * std::mem::size_of::<u32>();
+        fn bytes<T>(v: &Vec<T>) -> usize {
+            v.capacity() * std::mem::size_of::<T>()
+        }
+        let bytes = bytes(&self.bits)
+            + bytes(&self.counts)
+            + bytes(&self.first)
+            + bytes(&self.centres)
+            + bytes(&self.active)
+            + bytes(&self.bcc_counts);
         if bytes <= Self::KEEP_BYTES {
             SCRATCH.with(|s| s.set(self));
         }
     }
+}
 
-    /// `n` words of bit rows, with whatever they held (huge pages when newly allocated).
-    fn sized_bits(&mut self, n: usize) -> Vec<u64> {
-        let mut v = std::mem::take(&mut self.bits);
-        if v.capacity() < n {
-            v = huge_vec(n, 0);
-        }
-        v.resize(n, 0);
-        v
+/// `n` words taken from a thread's `kept` buffer, with whatever they held (huge pages when newly
+/// allocated).
+fn reuse_words(kept: &mut Vec<u64>, n: usize) -> Vec<u64> {
+    let mut v = std::mem::take(kept);
+    if v.capacity() < n {
+        v = huge_vec(n, 0);
     }
+    v.resize(n, 0);
+    v
+}
 
-    /// `n` row counts, with whatever they held. Newly allocated ones are zero pages straight from
-    /// the allocator (calloc), first touched by the count pass that writes them, on every thread,
-    /// instead of faulted in and zeroed by one thread before it (`vec!` writes a struct's zeros
-    /// element by element).
-    fn sized_counts(&mut self, n: usize) -> Vec<RowCount> {
-        let mut v = std::mem::take(&mut self.counts);
-        if v.capacity() < n {
-            v = bytemuck::zeroed_vec::<RowCount>(n);
-        }
-        v.resize(n, RowCount::default());
-        v
+/// `n` records taken from a thread's `kept` buffer, with whatever they held. Newly allocated ones
+/// are zero pages straight from the allocator (calloc), first touched by the pass that writes
+/// them, on every thread, instead of faulted in and zeroed by one thread before it (`vec!` writes
+/// a struct's zeros element by element).
+fn reuse_zeroed<T: bytemuck::Zeroable + Copy>(kept: &mut Vec<T>, n: usize) -> Vec<T> {
+    let mut v = std::mem::take(kept);
+    if v.capacity() < n {
+        v = bytemuck::zeroed_vec(n);
     }
+    v.resize(n, T::zeroed());
+    v
 }
 
 impl<V: SampleSlabs + Sync, X: Extractor + Sync> Passes<'_, V, X> {
@@ -293,7 +306,7 @@ impl<V: SampleSlabs + Sync, X: Extractor + Sync> Passes<'_, V, X> {
         let [_, ny, nz] = self.bx.dims;
         let rows = ny * nz;
         // PASS 2: count (every row's count is written: `count_plane` starts each from zero).
-        let mut counts = scratch.sized_counts(rows);
+        let mut counts = reuse_zeroed(&mut scratch.counts, rows);
         // Per plane: all-outside and all-inside cells, and the decisions of cells counted from
         // their values (handed back to the extractor in the fill).
         let mut cell_stats = vec![([0u64; 2], Vec::new()); nz];
@@ -393,7 +406,7 @@ fn map_tasks<T: Send, R: Send>(tasks: Vec<T>, f: impl Fn(T) -> R + Sync + Send) 
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::extract::{MarchingCubes, MarchingCubes33};
+    use crate::extract::{Decomposition, MarchingCubes, MarchingCubes33, MarchingTetrahedra};
     use crate::grid::{DenseGrid, Lattice};
     use crate::mesh::{Mesh, Normals};
     use crate::volume::GridVolume;
@@ -491,7 +504,7 @@ mod tests {
     }
 
     /// A walk reuses the scratch that earlier walks left on its thread (bit rows, row counts and
-    /// sums of other sizes and contents, never cleared) and makes the very mesh a walk on a fresh
+    /// sums, mt-bcc's centre and active bits, of other sizes and contents, never cleared) and makes the very mesh a walk on a fresh
     /// thread makes.
     #[test]
     fn scratch_left_by_earlier_walks_changes_nothing() {
@@ -502,22 +515,28 @@ mod tests {
             (p[0] as f32 * 0.3).sin() + (p[1] as f32 * 0.9).cos() * (p[2] as f32 * 0.5).sin()
         });
         let grids = [small, wavy];
-        let fresh: Vec<(Mesh, Mesh)> = std::thread::scope(|s| {
+        let bcc = MarchingTetrahedra { decomposition: Decomposition::BodyCentred };
+        let fresh: Vec<(Mesh, Mesh, Mesh)> = std::thread::scope(|s| {
             grids
                 .iter()
-                .map(|g| s.spawn(|| (walk(g, &MarchingCubes), walk(g, &MarchingCubes33))))
+                .map(|g| s.spawn(|| (walk(g, &MarchingCubes), walk(g, &MarchingCubes33), walk(g, &bcc))))
                 .collect::<Vec<_>>()
                 .into_iter()
                 .map(|h| h.join().unwrap())
                 .collect()
         });
-        assert!(fresh.iter().all(|(m, _)| m.num_triangles() > 0));
-        for (g, (mc, mc33)) in grids.iter().zip(&fresh) {
+        assert!(fresh.iter().all(|(m, _, t)| m.num_triangles() > 0 && t.num_triangles() > 0));
+        for (g, (mc, mc33, tet)) in grids.iter().zip(&fresh) {
             walk(&big, &MarchingCubes);
             assert_eq!(&walk(g, &MarchingCubes), mc);
             walk(&big, &MarchingCubes33);
             assert_eq!(&walk(g, &MarchingCubes33), mc33);
             assert_eq!(&walk(g, &MarchingCubes), mc, "twice in a row");
+            walk(&big, &bcc);
+            assert_eq!(&walk(g, &bcc), tet, "mt-bcc after a larger mt-bcc walk");
+            assert_eq!(&walk(g, &bcc), tet, "mt-bcc twice in a row");
+            walk(&big, &MarchingCubes);
+            assert_eq!(&walk(g, &bcc), tet, "mt-bcc after a larger mc walk");
         }
     }
 }
