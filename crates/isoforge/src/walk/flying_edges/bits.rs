@@ -123,12 +123,6 @@ impl RankedMask {
     pub(super) fn rank_prefix(&mut self) {
         rank_prefix(&self.mask, &mut self.before);
     }
-    /// Number of set bits below bit `i`.
-    #[inline(always)]
-    pub(super) fn rank(&self, i: usize) -> u32 {
-        let (w, b) = (i / 64, i % 64);
-        self.before[w] + (self.mask[w] & ((1u64 << b) - 1)).count_ones()
-    }
     /// The mask and its prefix popcounts, as [`RankedRef`].
     #[inline]
     pub(super) fn as_ref(&self) -> RankedRef<'_> {
@@ -490,11 +484,15 @@ impl RowMasks {
         }
     }
 
-    /// The vertex id of cell segment `s` of the cell at box-local `i`.
+    /// The vertex id of cell segment `s` of the cell at box-local `i` (a cell of the row: i < nx − 1).
     #[inline(always)]
     pub(super) fn id(&self, s: u8, i: usize) -> u32 {
         let (slot, off) = SEGMENT_SLOT[s as usize];
-        self.base[slot as usize] + self.masks[slot as usize].rank(i + off as usize)
+        let at = i + off as usize;
+        // SAFETY: `at` is a point of the cell's row (i or i + 1), so below nx ≤ 64 · words, the
+        // length of every slot's mask; a `RankedMask`'s two vectors have the same length. The
+        // bounds checks this skips were ~5 % of a dense MC extraction's samples (gyroid 256³).
+        unsafe { self.base[slot as usize] + self.masks[slot as usize].as_ref().rank_unchecked(at) }
     }
 }
 
