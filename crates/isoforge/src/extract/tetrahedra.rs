@@ -320,6 +320,13 @@ pub struct BodyCentredTables {
 }
 
 impl BodyCentredTables {
+    /// The pattern (index into `octahedra[a]`) of the octahedron around the lower face on axis
+    /// `a` of a cell whose index is `x` (as `interior`'s: case, centre, centres beyond).
+    #[inline]
+    pub(crate) fn octahedron_pattern(x: usize, a: usize) -> usize {
+        (x >> 8 & 1) | (x >> (9 + a) & 1) << 1 | (FACE_CASE[2 * a][x & 0xff] as usize) << 2
+    }
+
     /// The tables, built once from [`bcc_tables`].
     pub(crate) fn get() -> &'static Self {
         static TABLES: std::sync::OnceLock<BodyCentredTables> = std::sync::OnceLock::new();
@@ -340,13 +347,7 @@ impl BodyCentredTables {
             let octahedra = std::array::from_fn(|a| std::array::from_fn(|p| convert(&t.octahedra[a][p])));
             let pyramids = std::array::from_fn(|f| std::array::from_fn(|p| convert(&t.pyramids[f][p])));
             let interior = std::array::from_fn(|x| {
-                let (case, centre) = (x & 0xff, x >> 8 & 1);
-                (0..3)
-                    .map(|a| {
-                        let pattern = centre | (x >> (9 + a) & 1) << 1 | (FACE_CASE[2 * a][case] as usize) << 2;
-                        t.octahedra[a][pattern].triangle_count
-                    })
-                    .sum()
+                (0..3).map(|a| t.octahedra[a][Self::octahedron_pattern(x, a)].triangle_count).sum()
             });
             BodyCentredTables { octahedra, pyramids, interior, face_case: FACE_CASE }
         })

@@ -240,10 +240,7 @@ impl SolidPrograms {
         PROGRAMS.get_or_init(|| {
             let t = BodyCentredTables::get();
             let mut p = SolidPrograms { spans: Vec::new(), segments: Vec::new(), triangles: Vec::new() };
-            let octahedron = |a: usize, x: usize| {
-                let (case, centre) = (x & 255, x >> 8 & 1);
-                &t.octahedra[a][centre | (x >> (9 + a) & 1) << 1 | (t.face_case[2 * a][case] as usize) << 2]
-            };
+            let octahedron = |a: usize, x: usize| &t.octahedra[a][BodyCentredTables::octahedron_pattern(x, a)];
             for x in 0..INTERIOR {
                 p.push(&[0, 1, 2].map(|a| octahedron(a, x)));
             }
@@ -516,7 +513,6 @@ impl<V: SampleSlabs, X: Extractor> Passes<'_, V, X> {
     fn bcc_cell_count(&self, t: &BodyCentredTables, x: usize, [i, j, k]: [usize; 3]) -> u32 {
         let [nx, ny, nz] = self.bx.dims;
         let (case, centre) = (x & 255, x >> 8 & 1);
-        let by = |a: usize| x >> (9 + a) & 1;
         let l = [i, j, k];
         let last = [nx - 2, ny - 2, nz - 2];
         let mut n = 0;
@@ -527,7 +523,7 @@ impl<V: SampleSlabs, X: Extractor> Passes<'_, V, X> {
             if boundary {
                 n += t.pyramids[f][centre | corners << 1].triangle_count as u32;
             } else if f % 2 == 0 {
-                n += t.octahedra[a][centre | by(a) << 1 | corners << 2].triangle_count as u32;
+                n += t.octahedra[a][BodyCentredTables::octahedron_pattern(x, a)].triangle_count as u32;
             }
         }
         n
@@ -911,7 +907,7 @@ impl<V: SampleSlabs, X: Extractor> Passes<'_, V, X> {
                     if boundary {
                         emit(SolidPrograms::pyramid(f, centre | corners << 1), i);
                     } else if f % 2 == 0 {
-                        emit(SolidPrograms::octahedron(a, centre | (x >> (9 + a) & 1) << 1 | corners << 2), i);
+                        emit(SolidPrograms::octahedron(a, BodyCentredTables::octahedron_pattern(x, a)), i);
                     }
                 }
             });
@@ -1098,12 +1094,8 @@ mod tests {
             }
         }
         for x in 0..INTERIOR {
-            let (case, centre) = (x & 255, x >> 8 & 1);
             let three: Vec<[u8; 3]> = (0..3)
-                .flat_map(|a| {
-                    let corners = t.face_case[2 * a][case] as usize;
-                    expanded(p, SolidPrograms::octahedron(a, centre | (x >> (9 + a) & 1) << 1 | corners << 2))
-                })
+                .flat_map(|a| expanded(p, SolidPrograms::octahedron(a, BodyCentredTables::octahedron_pattern(x, a))))
                 .collect();
             assert_eq!(expanded(p, SolidPrograms::interior(x)), three, "cell index {x}");
             assert_eq!(three.len(), t.interior[x] as usize, "cell index {x}");
