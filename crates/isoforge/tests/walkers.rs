@@ -279,6 +279,35 @@ fn issue_11_output_is_identical_for_every_thread_count() {
     }
 }
 
+/// Values beyond `f32`'s range (huge or tiny `f64` samples) give every method the mesh of the same
+/// field at an ordinary scale: crossings are taken from the samples where their `f32` offsets
+/// overflow or underflow, and a cell's offsets are scaled together (VTK's doubles give the same).
+#[test]
+fn extreme_sample_values_give_the_mesh_of_an_ordinary_scale() {
+    let base = noise(14);
+    let scaled = |e: i32| {
+        let s = 2f64.powi(e / 2) * 2f64.powi(e - e / 2);
+        AnyGrid::F64(DenseGrid::from_fn(base.lattice().clone(), |p| base.get(p) as f64 * s))
+    };
+    for method in Method::ALL {
+        let mesh = |g: &AnyGrid| {
+            let opts = Options { method, ..Default::default() };
+            pipeline::extract_grid(g, Iso::below(0.0), &opts, None).unwrap().mesh
+        };
+        let ordinary = mesh(&scaled(0));
+        assert!(!ordinary.is_empty(), "{}", method.name());
+        for e in [1000, -1000, -1060, 140, -140] {
+            let m = mesh(&scaled(e));
+            assert_eq!(m.triangles, ordinary.triangles, "{} at 2^{e}", method.name());
+            assert_eq!(m.quads, ordinary.quads, "{} at 2^{e}", method.name());
+            assert_eq!(m.positions.len(), ordinary.positions.len());
+            for (p, q) in m.positions.iter().zip(&ordinary.positions) {
+                assert!((0..3).all(|a| (p[a] - q[a]).abs() < 1e-5), "{} at 2^{e}: {p:?} vs {q:?}", method.name());
+            }
+        }
+    }
+}
+
 /// Records what each cell's Hermite data and placed/neighbour vertices are, to check them.
 struct Probe;
 

@@ -1,4 +1,4 @@
-use super::{linear_crossing, Iso, SampleSlabs, Volume};
+use super::{exact_crossing, linear_crossing, offsets_are_faithful, Iso, SampleSlabs, Volume};
 use crate::cube::EdgeKey;
 use crate::error::{Error, Result};
 use crate::grid::{BlockBounds, DenseGrid, Lattice, Sample};
@@ -124,6 +124,45 @@ pub fn point_gradient_at(lattice: &Lattice, p: [f64; 3], get: &impl Fn([u32; 3])
     Vec3::new(w[0] as f32, w[1] as f32, w[2] as f32)
 }
 
+/// The crossing on lattice edge `e` of a grid-backed volume whose samples `get` reads: linear in
+/// the offsets `d0`, `d1`, or in the samples' own unrounded offsets where the `f32` ones lost them
+/// (values beyond `f32`'s range or below its normal range). Every walker calls this through
+/// [`Volume::crossing`], so all agree bit for bit.
+#[inline(always)]
+pub fn grid_crossing(e: EdgeKey, d0: f32, d1: f32, iso: Iso, get: &impl Fn([u32; 3]) -> f64) -> f32 {
+    if offsets_are_faithful(d0, d1) {
+        linear_crossing(d0, d1)
+    } else {
+        samples_crossing(iso, [get(e.origin), get(e.end())])
+    }
+}
+
+/// The crossing between two samples from their unrounded offsets: the rare path of
+/// [`grid_crossing`] and [`grid_segment_crossing`], kept out of line so theirs stays small.
+#[cold]
+#[inline(never)]
+fn samples_crossing(iso: Iso, [s0, s1]: [f64; 2]) -> f32 {
+    exact_crossing(iso.exact_offset(s0), iso.exact_offset(s1))
+}
+
+/// [`grid_crossing`] for a segment `p0` → `p1` (index points: lattice points, cell centres), the
+/// unrounded values of its ends being the trilinear interpolant's.
+#[inline(always)]
+pub fn grid_segment_crossing(
+    dims: [u32; 3],
+    [p0, p1]: [[f64; 3]; 2],
+    d0: f32,
+    d1: f32,
+    iso: Iso,
+    get: &impl Fn([u32; 3]) -> f64,
+) -> f32 {
+    if offsets_are_faithful(d0, d1) {
+        linear_crossing(d0, d1)
+    } else {
+        samples_crossing(iso, [p0, p1].map(|p| trilinear_value(dims, p, get)))
+    }
+}
+
 impl<S: Sample> Volume for GridVolume<'_, S> {
     #[inline]
     fn lattice(&self) -> &Lattice {
@@ -153,8 +192,13 @@ impl<S: Sample> Volume for GridVolume<'_, S> {
     }
 
     #[inline]
-    fn crossing(&self, _e: EdgeKey, d0: f32, d1: f32, _iso: Iso) -> f32 {
-        linear_crossing(d0, d1)
+    fn crossing(&self, e: EdgeKey, d0: f32, d1: f32, iso: Iso) -> f32 {
+        grid_crossing(e, d0, d1, iso, &|p| self.at(p))
+    }
+
+    #[inline]
+    fn segment_crossing(&self, p0: [f64; 3], p1: [f64; 3], d0: f32, d1: f32, iso: Iso) -> f32 {
+        grid_segment_crossing(self.lattice.dims(), [p0, p1], d0, d1, iso, &|p| self.at(p))
     }
 
     fn gradient(&self, e: EdgeKey, t: f32) -> Vec3 {

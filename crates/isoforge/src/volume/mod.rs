@@ -21,7 +21,9 @@ mod tabulated;
 pub mod texture;
 
 pub use field::{central_difference, Field, FieldVisitor};
-pub use grid_volume::{edge_gradient, point_gradient, point_gradient_at, trilinear_value, GridVolume};
+pub use grid_volume::{
+    edge_gradient, grid_crossing, grid_segment_crossing, point_gradient, point_gradient_at, trilinear_value, GridVolume,
+};
 pub use oracle::{Bisection, Illinois, Linear, Oracle};
 pub use prefetch::Prefetch;
 pub use sampled::Sampled;
@@ -78,15 +80,34 @@ impl Iso {
     /// finite operands) and a negative difference too small for `f32` is kept negative.
     #[inline(always)]
     pub fn offset(&self, v: f64) -> f32 {
-        let d = match self.inside {
+        narrow(self.exact_offset(v))
+    }
+
+    /// The offsets of a cell's eight values: [`offset`](Iso::offset) of each, unless one lies
+    /// beyond `f32`'s normal range (a value too far from iso or too close to it for `f32`); then
+    /// all eight are first scaled by one power of two (exactly) that brings the largest near 1, so
+    /// that what extractors compute from their ratios (crossings, MC33's decisions) survives the
+    /// rounding to `f32`. The signs are [`offset`](Iso::offset)'s either way.
+    pub fn cell_offsets(&self, values: [f64; 8]) -> [f32; 8] {
+        let d = values.map(|v| self.exact_offset(v));
+        let normal = |x: f64| x == 0.0 || (f32::MIN_POSITIVE as f64..=f32::MAX as f64).contains(&x.abs());
+        if d.iter().all(|&x| normal(x)) {
+            return d.map(narrow);
+        }
+        let largest = d.iter().fold(0.0f64, |m, x| m.max(x.abs()));
+        // 2^-e in two factors, each within f64's range for any finite `largest`.
+        let e = largest.log2().floor() as i32;
+        let (a, b) = (-e / 2, -e - -e / 2);
+        d.map(|x| narrow(x * 2f64.powi(a) * 2f64.powi(b)))
+    }
+
+    /// The offset of [`offset`](Iso::offset) unrounded, in `f64`: exact for every sample type but
+    /// `f64` (rounded once there, with the exact sign).
+    #[inline]
+    pub fn exact_offset(&self, v: f64) -> f64 {
+        match self.inside {
             Inside::Below => v - self.value,
             Inside::Above => self.value - v,
-        };
-        let f = d as f32;
-        if d < 0.0 {
-            f.min(-f32::MIN_POSITIVE)
-        } else {
-            f
         }
     }
 
@@ -219,6 +240,18 @@ impl<V: Volume + ?Sized> Volume for &V {
     }
 }
 
+/// An offset rounded to `f32`, a negative one kept negative (at least `f32::MIN_POSITIVE` in
+/// magnitude): inside stays inside.
+#[inline(always)]
+fn narrow(d: f64) -> f32 {
+    let f = d as f32;
+    if d < 0.0 {
+        f.min(-f32::MIN_POSITIVE)
+    } else {
+        f
+    }
+}
+
 /// Linear interpolation parameter between two offset values of opposite class, clamped to [0, 1].
 #[inline]
 pub fn linear_crossing(d0: f32, d1: f32) -> f32 {
@@ -227,6 +260,34 @@ pub fn linear_crossing(d0: f32, d1: f32) -> f32 {
         0.5
     } else {
         t.clamp(0.0, 1.0)
+    }
+}
+
+/// Whether two `f32` offsets of opposite class give the crossing between them to `f32`
+/// precision: their span `|d0 − d1|` = `|d0| + |d1|` lies in [2^-100, 2^127). Below, both
+/// offsets are tiny, and rounding to `f32` (or [`Iso::offset`]'s clamp to `±f32::MIN_POSITIVE`,
+/// which keeps a sign) has changed their ratio; at or above, one is infinite or their difference
+/// overflows. A single offset rounded off next to an ordinary one moves the crossing by less than
+/// 2^-100 of the edge. One test per vertex, on a difference the crossing computes anyway.
+#[inline(always)]
+pub fn offsets_are_faithful(d0: f32, d1: f32) -> bool {
+    const LO: f32 = f32::from_bits((127 - 100) << 23); // 2^-100
+    const HI: f32 = f32::from_bits((127 + 127) << 23); // 2^127
+    let span = (d0 - d1).abs();
+    (LO..HI).contains(&span)
+}
+
+/// [`linear_crossing`] of the unrounded offsets ([`Iso::exact_offset`]) of two values, in `f64`:
+/// for samples whose `f32` offsets are not [faithful](offsets_are_faithful), as VTK interpolates
+/// in double. A difference past `f64`'s range is halved first.
+#[inline]
+pub fn exact_crossing(d0: f64, d1: f64) -> f32 {
+    let span = d0 - d1;
+    let t = if span.is_finite() { d0 / span } else { (d0 * 0.5) / (d0 * 0.5 - d1 * 0.5) };
+    if t.is_nan() {
+        0.5
+    } else {
+        t.clamp(0.0, 1.0) as f32
     }
 }
 
@@ -252,5 +313,41 @@ mod tests {
         assert_eq!(linear_crossing(-1.0, 1.0), 0.5);
         assert_eq!(linear_crossing(-1.0, 3.0), 0.25);
         assert_eq!(linear_crossing(-f32::INFINITY, f32::INFINITY), 0.5);
+    }
+
+    /// Offsets of values beyond `f32`'s range or below its normal range are not faithful, and the
+    /// exact crossing of their values is the true one; ordinary offsets are faithful.
+    #[test]
+    fn crossings_of_values_f32_cannot_hold_are_exact() {
+        let iso = Iso::below(0.0);
+        for (a, b, t) in [(-1e300, 3e300, 0.25), (-1e-300, 3e-300, 0.25), (-4e38, 1.0, 1.0), (-1e-38, 3e-38, 0.25)] {
+            let (d0, d1) = (iso.offset(a), iso.offset(b));
+            assert!(!offsets_are_faithful(d0, d1), "{a} {b}");
+            assert!((exact_crossing(iso.exact_offset(a), iso.exact_offset(b)) - t).abs() < 1e-6, "{a} {b}");
+        }
+        assert_eq!(exact_crossing(-f64::MAX, f64::MAX), 0.5);
+        // A cell's offsets keep their ratios when scaled, and equal `offset`'s in f32's range.
+        let cell = [-1.0, 3.0, 0.0, 2.0, -0.5, 1.0, 4.0, -2.0];
+        let plain = iso.cell_offsets(cell);
+        assert_eq!(plain, cell.map(|v| iso.offset(v)));
+        for scale in [996, -996, -1030, 130, -130].map(|e| 2f64.powi(e / 2) * 2f64.powi(e - e / 2)) {
+            let scaled = iso.cell_offsets(cell.map(|v| v * scale));
+            let ratio = scaled[1] / plain[1];
+            assert!(ratio.is_finite() && ratio > 0.0, "{scale}: {scaled:?}");
+            for (s, p) in scaled.iter().zip(plain) {
+                assert_eq!(*s, p * ratio, "{scale}: {scaled:?}");
+            }
+        }
+        assert_eq!(exact_crossing(-2.0, 0.0), 1.0, "a tie at the far end");
+        assert!(offsets_are_faithful(iso.offset(-1.0), iso.offset(3.0)));
+        assert!(offsets_are_faithful(-1.0e38, 1.0e-37));
+        assert!(offsets_are_faithful(-1.0, 0.0), "a tie next to an ordinary offset");
+        assert!(!offsets_are_faithful(-f32::MIN_POSITIVE, 1.0e-39), "a clamped offset and a subnormal");
+        assert!(!offsets_are_faithful(1.0, f32::INFINITY));
+        assert!(!offsets_are_faithful(f32::NEG_INFINITY, f32::INFINITY));
+        assert!(!offsets_are_faithful(3.2894996e38, -3.3813194e38), "their difference overflows f32");
+        let big = Iso::below(1e37);
+        let t = exact_crossing(big.exact_offset(3.2894996e38), big.exact_offset(-3.3813194e38));
+        assert!((t as f64 - (3.2894996e38 - 1e37) / (3.2894996e38 + 3.3813194e38)).abs() < 1e-6);
     }
 }

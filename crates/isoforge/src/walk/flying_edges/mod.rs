@@ -140,14 +140,15 @@ impl PointBox {
     }
 }
 
-/// The offset values of the eight corners of box-local cell `[i, j, k]`.
+/// The offset values of the eight corners of box-local cell `[i, j, k]` ([`Iso::cell_offsets`]:
+/// scaled together when one lies beyond `f32`'s range).
 #[inline]
 fn cell_values<V: SampleSlabs>(vol: &V, bx: &PointBox, iso: Iso, [i, j, k]: [usize; 3]) -> [f32; 8] {
     let z = bx.lo[2] + k as u32;
     let (s0, s1) = (vol.slab(z), vol.slab(z + 1));
     let (a, b) = (bx.in_slab(i, j), bx.in_slab(i, j + 1));
-    let v = |s: &[V::Sample], at: usize| iso.offset(s[at].to_f64());
-    [v(s0, a), v(s0, a + 1), v(s0, b), v(s0, b + 1), v(s1, a), v(s1, a + 1), v(s1, b), v(s1, b + 1)]
+    let v = |s: &[V::Sample], at: usize| s[at].to_f64();
+    iso.cell_offsets([v(s0, a), v(s0, a + 1), v(s0, b), v(s0, b + 1), v(s1, a), v(s1, a + 1), v(s1, b), v(s1, b + 1)])
 }
 
 /// What every pass of one walk shares.

@@ -66,8 +66,12 @@ impl<S: Sample> Volume for SlabRing<S> {
         }
     }
     #[inline]
-    fn crossing(&self, _e: EdgeKey, d0: f32, d1: f32, _iso: Iso) -> f32 {
-        crate::volume::linear_crossing(d0, d1)
+    fn crossing(&self, e: EdgeKey, d0: f32, d1: f32, iso: Iso) -> f32 {
+        crate::volume::grid_crossing(e, d0, d1, iso, &|p| self.get(p))
+    }
+    #[inline]
+    fn segment_crossing(&self, p0: [f64; 3], p1: [f64; 3], d0: f32, d1: f32, iso: Iso) -> f32 {
+        crate::volume::grid_segment_crossing(self.lattice.dims(), [p0, p1], d0, d1, iso, &|p| self.get(p))
     }
     fn gradient(&self, e: EdgeKey, t: f32) -> glam::Vec3 {
         crate::volume::edge_gradient(&self.lattice, e, t, &|p| self.get(p))
