@@ -125,9 +125,10 @@ pub fn point_gradient_at(lattice: &Lattice, p: [f64; 3], get: &impl Fn([u32; 3])
 }
 
 /// The crossing on lattice edge `e` of a grid-backed volume whose samples `get` reads: linear in
-/// the offsets `d0`, `d1`, or in the samples' own unrounded offsets where the `f32` ones lost them
-/// (values beyond `f32`'s range or below its normal range). Every walker calls this through
-/// [`Volume::crossing`], so all agree bit for bit.
+/// the offsets `d0`, `d1`, or in the samples' own unrounded offsets where the `f32` ones lost their
+/// ratio (not [faithful](super::offsets_are_faithful): values beyond `f32`'s range, or both too
+/// close to iso for it). Every walker calls this through [`Volume::crossing`], so all agree bit
+/// for bit.
 #[inline(always)]
 pub fn grid_crossing(e: EdgeKey, d0: f32, d1: f32, iso: Iso, get: &impl Fn([u32; 3]) -> f64) -> f32 {
     if offsets_are_faithful(d0, d1) {
