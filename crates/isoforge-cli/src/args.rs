@@ -389,6 +389,25 @@ impl InfoArgs {
     }
 }
 
+/// A usage error from the parser as one line, like every error isoforge raises itself: clap's
+/// message and tips without its usage block ("unexpected argument '--is' found; tip: a similar
+/// argument exists: '--iso'"). Lists (the missing required arguments) join with commas.
+pub fn usage_error_line(e: &clap::Error) -> String {
+    let text = e.render().to_string();
+    let mut parts: Vec<String> = Vec::new();
+    for paragraph in text.split("\n\n") {
+        let mut lines = paragraph.lines().map(str::trim).filter(|l| !l.is_empty());
+        let Some(first) = lines.next() else { continue };
+        if first.starts_with("Usage:") || first.starts_with("For more information") {
+            continue;
+        }
+        let rest: Vec<&str> = lines.collect();
+        let first = first.strip_prefix("error: ").unwrap_or(first);
+        parts.push(if rest.is_empty() { first.to_owned() } else { format!("{first} {}", rest.join(", ")) });
+    }
+    format!("{} (see --help)", parts.join("; "))
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;

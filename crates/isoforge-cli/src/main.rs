@@ -30,10 +30,19 @@ fn main() -> ExitCode {
     isoforge_io::install_signal_cleanup();
     let args = match Args::try_parse() {
         Ok(a) => a,
-        Err(e) => {
-            let code = if e.use_stderr() { 2 } else { 0 };
+        // A bare `isoforge`: the help, as an error.
+        Err(e) if e.kind() == clap::error::ErrorKind::DisplayHelpOnMissingArgumentOrSubcommand => {
             let _ = e.print();
-            return ExitCode::from(code);
+            return ExitCode::from(2);
+        }
+        Err(e) if e.use_stderr() => {
+            eprintln!("isoforge: error: {}", args::usage_error_line(&e));
+            return ExitCode::from(2);
+        }
+        // --help and --version.
+        Err(e) => {
+            let _ = e.print();
+            return ExitCode::SUCCESS;
         }
     };
     // `--threads` reaches the library as `Options::threads` (its own pool per extraction); it is

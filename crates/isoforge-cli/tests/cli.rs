@@ -167,6 +167,10 @@ fn bad_input_is_one_line_exit_2_and_no_output() {
         &dir.path().join("out.xyz"),
     );
     fails(&["check", p(&bad.join("ply_index_out_of_range.ply"))], "ply_index_out_of_range.ply: face 0", &out);
+    // The argument parser's own errors are one line too, tips kept.
+    fails(&["extract", "-i", "field:sphere", "--is", "3", "-o", o], "similar argument exists: '--iso'", &out);
+    fails(&["extract", "-i", "field:sphere"], "not provided: --output <OUTPUT>", &out);
+    fails(&["extract", "-i", "field:sphere", "--threads", "x", "-o", o], "invalid value 'x' for '--threads", &out);
     // Unwritable output: an error naming it, nothing left.
     fails(&["extract", "-i", "field:sphere", "-o", "/nonexistent-dir/out.ply"], "/nonexistent-dir/out.ply", &out);
 }

@@ -519,6 +519,11 @@ fn issue_10_nonsense_geometry_is_refused_naming_file_field_and_value() {
     spec.spacing = [1.0, f64::NAN, 1.0];
     let e = isoforge_io::read::raw::read_raw(&raw, &spec, &Limits::default()).unwrap_err().to_string();
     assert!(e.contains("spacing [1.0, NaN, 1.0]: the spacing of axis 1 is NaN"), "{e}");
+    // Too many points for any lattice (a streaming open, whose byte limit allows it): the error
+    // names the dims, not geometry the caller never gave.
+    let spec = isoforge_io::RawSpec::new([2_000_000; 3], isoforge::grid::DType::U8);
+    let e = isoforge_io::read::raw::open_raw(&raw, &spec, &Limits::new(u64::MAX)).err().unwrap().to_string();
+    assert!(e.contains("dims 2000000x2000000x2000000: lattice points") && !e.contains("spacing"), "{e}");
 }
 
 /// Issue 10 item 7: where a format documents a rule it is applied (and the module docs say so).

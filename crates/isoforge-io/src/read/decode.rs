@@ -97,7 +97,11 @@ pub(crate) fn lattice(
     origin: [f64; 3],
     direction: Option<[[f64; 3]; 3]>,
 ) -> Result<Lattice> {
-    let l = Lattice::with_geometry(dims, spacing, origin).map_err(|e| ctx.bad(format!("{fields}: {e}")))?;
+    let l = Lattice::with_geometry(dims, spacing, origin).map_err(|e| match e {
+        // The point count depends on the dims alone: name them, not the geometry fields.
+        e @ isoforge::Error::Limit { .. } => ctx.bad(format!("dims {}x{}x{}: {e}", dims[0], dims[1], dims[2])),
+        e => ctx.bad(format!("{fields}: {e}")),
+    })?;
     match direction {
         Some(d) => l.with_direction(d).map_err(|e| ctx.unsupported(format!("{fields}: {e}"))),
         None => Ok(l),
