@@ -5,7 +5,7 @@ use std::cell::OnceCell;
 use std::mem::MaybeUninit;
 use std::sync::atomic::{AtomicU64, Ordering};
 
-use super::bits::{cell_rows, for_each_bit, for_each_case, mark_active, Bits, RowMasks};
+use super::bits::{cell_rows, for_each_bit, for_each_case, mark_active, slot_bases, Bits, SegmentRun};
 use super::count::RowCount;
 use super::families::FAMILIES;
 use super::{cell_values, map_tasks, Passes};
@@ -351,12 +351,12 @@ impl<V: SampleSlabs, X: Extractor> Passes<'_, V, X> {
             return;
         }
         // Polygons of the cell rows of layer k.
-        let mut ranked = RowMasks::new(words);
         let mut active = vec![0u64; words];
         let mut state = FillState { t: 0, q: 0, plane_v: plane[0], next_placed: 0 };
         // Cells without a table entry, in walk order, each with its decision from the count pass
         // (rows skipped below for having no output left theirs out there too).
         let mut decided = decisions.iter();
+        let edges_only = self.walked.edges_only();
         for j in 0..ny - 1 {
             let r = k * ny + j;
             let c = table.count(r);
@@ -365,20 +365,21 @@ impl<V: SampleSlabs, X: Extractor> Passes<'_, V, X> {
             }
             let rows = cell_rows(bits, r, ny);
             mark_active(rows, nx - 1, &mut active);
-            ranked.load(bits, r, [j, k], bx.dims, &self.walked, table);
+            let mut run = SegmentRun::new(slot_bases(table, r, ny));
             state.next_placed = table.first_vertex(r) as u64 + c.before(FAMILIES) as u64;
             let parity = self.walked.parity0 + j + k;
             for_each_case(&rows, &active, |i, case| {
                 let l = [i, j, k];
                 let odd = (parity + i) % 2 == 1;
                 // Each crossed segment's id once per cell; triangles then only look them up.
-                let mut ids = [0u32; CELL_SEGMENTS];
-                let mut crossed = self.crossed[case as usize][odd as usize];
-                while crossed != 0 {
-                    let e = crossed.trailing_zeros() as u8;
-                    ids[e as usize] = ranked.id(e, i);
-                    crossed &= crossed - 1;
-                }
+                let crossed = self.crossed[case as usize][odd as usize];
+                let ids: [u32; CELL_SEGMENTS] = if edges_only {
+                    let mut ids = [0; CELL_SEGMENTS];
+                    ids[..12].copy_from_slice(&run.cell::<12>(crossed));
+                    ids
+                } else {
+                    run.cell(crossed)
+                };
                 if let Some(table) = self.x.case_triangles(case, odd) {
                     // The extractor's table: the cell's triangles without a `Cell`.
                     for t in table {
