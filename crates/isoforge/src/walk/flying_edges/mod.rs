@@ -12,8 +12,9 @@
 //!                   and quad; exact allocation
 //! PASS 4 fill       every slab in parallel writes its rows' vertices and its cells' polygons at
 //!                   those offsets, no locks; an edge's vertex id = its row's base + its rank in
-//!                   the row; the extractor sees each active cell through `Cell` (with its
-//!                   count-pass decision: `Extractor::process_decided`)
+//!                   the row, kept by one running counter per row slot over the active cells
+//!                   (`bits::SegmentRun`); the extractor sees each active cell through `Cell`
+//!                   (with its count-pass decision: `Extractor::process_decided`)
 //! ```
 //! Vertex order: rows in (k, j) order; within a row its x-edges by i, then y-edges, then z-edges,
 //! then the vertices its cells place. Crossings and normals come from the shared
