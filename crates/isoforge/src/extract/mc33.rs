@@ -106,6 +106,17 @@ impl Extractor for MarchingCubes33 {
         }
     }
 
+    /// A cell whose loops are all plain fans (no tunnel, no centroid): its skeleton's fans, what
+    /// `triangulate` makes for it.
+    #[inline]
+    fn decided_triangles(&self, Decision(code): Decision) -> Option<&[[u8; 3]]> {
+        if code >> SKELETON_BITS != 0 {
+            return None; // tunnels
+        }
+        let s = skeletons().table.get(code as usize)?;
+        (s.twice == 0).then(|| &s.fans[..s.disks.triangles as usize])
+    }
+
     fn process_decided<C: Cell>(&self, cell: &mut C, decision: Decision) {
         match self.case_triangles(cell.case(), false) {
             Some(_) => self.process(cell),
@@ -358,6 +369,9 @@ struct Skeleton {
     twice: u8,
     /// What the loops make when each spans a disk (no tunnel): a fan, or a centroid fan.
     disks: CellCounts,
+    /// When no loop crosses a face twice, those disks' triangles as edge triples (`disks`
+    /// counts them): each loop's fan from its first vertex, loop after loop.
+    fans: [[u8; 3]; 10],
     /// The patches of the inside class, then of the outside class, when a tunnel can join two.
     classes: [ClassPatches; 2],
 }
@@ -445,6 +459,7 @@ impl Skeleton {
             n_loops: 0,
             twice: 0,
             disks: CellCounts::default(),
+            fans: [[0; 3]; 10],
             classes: [ClassPatches::default(); 2],
         };
         let mut seen = [false; 12];
@@ -479,6 +494,18 @@ impl Skeleton {
             let c = t.disk_counts(l);
             t.disks.triangles += c.triangles;
             t.disks.placed += c.placed;
+        }
+        if t.twice == 0 {
+            // 12 edges make at most 10 fan triangles (one loop of 12).
+            let mut n = 0;
+            for l in 0..t.n_loops as usize {
+                let e = t.edges;
+                let e = &e[t.start[l] as usize..t.start[l + 1] as usize];
+                for i in 1..e.len() - 1 {
+                    t.fans[n] = [e[0], e[i + 1], e[i]];
+                    n += 1;
+                }
+            }
         }
         if t.n_loops < 2 {
             return t;
@@ -1040,7 +1067,7 @@ mod tests {
             seed ^= seed << 17;
             seed
         };
-        let mut easy = 0;
+        let (mut easy, mut fans) = (0, 0);
         for case in 0..=255u8 {
             for _ in 0..200 {
                 let d: [f32; 8] = std::array::from_fn(|c| {
@@ -1061,6 +1088,9 @@ mod tests {
                 let mut decided = ProbeCell::new([3, 4, 5], d);
                 MarchingCubes33.process_decided(&mut decided, decision);
                 assert_eq!((decided.counts, &decided.triangles), (general.counts, &general.triangles), "case {case}");
+                if MarchingCubes33.case_triangles(case, false).is_none() {
+                    fans += decided_table_agrees(decision, &general);
+                }
                 if let Some(t) = MarchingCubes33.case_triangles(case, false) {
                     assert_eq!(t, &general.triangles[..], "case {case} {d:?}");
                     assert_eq!(general.counts.placed, 0);
@@ -1070,6 +1100,20 @@ mod tests {
         }
         // 0 and 255 have nothing to tabulate; the ambiguous and two-patch cases go by values.
         assert_eq!(easy, 126, "easy cases");
+        assert!(fans > 10_000, "{fans} value-decided cells applied from their skeleton's fans");
+    }
+
+    /// Issue 11: the triangles `decided_triangles` gives for `decision` (the walker applies them
+    /// itself) are those `process_decided` made (`made`), and it gives them exactly when that
+    /// cell has no tunnel and places no vertex. Returns 1 when it gave them.
+    fn decided_table_agrees(decision: Decision, made: &ProbeCell) -> usize {
+        let plain = CellTopology::of_decision(decision).n_tubes == 0 && made.counts.placed == 0;
+        let table = MarchingCubes33.decided_triangles(decision);
+        assert_eq!(table.is_some(), plain, "{decision:?}");
+        if let Some(t) = table {
+            assert_eq!(t, &made.triangles[..], "{decision:?}");
+        }
+        usize::from(plain)
     }
 
     use super::*;
@@ -1079,7 +1123,7 @@ mod tests {
     #[test]
     fn issue_11_decided_cells_equal_processed_cells_on_integer_values() {
         let vals = [-3.0f32, -2.0, -1.0, 0.0, 1.0, 2.0, 3.0];
-        let (mut decided_cells, mut tubes) = (0, 0);
+        let (mut decided_cells, mut tubes, mut fans) = (0, 0, 0);
         // Every 11th code of 7⁸ (a stride prime to 7 gives every corner every value).
         for code in (0..7usize.pow(8)).step_by(11) {
             let mut c = code;
@@ -1099,6 +1143,7 @@ mod tests {
             MarchingCubes33.process_decided(&mut decided, decision);
             assert_eq!(counts, processed.counts, "{d:?}");
             assert_eq!((decided.counts, &decided.triangles), (processed.counts, &processed.triangles), "{d:?}");
+            fans += decided_table_agrees(decision, &processed);
             let t = CellTopology::of(&d);
             let back = CellTopology::of_decision(decision);
             assert_eq!((back.index, back.tubes, back.n_tubes), (t.index, t.tubes, t.n_tubes), "{d:?}");
@@ -1106,6 +1151,7 @@ mod tests {
             tubes += usize::from(t.n_tubes > 0);
         }
         assert!(decided_cells > 10_000 && tubes > 100, "{decided_cells} cells, {tubes} with a tube");
+        assert!(fans > 1_000, "{fans} cells applied from their skeleton's fans");
     }
 
     /// Issue 11: where [`interior_cannot_join`] skips the slice sweep, the sweep joins no two

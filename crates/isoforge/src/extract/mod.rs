@@ -130,6 +130,17 @@ pub trait Extractor {
         (CellCounts { triangles, ..Default::default() }, Decision::default())
     }
 
+    /// The triangles [`process_decided`](Extractor::process_decided) emits for a cell that
+    /// [`counts`](Extractor::counts) returned `decision` for, numbered as in
+    /// [`case_triangles`](Extractor::case_triangles), when the decision alone fixes them and the
+    /// cell places no vertex (MC33: every loop a plain fan). A walker may apply them itself;
+    /// `None` (the default): the cell goes through `process_decided`.
+    #[inline]
+    fn decided_triangles(&self, decision: Decision) -> Option<&[[u8; 3]]> {
+        let _ = decision;
+        None
+    }
+
     /// [`process`](Extractor::process) for a cell that [`counts`](Extractor::counts) returned
     /// `decision` for: must emit exactly what `process` emits, in the same order (walkers that
     /// do not count a cell call `process`; both give one mesh). The default calls `process`.

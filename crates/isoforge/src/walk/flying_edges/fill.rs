@@ -380,8 +380,19 @@ impl<V: SampleSlabs, X: Extractor> Passes<'_, V, X> {
                 } else {
                     run.cell(crossed)
                 };
-                if let Some(table) = self.x.case_triangles(case, odd) {
-                    // The extractor's table: the cell's triangles without a `Cell`.
+                // The extractor's table, by case or else by the count pass's decision: the cell's
+                // triangles without a `Cell`.
+                let mut decision = Decision::default();
+                let table = match self.x.case_triangles(case, odd) {
+                    Some(table) => Some(table),
+                    None => {
+                        let d = decided.next().copied();
+                        debug_assert!(d.is_some(), "fewer decisions than counted cells");
+                        decision = d.unwrap_or_default();
+                        self.x.decided_triangles(decision)
+                    }
+                };
+                if let Some(table) = table {
                     for t in table {
                         let (a, b, c) = (ids[t[0] as usize], ids[t[1] as usize], ids[t[2] as usize]);
                         out.set_triangle(state.t, if self.reverse { [a, c, b] } else { [a, b, c] });
@@ -401,9 +412,7 @@ impl<V: SampleSlabs, X: Extractor> Passes<'_, V, X> {
                     out,
                     state: &mut state,
                 };
-                let decision = decided.next().copied();
-                debug_assert!(decision.is_some(), "fewer decisions than counted cells");
-                self.x.process_decided(&mut cell, decision.unwrap_or_default());
+                self.x.process_decided(&mut cell, decision);
             });
             assert_eq!(
                 state.next_placed,
