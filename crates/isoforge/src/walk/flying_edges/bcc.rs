@@ -544,8 +544,8 @@ impl<V: SampleSlabs, X: Extractor> Passes<'_, V, X> {
         }
     }
 
-    /// PASS 2 for the rows of plane `k` into `out`.
-    pub(super) fn bcc_count_plane(&self, b: &Bcc<'_>, bits: &Bits, k: usize, out: &mut [BccRow]) {
+    /// PASS 2 for the rows of plane `k` into `out` (`zeroed`: as for `count_plane`).
+    pub(super) fn bcc_count_plane(&self, b: &Bcc<'_>, bits: &Bits, k: usize, out: &mut [BccRow], zeroed: bool) {
         let [nx, ny, nz] = self.bx.dims;
         let words = bits.words;
         let mut mask = vec![0u64; words];
@@ -564,15 +564,18 @@ impl<V: SampleSlabs, X: Extractor> Passes<'_, V, X> {
         let mut below = None;
         for (j, c) in out.iter_mut().enumerate() {
             let r = k * ny + j;
-            *c = BccRow::default();
             // A row whose cell row and the cell rows below it on y and z are uniform (all on one
             // side, so are their centres) crosses no segment and has no triangle.
             let here = uniform(r, [j, k]);
             let skip = here.is_some() && (j == 0 || below == here) && (k == 0 || uniform(r - ny, [j, k - 1]) == here);
             below = here;
             if skip {
+                if !zeroed {
+                    *c = BccRow::default();
+                }
                 continue;
             }
+            *c = BccRow::default();
             // Rows on the last y or z plane start edges only.
             let cell_row = j + 1 < ny && k + 1 < nz;
             if cell_row {
@@ -949,9 +952,9 @@ impl<V: SampleSlabs + Sync, X: Extractor + Sync> Passes<'_, V, X> {
             cells_inside: cell_stats.iter().map(|c| c[1]).sum(),
         };
         let b = Bcc { t, centres: &centres, active: &active, walk: walk_id() };
-        // PASS 2: count (every row's count is written: `bcc_count_plane` starts each from zero).
-        let mut counts = reuse_zeroed(&mut scratch.bcc_counts, ny * nz);
-        for_each_chunk(&mut counts, ny, |k, plane| self.bcc_count_plane(&b, bits, k, plane));
+        // PASS 2: count (every row's count is set: written from zero, or left zero when fresh).
+        let (mut counts, zeroed) = reuse_zeroed(&mut scratch.bcc_counts, ny * nz);
+        for_each_chunk(&mut counts, ny, |k, plane| self.bcc_count_plane(&b, bits, k, plane, zeroed));
         // PASS 3: prefix sums.
         let table = BccTable::prefix(counts, ny, std::mem::take(&mut scratch.first))?;
         // PASS 4: fill, one task per slab, each owning its slots of the exactly allocated output.
@@ -1005,7 +1008,7 @@ impl<X: Extractor + Sync> Ctx<'_, X> {
         add(self.on(ring).bcc_centres(bits, 0, &mut centres.data[..plane], &mut active.data[..plane]), out);
         {
             let b = Bcc { t, centres: &centres, active: &active, walk };
-            self.on(ring).bcc_count_plane(&b, bits, 0, &mut table.counts[..ny]);
+            self.on(ring).bcc_count_plane(&b, bits, 0, &mut table.counts[..ny], false);
         }
         let mut start = [0u64; 3];
         let mut batch = OwnedBatch::default();
@@ -1023,7 +1026,7 @@ impl<X: Extractor + Sync> Ctx<'_, X> {
                 );
                 add(cs, out);
                 let b = Bcc { t, centres: &centres, active: &active, walk };
-                self.on(ring).bcc_count_plane(&b, bits, k + 1, &mut table.counts[next..next + ny]);
+                self.on(ring).bcc_count_plane(&b, bits, k + 1, &mut table.counts[next..next + ny], false);
             } else {
                 table.counts[next..next + ny].fill(BccRow::default());
             }

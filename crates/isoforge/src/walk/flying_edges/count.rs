@@ -52,12 +52,15 @@ impl<V: SampleSlabs, X: Extractor> Passes<'_, V, X> {
     /// PASS 2 for the rows of point plane `k` (box-local) into `out`; returns the all-outside and
     /// all-inside cell counts of cell layer `k`. The decisions of the cells counted from their
     /// values go to `decisions`, in walk order, for the fill (`Extractor::process_decided`).
+    /// `zeroed`: `out` holds zeros no one has written ([`reuse_zeroed`](super::reuse_zeroed)'s
+    /// fresh pages); rows without crossings are then left alone (see there).
     pub(super) fn count_plane(
         &self,
         bits: &Bits,
         k: usize,
         out: &mut [RowCount],
         decisions: &mut Vec<Decision>,
+        zeroed: bool,
     ) -> [u64; 2] {
         decisions.clear();
         let bx = &self.bx;
@@ -67,15 +70,18 @@ impl<V: SampleSlabs, X: Extractor> Passes<'_, V, X> {
         let mut active = vec![0u64; bits.words];
         for (j, c) in out.iter_mut().enumerate() {
             let r = k * ny + j;
-            *c = RowCount::default();
             let cells_here = j + 1 < ny && k + 1 < nz;
             if let Some(class) = uniform_block(bits, r, [j, k], bx.dims) {
                 // No crossing in or out of this row and its cell row: only cell counts.
+                if !zeroed {
+                    *c = RowCount::default();
+                }
                 if cells_here {
                     cs[class as usize] += (nx - 1) as u64;
                 }
                 continue;
             }
+            *c = RowCount::default();
             let rows = if cells_here && self.walked.edges_only() {
                 // Axis edges only, and the row has all three: counts and active cells in one pass.
                 let rows = cell_rows(bits, r, ny);

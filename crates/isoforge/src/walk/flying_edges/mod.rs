@@ -229,7 +229,8 @@ fn walk_in_memory<V: SampleSlabs + Sync, X: Extractor + Sync>(
 /// thread between walks up to [`Scratch::KEEP_BYTES`]: a repeated extraction reuses them instead
 /// of having fresh pages faulted in and zeroed. No pass reads what it has not written in the same
 /// walk (classify writes every word of every bit row, the centre pass every centre and active
-/// word, count every row count, the prefix every sum), so they are never cleared.
+/// word, count every row count (or, in a newly allocated table, leaves the zeros of rows without
+/// crossings), the prefix every sum), so they are never cleared.
 #[derive(Default)]
 struct Scratch {
     bits: Vec<u64>,
@@ -283,17 +284,22 @@ fn reuse_words(kept: &mut Vec<u64>, n: usize) -> Vec<u64> {
     v
 }
 
-/// `n` records taken from a thread's `kept` buffer, with whatever they held. Newly allocated ones
-/// are zero pages straight from the allocator (calloc), first touched by the pass that writes
-/// them, on every thread, instead of faulted in and zeroed by one thread before it (`vec!` writes
-/// a struct's zeros element by element).
-fn reuse_zeroed<T: bytemuck::Zeroable + Copy>(kept: &mut Vec<T>, n: usize) -> Vec<T> {
+/// `n` records taken from a thread's `kept` buffer, with whatever they held, and whether they are
+/// newly allocated instead: zero pages straight from the allocator (calloc), first touched by the
+/// pass that writes them, on every thread, instead of faulted in and zeroed by one thread before
+/// it (`vec!` writes a struct's zeros element by element). The count passes then skip writing the
+/// zero counts of rows without crossings, so a sparse surface leaves most pages of its row table
+/// untouched: the prefix pass reads them as the kernel's shared zero page, which costs no fresh
+/// page (a fresh process's first extraction pays several microseconds per fresh page on this VM,
+/// BENCHMARKS §6.12).
+fn reuse_zeroed<T: bytemuck::Zeroable + Copy>(kept: &mut Vec<T>, n: usize) -> (Vec<T>, bool) {
     let mut v = std::mem::take(kept);
-    if v.capacity() < n {
+    let fresh = v.capacity() < n;
+    if fresh {
         v = bytemuck::zeroed_vec(n);
     }
     v.resize(n, T::zeroed());
-    v
+    (v, fresh)
 }
 
 impl<V: SampleSlabs + Sync, X: Extractor + Sync> Passes<'_, V, X> {
@@ -307,13 +313,13 @@ impl<V: SampleSlabs + Sync, X: Extractor + Sync> Passes<'_, V, X> {
     ) -> Result<WalkStats> {
         let [_, ny, nz] = self.bx.dims;
         let rows = ny * nz;
-        // PASS 2: count (every row's count is written: `count_plane` starts each from zero).
-        let mut counts = reuse_zeroed(&mut scratch.counts, rows);
+        // PASS 2: count (every row's count is set: written from zero, or left zero when fresh).
+        let (mut counts, zeroed) = reuse_zeroed(&mut scratch.counts, rows);
         // Per plane: all-outside and all-inside cells, and the decisions of cells counted from
         // their values (handed back to the extractor in the fill).
         let mut cell_stats = vec![([0u64; 2], Vec::new()); nz];
         for_each_chunk_with(&mut counts, ny, &mut cell_stats, |k, plane, (cs, decisions)| {
-            *cs = self.count_plane(bits, k, plane, decisions);
+            *cs = self.count_plane(bits, k, plane, decisions, zeroed);
         });
         let mut stats = WalkStats { cells: self.range.num_cells(), ..Default::default() };
         stats.cells_outside = cell_stats.iter().map(|c| c.0[0]).sum();
@@ -506,8 +512,9 @@ mod tests {
     }
 
     /// A walk reuses the scratch that earlier walks left on its thread (bit rows, row counts and
-    /// sums, mt-bcc's centre and active bits, of other sizes and contents, never cleared) and makes the very mesh a walk on a fresh
-    /// thread makes.
+    /// sums, mt-bcc's centre and active bits, of other sizes and contents, never cleared) and makes
+    /// the very mesh a walk on a fresh thread makes (whose new row tables keep the allocator's
+    /// zeros in rows without crossings, unwritten).
     #[test]
     fn scratch_left_by_earlier_walks_changes_nothing() {
         let big = ball([41, 38, 35], 15.0);

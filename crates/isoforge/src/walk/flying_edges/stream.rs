@@ -182,14 +182,15 @@ impl FlyingEdgesWalker<'_> {
                 let mut start = [0u64; 3];
                 // The count pass's decisions for slab k and for slab k + 1.
                 let (mut decisions, mut next_decisions) = (Vec::new(), Vec::new());
-                let cs = ctx.on(&ring).count_plane(&bits, 0, &mut rows.counts[..ny], &mut decisions);
+                let cs = ctx.on(&ring).count_plane(&bits, 0, &mut rows.counts[..ny], &mut decisions, false);
                 out.walk.cells_outside += cs[0];
                 out.walk.cells_inside += cs[1];
                 // The batch's buffers: handed to the sink, which may give others back (no copy).
                 let mut batch = OwnedBatch::default();
                 for k in 0..nz {
                     if k + 1 < nz {
-                        let cs = ctx.on(&ring).count_plane(&bits, k + 1, &mut rows.counts[ny..], &mut next_decisions);
+                        let cs =
+                            ctx.on(&ring).count_plane(&bits, k + 1, &mut rows.counts[ny..], &mut next_decisions, false);
                         out.walk.cells_outside += cs[0];
                         out.walk.cells_inside += cs[1];
                     } else {
