@@ -12,7 +12,7 @@ use isoforge::topo::{self, CheckOptions, Guarantee, MeshReport, StreamCheck};
 use isoforge::volume::catalog::{self, Builtin};
 use isoforge::volume::Iso;
 use isoforge_io::write::contour::ContourFrame;
-use isoforge_io::write::ply::PlyStream;
+use isoforge_io::write::MeshStream;
 use isoforge_io::{Limits, MeshFormat, VolumeReader};
 use serde_json::json;
 
@@ -104,14 +104,14 @@ fn streams(path: &Path) -> bool {
 }
 
 /// Whether `extract` streams a volume file that can stream (decode, walk and write overlapping, in
-/// O(nx·ny) memory) without `--max-memory`: when the streamed PLY is byte for byte the
-/// in-memory one, i.e. one iso into binary PLY with nothing that needs the whole grid or mesh
+/// O(nx·ny) memory) without `--max-memory`: when the streamed file is byte for byte the
+/// in-memory one, i.e. one iso into binary PLY, binary STL or OBJ with nothing that needs the whole grid or mesh
 /// (ROI, labels, mask, attributes, colours, `--require`'s full report) and no benchmarking flags
 /// (`--repeat`, `--time-json`: their seconds are the extraction's alone). Quads are written as
 /// quads on both paths.
 fn streams_by_default(c: &ExtractConfig) -> bool {
     let r = &c.request;
-    c.format == MeshFormat::Ply
+    MeshStream::streams(c.format)
         && r.isos.len() == 1
         && c.repeat == 1
         && c.time_json.is_none()
@@ -207,17 +207,17 @@ fn failed(report: &MeshReport, require: &[Guarantee]) -> Vec<&'static str> {
     require.iter().filter(|g| !report.holds(**g)).map(|g| g.name()).collect()
 }
 
-/// The streamed mesh goes to the PLY writer and, with `--require`, to the streaming checker,
+/// The streamed mesh goes to the file's writer and, with `--require`, to the streaming checker,
 /// whose memory (4 bytes per vertex and a window) must stay within `--max-memory`.
 struct Tee<'a, 'b> {
-    ply: &'a mut PlyStream<'b>,
+    out: &'a mut MeshStream<'b>,
     check: Option<&'a mut StreamCheck>,
     budget: u64,
 }
 
 impl MeshSink for Tee<'_, '_> {
     fn push(&mut self, batch: MeshBatch<'_>) -> Result<(), ExternalError> {
-        MeshSink::push(self.ply, batch)?;
+        MeshSink::push(self.out, batch)?;
         if let Some(c) = self.check.as_deref_mut() {
             // Quads are checked as two triangles each: the same edges on the surface, the same
             // components, Euler characteristic and genus.
@@ -237,8 +237,8 @@ impl MeshSink for Tee<'_, '_> {
     }
 }
 
-/// Out-of-core extraction: slab by slab from the file straight into a binary PLY, checked in the
-/// same pass when `--require` asks.
+/// Out-of-core extraction: slab by slab from the file straight into a binary PLY or STL or an OBJ, checked
+/// in the same pass when `--require` asks.
 fn extract_streaming(
     c: &ExtractConfig,
     mut reader: VolumeReader,
@@ -246,14 +246,16 @@ fn extract_streaming(
     name: &str,
     batch: isoforge_io::Batch,
 ) -> Result<Outcome> {
-    if c.format != MeshFormat::Ply {
-        bail!("{}: out-of-core extraction (--max-memory) writes binary PLY only", c.output.display());
-    }
     let normals = c.request.options.normals == Normals::Gradient;
-    let mut ply = PlyStream::create_in(&batch, &c.output, normals)?;
+    let Some(mut out) = MeshStream::create_in(&batch, &c.output, c.format, normals)? else {
+        bail!(
+            "{}: out-of-core extraction (--max-memory) writes binary PLY, binary STL or OBJ only",
+            c.output.display()
+        );
+    };
     let mut check = (!c.require.is_empty())
         .then(|| StreamCheck::new(&CheckOptions { max_examples: CheckOptions::default().max_examples, lattice: None }));
-    let mut sink = Tee { ply: &mut ply, check: check.as_mut(), budget: c.max_memory.unwrap_or(u64::MAX) };
+    let mut sink = Tee { out: &mut out, check: check.as_mut(), budget: c.max_memory.unwrap_or(u64::MAX) };
     let task = Task::start(format!("meshing {name} slab by slab"));
     let start = Instant::now();
     let stats = pipeline::extract_streamed(&mut reader, iso, &c.request.options, &mut sink, Some(&task))?;
@@ -267,7 +269,7 @@ fn extract_streaming(
         }
         bail!("{name}: {none}");
     }
-    ply.finish()?;
+    out.finish()?;
     if let Some(t) = &c.time_json {
         let body = json!({
             "seconds": seconds,

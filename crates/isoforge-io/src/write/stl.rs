@@ -1,44 +1,97 @@
-//! Binary STL writer (facet normals from the triangle's winding). STL holds triangles only: a
-//! mesh's quads are written split along their shorter diagonal ([`Mesh::all_triangles`]).
+//! Binary STL writer (facet normals from the triangle's winding), in memory or as the mesh is
+//! produced ([`StlStream`]). STL holds triangles only: a mesh's quads are written split along
+//! their shorter diagonal ([`Mesh::all_triangles`]), after its triangles.
 
-use std::io::{self, Write};
+use std::io::{self, Seek, SeekFrom, Write};
+use std::path::{Path, PathBuf};
 
-use isoforge::mesh::Mesh;
+use isoforge::mesh::{Mesh, MeshBatch};
 
-/// A triangle's unit normal from its winding (zero when degenerate) and its corners.
-fn facet(mesh: &Mesh, t: [u32; 3]) -> ([f32; 3], [[f32; 3]; 3]) {
-    let [a, b, c] = t.map(|v| mesh.positions[v as usize]);
+use crate::atomic::TempFile;
+use crate::error::{Error, Result};
+use crate::Batch;
+
+/// Bytes of one binary facet: normal, three corners (12 little-endian floats), attribute count.
+const FACET: usize = 50;
+
+/// Facets packed per write: 1.6 MB, above the buffered writer's capacity, so the packed bytes go
+/// straight to the file instead of being copied once more.
+const FACETS_PER_WRITE: usize = 1 << 15;
+
+/// The unit normal of triangle `a b c` from its winding (zero when degenerate).
+fn facet_normal([a, b, c]: [[f32; 3]; 3]) -> [f32; 3] {
     let u = [b[0] - a[0], b[1] - a[1], b[2] - a[2]];
     let v = [c[0] - a[0], c[1] - a[1], c[2] - a[2]];
     let n = [u[1] * v[2] - u[2] * v[1], u[2] * v[0] - u[0] * v[2], u[0] * v[1] - u[1] * v[0]];
     let len = (n[0] * n[0] + n[1] * n[1] + n[2] * n[2]).sqrt();
-    (if len > 0.0 { n.map(|x| x / len) } else { n }, [a, b, c])
+    if len > 0.0 {
+        n.map(|x| x / len)
+    } else {
+        n
+    }
+}
+
+/// The 80-byte header and the facet count.
+fn header(facets: u64) -> io::Result<[u8; 84]> {
+    let n = u32::try_from(facets).map_err(|_| io::Error::other("more triangles than binary STL can count"))?;
+    let mut h = [0u8; 84];
+    let tag = format!("isoforge {} binary STL", env!("CARGO_PKG_VERSION"));
+    h[..tag.len()].copy_from_slice(tag.as_bytes());
+    h[80..].copy_from_slice(&n.to_le_bytes());
+    Ok(h)
+}
+
+/// A triangle whose corner `v` is not among the positions `corner` can look up.
+fn missing_vertex(v: u32) -> io::Error {
+    io::Error::other(format!("a triangle refers to vertex {v}, which the mesh does not hold here"))
+}
+
+/// Appends the facets of `triangles` to `buf`, corners from `corner` (fixed-size records written
+/// in place).
+fn pack_facets(buf: &mut Vec<u8>, triangles: &[[u32; 3]], corner: impl Fn(u32) -> Option<[f32; 3]>) -> io::Result<()> {
+    let at = buf.len();
+    buf.resize(at + triangles.len() * FACET, 0);
+    for (r, t) in buf[at..].chunks_exact_mut(FACET).zip(triangles) {
+        let p = [corner(t[0]), corner(t[1]), corner(t[2])];
+        let [Some(a), Some(b), Some(c)] = p else {
+            let bad = t.iter().zip(p).find(|(_, p)| p.is_none()).map_or(t[0], |(v, _)| *v);
+            return Err(missing_vertex(bad));
+        };
+        let floats = [facet_normal([a, b, c]), a, b, c];
+        for (f, x) in r[..48].chunks_exact_mut(4).zip(floats.as_flattened()) {
+            f.copy_from_slice(&x.to_le_bytes());
+        }
+        r[48..].fill(0);
+    }
+    Ok(())
+}
+
+/// Writes the facets of `triangles` in pieces of [`FACETS_PER_WRITE`], packed through `buf`.
+fn write_facets(
+    w: &mut dyn Write,
+    triangles: &[[u32; 3]],
+    corner: impl Fn(u32) -> Option<[f32; 3]> + Copy,
+    buf: &mut Vec<u8>,
+) -> io::Result<()> {
+    for chunk in triangles.chunks(FACETS_PER_WRITE) {
+        buf.clear();
+        pack_facets(buf, chunk, corner)?;
+        w.write_all(buf)?;
+    }
+    Ok(())
 }
 
 /// Writes `mesh` as binary STL.
 pub fn write_stl(w: &mut dyn Write, mesh: &Mesh) -> io::Result<()> {
-    let n = u32::try_from(mesh.num_split_triangles())
-        .map_err(|_| io::Error::other("more triangles than binary STL can count"))?;
-    let mut header = [0u8; 80];
-    let tag = format!("isoforge {} binary STL", env!("CARGO_PKG_VERSION"));
-    header[..tag.len()].copy_from_slice(tag.as_bytes());
-    w.write_all(&header)?;
-    w.write_all(&n.to_le_bytes())?;
-    let mut buf = Vec::with_capacity(50 * 1024);
-    for t in mesh.all_triangles() {
-        let (nrm, [a, b, c]) = facet(mesh, t);
-        for p in [nrm, a, b, c] {
-            for x in p {
-                buf.extend_from_slice(&x.to_le_bytes());
-            }
-        }
-        buf.extend_from_slice(&[0, 0]);
-        if buf.len() >= 50 * 1000 {
-            w.write_all(&buf)?;
-            buf.clear();
-        }
+    w.write_all(&header(mesh.num_split_triangles() as u64)?)?;
+    let corner = |v: u32| mesh.positions.get(v as usize).copied();
+    let mut buf = Vec::with_capacity(FACET * FACETS_PER_WRITE);
+    write_facets(w, &mesh.triangles, corner, &mut buf)?;
+    for quads in mesh.quads.chunks(FACETS_PER_WRITE / 2) {
+        let split: Vec<[u32; 3]> = quads.iter().flat_map(|&q| mesh.split_quad(q)).collect();
+        write_facets(w, &split, corner, &mut buf)?;
     }
-    w.write_all(&buf)
+    Ok(())
 }
 
 /// Writes `mesh` as ASCII STL (`solid … endsolid`), facet normals from the winding.
@@ -46,13 +99,162 @@ pub fn write_stl_ascii(w: &mut dyn Write, mesh: &Mesh) -> io::Result<()> {
     writeln!(w, "solid isoforge")?;
     let mut out = io::BufWriter::with_capacity(1 << 16, w);
     for t in mesh.all_triangles() {
-        let (n, [a, b, c]) = facet(mesh, t);
+        let p = t.map(|v| mesh.positions[v as usize]);
+        let n = facet_normal(p);
         writeln!(out, "  facet normal {} {} {}\n    outer loop", n[0], n[1], n[2])?;
-        for p in [a, b, c] {
-            writeln!(out, "      vertex {} {} {}", p[0], p[1], p[2])?;
+        for q in p {
+            writeln!(out, "      vertex {} {} {}", q[0], q[1], q[2])?;
         }
         writeln!(out, "    endloop\n  endfacet")?;
     }
     writeln!(out, "endsolid isoforge")?;
     out.flush()
+}
+
+/// A binary STL written as the mesh is produced ([`isoforge::mesh::MeshSink`]), in memory
+/// bounded by a few batches: the positions of the batches its polygons may still refer to (the
+/// one before, their own and the next, as the sink's contract allows), and their polygons until
+/// the next batch arrives. Triangles go straight into the output's temporary file, quads' halves
+/// into a scratch file appended at the end, and the count is patched into the header last; the
+/// bytes are exactly [`write_stl`]'s for the same mesh. Nothing appears at the path before the
+/// batch commits; a stream dropped unfinished leaves nothing.
+pub struct StlStream<'a> {
+    batch: &'a Batch,
+    path: PathBuf,
+    main: Option<TempFile>,
+    /// Facets of split quads (created at the first quad).
+    quads: Option<io::BufWriter<TempFile>>,
+    /// Positions of vertices `base..`.
+    window: Vec<[f32; 3]>,
+    base: u64,
+    /// First vertex of the batch before the last one pushed, and of the last one.
+    starts: [u64; 2],
+    /// The last batch's polygons, written when the next batch (whose vertices they may use)
+    /// arrives.
+    pending_triangles: Vec<[u32; 3]>,
+    pending_quads: Vec<[u32; 4]>,
+    /// Reused packing buffers.
+    buf: Vec<u8>,
+    split: Vec<[u32; 3]>,
+    vertices: u64,
+    facets: u64,
+}
+
+impl<'a> StlStream<'a> {
+    /// Starts writing `path` as an output of `batch` (reserved there first if needed); the
+    /// batch's commit moves it into place.
+    ///
+    /// # Errors
+    /// As [`Batch::reserve`].
+    pub fn create_in(batch: &'a Batch, path: &Path) -> Result<Self> {
+        let io_err = |source| Error::Io { path: path.to_path_buf(), source };
+        let mut main = batch.take(path)?;
+        main.reset().and_then(|()| main.write_all(&header(0)?)).map_err(io_err)?;
+        Ok(StlStream {
+            batch,
+            path: path.to_path_buf(),
+            main: Some(main),
+            quads: None,
+            window: Vec::new(),
+            base: 0,
+            starts: [0; 2],
+            pending_triangles: Vec::new(),
+            pending_quads: Vec::new(),
+            buf: Vec::new(),
+            split: Vec::new(),
+            vertices: 0,
+            facets: 0,
+        })
+    }
+
+    /// Appends a batch's vertices and polygons (written once the next batch or
+    /// [`finish`](StlStream::finish) comes).
+    ///
+    /// # Errors
+    /// Writing fails, a polygon of the previous batch refers to a vertex beyond this one, or
+    /// the facets outgrow binary STL's 32-bit count.
+    pub fn push(&mut self, batch: MeshBatch<'_>) -> io::Result<()> {
+        if self.main.is_none() {
+            return Err(io::Error::other("the stream is finished"));
+        }
+        self.window.extend_from_slice(batch.positions);
+        self.starts = [self.starts[1], self.vertices];
+        self.vertices += batch.positions.len() as u64;
+        self.write_pending()?;
+        // The next batch's polygons may use this batch's vertices and the one's before.
+        let keep = self.starts[0];
+        self.window.drain(..(keep - self.base) as usize);
+        self.base = keep;
+        self.pending_triangles.extend_from_slice(batch.triangles);
+        self.pending_quads.extend_from_slice(batch.quads);
+        self.facets += (batch.triangles.len() + 2 * batch.quads.len()) as u64;
+        header(self.facets).map(|_| ())
+    }
+
+    /// Writes the pending polygons' facets: triangles into the output, quads' halves aside.
+    fn write_pending(&mut self) -> io::Result<()> {
+        let (window, base) = (&self.window, self.base);
+        let corner = |v: u32| window.get(usize::try_from((v as u64).checked_sub(base)?).ok()?).copied();
+        let main = self.main.as_mut().ok_or_else(|| io::Error::other("the stream is finished"))?;
+        write_facets(main, &self.pending_triangles, corner, &mut self.buf)?;
+        self.pending_triangles.clear();
+        if !self.pending_quads.is_empty() {
+            self.split.clear();
+            for &q in &self.pending_quads {
+                let p = q.map(corner);
+                let [Some(a), Some(b), Some(c), Some(d)] = p else {
+                    let bad = q.iter().zip(p).find(|(_, p)| p.is_none()).map_or(q[0], |(v, _)| *v);
+                    return Err(missing_vertex(bad));
+                };
+                self.split.extend(isoforge::mesh::split_quad(q, [a, b, c, d]));
+            }
+            self.pending_quads.clear();
+            let quads = match &mut self.quads {
+                Some(q) => q,
+                None => self.quads.insert(io::BufWriter::with_capacity(1 << 20, TempFile::create(&self.path)?)),
+            };
+            write_facets(quads, &self.split, corner, &mut self.buf)?;
+        }
+        Ok(())
+    }
+
+    /// Writes the last polygons, appends the quads' facets and patches the count into the
+    /// header; then hands the file back to its batch. Returns the vertex and facet counts.
+    ///
+    /// # Errors
+    /// [`Error::Io`] naming the path when writing fails (nothing is left behind).
+    pub fn finish(mut self) -> Result<(u64, u64)> {
+        let path = self.path.clone();
+        let io_err = |source| Error::Io { path: path.clone(), source };
+        let written = (|| {
+            self.write_pending()?;
+            let mut main = self.main.take().ok_or_else(|| io::Error::other("the stream is finished"))?;
+            let result = (|| {
+                let end = main.file_mut().stream_position()?;
+                let mut len = 0;
+                if let Some(q) = self.quads.take() {
+                    let mut q = q.into_inner().map_err(|e| e.into_error())?;
+                    len = q.file_mut().metadata()?.len();
+                    super::copy::copy_at(q.file_mut(), 0, main.file_mut(), end, len)?;
+                }
+                main.file_mut().seek(SeekFrom::Start(0))?;
+                main.write_all(&header(self.facets)?)?;
+                main.file_mut().seek(SeekFrom::Start(end + len))?;
+                Ok(())
+            })();
+            self.batch.put(&path, main);
+            result
+        })();
+        written.map_err(io_err)?;
+        Ok((self.vertices, self.facets))
+    }
+}
+
+impl isoforge::mesh::MeshSink for StlStream<'_> {
+    fn push(&mut self, batch: MeshBatch<'_>) -> Result<(), isoforge::mesh::ExternalError> {
+        StlStream::push(self, batch).map_err(|e| {
+            let msg = format!("{}: {}", self.path.display(), crate::error::os_reason(&e));
+            msg.into()
+        })
+    }
 }

@@ -89,16 +89,8 @@ impl Mesh {
     /// Quad `[a, b, c, d]` as two triangles split along its shorter diagonal (ac on a tie), wound
     /// as the quad: what [`triangulate`](Mesh::triangulate) makes of it.
     #[inline]
-    pub fn split_quad(&self, [a, b, c, d]: [u32; 4]) -> [[u32; 3]; 2] {
-        let len2 = |u: u32, v: u32| {
-            let (p, q) = (self.positions[u as usize], self.positions[v as usize]);
-            (0..3).map(|i| ((p[i] - q[i]) as f64).powi(2)).sum::<f64>()
-        };
-        if len2(b, d) < len2(a, c) {
-            [[a, b, d], [b, c, d]]
-        } else {
-            [[a, b, c], [a, c, d]]
-        }
+    pub fn split_quad(&self, q: [u32; 4]) -> [[u32; 3]; 2] {
+        split_quad(q, q.map(|v| self.positions[v as usize]))
     }
 
     /// Every triangle the mesh stands for: its triangles, then its quads split as
@@ -167,6 +159,19 @@ impl Mesh {
             .collect();
         out.sort_unstable();
         out
+    }
+}
+
+/// Quad `[a, b, c, d]` with corner positions `p` as two triangles split along its shorter
+/// diagonal (ac on a tie), wound as the quad: [`Mesh::split_quad`], for writers that hold the
+/// positions elsewhere (a stream's window).
+#[inline]
+pub fn split_quad([a, b, c, d]: [u32; 4], p: [[f32; 3]; 4]) -> [[u32; 3]; 2] {
+    let len2 = |u: usize, v: usize| (0..3).map(|i| ((p[u][i] - p[v][i]) as f64).powi(2)).sum::<f64>();
+    if len2(1, 3) < len2(0, 2) {
+        [[a, b, d], [b, c, d]]
+    } else {
+        [[a, b, c], [a, c, d]]
     }
 }
 
