@@ -2,7 +2,8 @@
 """VTK's file-to-file pipeline, the peer of `isoforge extract CT.nrrd --iso V -o out.ply`.
 
 vtkNrrdReader -> vtkFlyingEdges3D (iso V; normals, gradients and scalars off) -> vtkPLYWriter
-(binary), with vtkSMPTools' STDThread backend at --threads N. One run per process (end_to_end.py
+(binary; vtkSTLWriter (binary) for an .stl output, vtkOBJWriter for .obj), with vtkSMPTools'
+STDThread backend at --threads N. One run per process (end_to_end.py
 starts a fresh process for every repetition). Prints one JSON line on stdout: the stage times
 (read, extract, write, seconds from process start to the end of the write), points and triangles.
 
@@ -54,12 +55,21 @@ def main():
     mesh = fe.GetOutput()
     t_extract = time.perf_counter()
 
-    w = vtkPLYWriter()
+    ext = a.output.rsplit(".", 1)[-1].lower()
+    if ext == "stl":
+        from vtkmodules.vtkIOGeometry import vtkSTLWriter
+        w = vtkSTLWriter()
+        w.SetFileTypeToBinary()
+    elif ext == "obj":
+        from vtkmodules.vtkIOGeometry import vtkOBJWriter
+        w = vtkOBJWriter()
+    else:
+        w = vtkPLYWriter()
+        w.SetFileTypeToBinary()
     w.SetInputData(mesh)
     w.SetFileName(a.output)
-    w.SetFileTypeToBinary()
     if w.Write() != 1:
-        sys.exit(f"{a.output}: vtkPLYWriter failed")
+        sys.exit(f"{a.output}: {w.GetClassName()} failed")
     t_write = time.perf_counter()
 
     print(json.dumps({
