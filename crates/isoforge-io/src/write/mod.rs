@@ -12,6 +12,7 @@ pub mod off;
 pub mod ply;
 #[cfg(feature = "stl")]
 pub mod stl;
+mod text;
 #[cfg(all(feature = "nrrd", feature = "nifti"))]
 pub mod volume;
 

@@ -6,19 +6,13 @@ use std::io::{self, Write};
 use std::path::{Path, PathBuf};
 
 use isoforge::mesh::{Mesh, MeshBatch};
-use rayon::prelude::*;
 
 use super::copy::copy_span;
+use super::text::{write_lines, LINES_PER_PIECE, PIECES_PER_WINDOW};
 use crate::atomic::TempFile;
 use crate::attributes::MeshData;
 use crate::error::{Error, Result};
 use crate::Batch;
-
-/// Lines formatted per piece (pieces of one window are formatted in parallel, then written in
-/// order).
-const LINES_PER_PIECE: usize = 1 << 14;
-/// Pieces formatted at once: bounds the memory of the formatted text (a few MB).
-const PIECES_PER_WINDOW: usize = 8;
 
 /// The first line.
 fn header() -> String {
@@ -56,30 +50,6 @@ fn face_lines<const N: usize>(buf: &mut Vec<u8>, faces: &[[u32; N]], base_v: u64
         }
         buf.push(b'\n');
     }
-}
-
-/// Writes the lines `format` makes of `items`, formatted in parallel pieces and written in order.
-fn write_lines<T: Sync>(
-    w: &mut dyn Write,
-    items: &[T],
-    format: impl Fn(&mut Vec<u8>, &[T], usize) + Sync,
-) -> io::Result<()> {
-    for (window, chunk) in items.chunks(LINES_PER_PIECE * PIECES_PER_WINDOW).enumerate() {
-        let start = window * LINES_PER_PIECE * PIECES_PER_WINDOW;
-        let pieces: Vec<Vec<u8>> = chunk
-            .par_chunks(LINES_PER_PIECE)
-            .enumerate()
-            .map(|(i, piece)| {
-                let mut buf = Vec::with_capacity(piece.len() * 32);
-                format(&mut buf, piece, start + i * LINES_PER_PIECE);
-                buf
-            })
-            .collect();
-        for p in pieces {
-            w.write_all(&p)?;
-        }
-    }
-    Ok(())
 }
 
 /// Writes `mesh` as OBJ.

@@ -4,6 +4,7 @@ use std::io::{self, Write};
 
 use isoforge::mesh::Mesh;
 
+use super::text::write_lines;
 use crate::attributes::MeshData;
 
 /// Writes `mesh` as OFF.
@@ -18,17 +19,32 @@ pub fn write_off_with(w: &mut dyn Write, mesh: &Mesh, data: &MeshData) -> io::Re
     }
     let tag = if data.colors.is_some() { "COFF" } else { "OFF" };
     writeln!(w, "{tag}\n{} {} 0", mesh.positions.len(), mesh.triangles.len() + mesh.quads.len())?;
-    for (i, p) in mesh.positions.iter().enumerate() {
-        match &data.colors {
-            Some(c) => writeln!(w, "{} {} {} {} {} {} 255", p[0], p[1], p[2], c[i][0], c[i][1], c[i][2])?,
-            None => writeln!(w, "{} {} {}", p[0], p[1], p[2])?,
+    // Lines into a Vec cannot fail.
+    let colors = data.colors.as_deref();
+    write_lines(w, &mesh.positions, |buf, ps, at| {
+        for (i, p) in ps.iter().enumerate() {
+            let _ = match colors {
+                Some(c) => {
+                    let c = c[at + i];
+                    writeln!(buf, "{} {} {} {} {} {} 255", p[0], p[1], p[2], c[0], c[1], c[2])
+                }
+                None => writeln!(buf, "{} {} {}", p[0], p[1], p[2]),
+            };
         }
+    })?;
+    write_lines(w, &mesh.triangles, |buf, ts, _| face_lines(buf, ts))?;
+    write_lines(w, &mesh.quads, |buf, qs, _| face_lines(buf, qs))
+}
+
+/// Appends `N i j k …` lines (0-based indices).
+fn face_lines<const N: usize>(buf: &mut Vec<u8>, faces: &[[u32; N]]) {
+    let mut num = itoa::Buffer::new();
+    for f in faces {
+        buf.extend_from_slice(num.format(N).as_bytes());
+        for &v in f {
+            buf.push(b' ');
+            buf.extend_from_slice(num.format(v).as_bytes());
+        }
+        buf.push(b'\n');
     }
-    for t in &mesh.triangles {
-        writeln!(w, "3 {} {} {}", t[0], t[1], t[2])?;
-    }
-    for q in &mesh.quads {
-        writeln!(w, "4 {} {} {} {}", q[0], q[1], q[2], q[3])?;
-    }
-    Ok(())
 }

@@ -6,6 +6,7 @@ use std::path::{Path, PathBuf};
 use isoforge::mesh::Mesh;
 
 use super::copy::copy_span;
+use super::text::write_lines;
 use crate::atomic::TempFile;
 use crate::attributes::MeshData;
 use crate::error::{Error, Result};
@@ -118,30 +119,37 @@ pub fn write_ply_with(w: &mut dyn Write, mesh: &Mesh, data: &MeshData, ascii: bo
     let faces = mesh.triangles.len() + mesh.quads.len();
     w.write_all(header(mesh.positions.len(), faces, normals, data, ascii).as_bytes())?;
     if ascii {
-        for (i, p) in mesh.positions.iter().enumerate() {
-            write!(w, "{} {} {}", p[0], p[1], p[2])?;
-            if normals {
-                let n = mesh.normals[i];
-                write!(w, " {} {} {}", n[0], n[1], n[2])?;
+        // Lines into a Vec cannot fail.
+        write_lines(w, &mesh.positions, |buf, ps, at| {
+            for (j, p) in ps.iter().enumerate() {
+                let i = at + j;
+                let _ = write!(buf, "{} {} {}", p[0], p[1], p[2]);
+                if normals {
+                    let n = mesh.normals[i];
+                    let _ = write!(buf, " {} {} {}", n[0], n[1], n[2]);
+                }
+                if let Some(c) = &data.colors {
+                    let _ = write!(buf, " {} {} {}", c[i][0], c[i][1], c[i][2]);
+                }
+                for (_, v) in &data.scalars {
+                    let _ = write!(buf, " {}", v[i]);
+                }
+                buf.push(b'\n');
             }
-            if let Some(c) = &data.colors {
-                write!(w, " {} {} {}", c[i][0], c[i][1], c[i][2])?;
+        })?;
+        write_lines(w, &mesh.triangles, |buf, ts, at| {
+            for (j, t) in ts.iter().enumerate() {
+                let _ = match &data.triangle_labels {
+                    Some(l) => writeln!(buf, "3 {} {} {} {}", t[0], t[1], t[2], l[at + j]),
+                    None => writeln!(buf, "3 {} {} {}", t[0], t[1], t[2]),
+                };
             }
-            for (_, v) in &data.scalars {
-                write!(w, " {}", v[i])?;
+        })?;
+        return write_lines(w, &mesh.quads, |buf, qs, _| {
+            for q in qs {
+                let _ = writeln!(buf, "4 {} {} {} {}", q[0], q[1], q[2], q[3]);
             }
-            w.write_all(b"\n")?;
-        }
-        for (k, t) in mesh.triangles.iter().enumerate() {
-            match &data.triangle_labels {
-                Some(l) => writeln!(w, "3 {} {} {} {}", t[0], t[1], t[2], l[k])?,
-                None => writeln!(w, "3 {} {} {}", t[0], t[1], t[2])?,
-            }
-        }
-        for q in &mesh.quads {
-            writeln!(w, "4 {} {} {} {}", q[0], q[1], q[2], q[3])?;
-        }
-        return Ok(());
+        });
     }
     let mut buf = Vec::with_capacity(1 << 16);
     if data.colors.is_none() && data.scalars.is_empty() {
