@@ -272,9 +272,11 @@ impl Batch {
             MeshFormat::StlAscii => self.write(path, |w| write::stl::write_stl_ascii(w, mesh)),
             #[cfg(feature = "off")]
             MeshFormat::Off => self.write(path, |w| write::off::write_off_with(w, mesh, data)),
-            MeshFormat::Glb | MeshFormat::Gltf => {
-                self.write_gltf(path, &[NamedMesh { name: "isosurface", mesh, data }], format == MeshFormat::Glb)
-            }
+            MeshFormat::Glb | MeshFormat::Gltf => self.write_gltf(
+                path,
+                &[NamedMesh { name: write::gltf::SINGLE_MESH, mesh, data }],
+                format == MeshFormat::Glb,
+            ),
             #[allow(unreachable_patterns)]
             f => Err(Error::Unsupported {
                 path: path.to_path_buf(),

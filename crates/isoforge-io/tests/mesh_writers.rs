@@ -3,12 +3,13 @@
 //! ones they always were.
 
 use isoforge::grid::{AnyGrid, DenseGrid, Lattice};
-use isoforge::mesh::{Mesh, MeshBatch};
+use isoforge::mesh::{Mesh, MeshBatch, MeshSink};
 use isoforge::pipeline::{self, Method, Options};
 use isoforge::volume::Iso;
 use isoforge_io::write::obj::{write_obj, ObjStream};
 use isoforge_io::write::ply::{write_ply, PlyStream};
-use isoforge_io::write::stl::{write_stl, StlStream};
+use isoforge_io::write::stl::write_stl;
+use isoforge_io::write::MeshStream;
 use isoforge_io::{Batch, Limits, MeshData, MeshFormat};
 
 /// A bumpy ball sampled on a small u16 grid (not a sphere: vertices are not symmetric).
@@ -226,29 +227,34 @@ fn stl_bytes(m: &Mesh) -> Vec<u8> {
     v
 }
 
-/// Pushes `m` to an [`StlStream`] of `batch` in `parts` batches of vertices, all its polygons
-/// in batch `at` (so they refer to the batch before, their own and the next at most when `parts`
-/// ≤ 3, as a walk's do).
-fn stream_stl(
+/// Pushes `m` to a [`MeshStream`] of `format` in `batch`, in `parts` batches of vertices, all
+/// its polygons in batch `at` (so they refer to the batch before, their own and the next at most
+/// when `parts` ≤ 3, as a walk's do).
+fn stream_as(
+    format: MeshFormat,
     m: &Mesh,
     batch: &Batch,
     path: &std::path::Path,
     parts: usize,
     at: usize,
-) -> isoforge_io::Result<(u64, u64)> {
-    let mut s = StlStream::create_in(batch, path)?;
-    let nv = m.positions.len();
+) -> Result<(u64, u64), String> {
+    let mut s = MeshStream::create_in(batch, path, format, !m.normals.is_empty()).unwrap().expect("streams");
+    let (nv, normals) = (m.positions.len(), !m.normals.is_empty());
     for b in 0..parts {
-        let mine = b == at;
+        let (mine, r) = (b == at, nv * b / parts..nv * (b + 1) / parts);
         let batch = MeshBatch {
-            positions: &m.positions[nv * b / parts..nv * (b + 1) / parts],
-            normals: &[],
+            positions: &m.positions[r.clone()],
+            normals: if normals { &m.normals[r] } else { &[] },
             triangles: if mine { &m.triangles } else { &[] },
             quads: if mine { &m.quads } else { &[] },
         };
-        s.push(batch).map_err(|source| isoforge_io::Error::Io { path: path.into(), source })?;
+        MeshSink::push(&mut s, batch).map_err(|e| e.to_string())?;
     }
-    s.finish()
+    s.finish().map_err(|e| e.to_string())
+}
+
+fn stream_stl(m: &Mesh, batch: &Batch, path: &std::path::Path, parts: usize, at: usize) -> Result<(u64, u64), String> {
+    stream_as(MeshFormat::Stl, m, batch, path, parts, at)
 }
 
 #[test]
@@ -360,4 +366,39 @@ fn streamed_obj_is_the_in_memory_obj() {
     assert!(text.contains(&format!("\nv {} {} {}\n", p[0], p[1], p[2])), "first vertex line");
     let q = cases[3].1.quads.last().unwrap().map(|v| v + 1);
     assert!(text.ends_with(&format!("f {} {} {} {}\n", q[0], q[1], q[2], q[3])), "last quad line");
+}
+
+#[test]
+fn streamed_glb_is_the_in_memory_glb() {
+    let dir = tempfile::tempdir().unwrap();
+    for (method, normals) in [
+        (Method::MarchingCubes, isoforge::mesh::Normals::None),
+        (Method::MarchingCubes, isoforge::mesh::Normals::Gradient),
+        (Method::SurfaceNets, isoforge::mesh::Normals::Gradient),
+    ] {
+        let m = mesh(method, normals);
+        let path = dir.path().join("memory.glb");
+        isoforge_io::write_mesh(&path, &m, MeshFormat::Glb).unwrap();
+        let want = std::fs::read(&path).unwrap();
+        assert!(want.len() > 12 * m.positions.len(), "{method:?}: a real mesh");
+        for (parts, at) in [(1, 0), (2, 1), (3, 1)] {
+            let path = dir.path().join(format!("{method:?}-{normals:?}-{parts}.glb"));
+            let batch = Batch::new();
+            let n = stream_as(MeshFormat::Glb, &m, &batch, &path, parts, at).unwrap();
+            assert_eq!(n, (m.positions.len() as u64, (m.triangles.len() + 2 * m.quads.len()) as u64));
+            assert!(!path.exists(), "nothing at the path before the batch commits");
+            batch.commit().unwrap();
+            assert!(
+                std::fs::read(&path).unwrap() == want,
+                "{method:?} {normals:?} in {parts} batches: streamed .glb differs"
+            );
+        }
+    }
+    // An empty mesh is an error, as in memory, and leaves nothing.
+    let path = dir.path().join("empty.glb");
+    let batch = Batch::new();
+    let e = stream_as(MeshFormat::Glb, &Mesh::default(), &batch, &path, 2, 0).unwrap_err();
+    assert!(e.contains("empty.glb") && e.contains("empty"), "{e}");
+    drop(batch);
+    assert!(!path.exists());
 }

@@ -5,9 +5,18 @@
 
 use std::io::{self, Write};
 
-use isoforge::mesh::Mesh;
+use std::path::{Path, PathBuf};
 
+use isoforge::mesh::{Mesh, MeshBatch};
+
+use super::{append_scratch, scratch, PositionWindow};
+use crate::atomic::TempFile;
 use crate::attributes::NamedMesh;
+use crate::error::{Error, Result};
+use crate::Batch;
+
+/// The name of the mesh and node of a file with one mesh.
+pub const SINGLE_MESH: &str = "isosurface";
 
 /// What fills one buffer view: read from the meshes as the buffer is written, never copied whole.
 enum Source<'m> {
@@ -21,6 +30,8 @@ enum Source<'m> {
     Scalars(&'m [f32]),
     /// u32 indices of the triangles, then of the quads split (`Mesh::split_quad`).
     Indices(&'m Mesh),
+    /// u32 indices of triangles.
+    Triangles(&'m [[u32; 3]]),
 }
 
 /// Elements packed per write.
@@ -33,6 +44,7 @@ impl Source<'_> {
             Source::Colors(c) => 4 * c.len(),
             Source::Scalars(s) => 4 * s.len(),
             Source::Indices(m) => 12 * m.num_split_triangles(),
+            Source::Triangles(t) => 12 * t.len(),
         }
     }
 
@@ -62,9 +74,10 @@ impl Source<'_> {
             Source::Colors(c) => put(w, buf, c, |c, buf| buf.extend_from_slice(&[c[0], c[1], c[2], 255])),
             Source::Scalars(s) => put(w, buf, s, |x, buf| buf.extend_from_slice(&x.to_le_bytes())),
             Source::Indices(m) => {
-                put(w, buf, &m.triangles, |t, buf| ints(t, buf))?;
+                Source::Triangles(&m.triangles).write(w, buf)?;
                 put(w, buf, &m.quads, |&q, buf| m.split_quad(q).iter().for_each(|t| ints(t, buf)))
             }
+            Source::Triangles(t) => put(w, buf, t, |t, buf| ints(t, buf)),
         }
     }
 }
@@ -77,63 +90,107 @@ struct Layout<'m> {
     json: String,
 }
 
-/// Lays out `meshes` (no bytes copied).
-fn layout<'m>(meshes: &[NamedMesh<'m>], uri: Option<&str>) -> io::Result<Layout<'m>> {
-    let mut sources: Vec<(usize, Source<'m>)> = Vec::new();
+/// What the JSON says of one mesh: taken from a mesh in memory, or gathered by a stream.
+struct Summary<'a> {
+    name: &'a str,
+    vertices: usize,
+    /// Smallest and largest coordinates of the positions.
+    bounds: [[f32; 3]; 2],
+    normals: bool,
+    colors: bool,
+    scalars: Vec<&'a str>,
+    /// Triangles, quads split.
+    triangles: usize,
+    max_index: u32,
+}
+
+impl<'a> Summary<'a> {
+    fn of(m: &NamedMesh<'a>, k: usize) -> io::Result<Self> {
+        let mesh = m.mesh;
+        if !m.data.fits(mesh) {
+            return Err(empty_or_misfit(k, m.name));
+        }
+        let mut bounds = [[f32::INFINITY; 3], [f32::NEG_INFINITY; 3]];
+        grow_bounds(&mut bounds, &mesh.positions);
+        Ok(Summary {
+            name: m.name,
+            vertices: mesh.positions.len(),
+            bounds,
+            normals: !mesh.normals.is_empty(),
+            colors: m.data.colors.is_some(),
+            scalars: m.data.scalars.iter().map(|(n, _)| n.as_str()).collect(),
+            triangles: mesh.num_split_triangles(),
+            // The split triangles use all four corners of their quad.
+            max_index: mesh.triangles.iter().flatten().chain(mesh.quads.iter().flatten()).max().copied().unwrap_or(0),
+        })
+    }
+}
+
+fn empty_or_misfit(k: usize, name: &str) -> io::Error {
+    io::Error::other(format!("mesh {k} ({name}): empty, or vertex data of the wrong length"))
+}
+
+/// Widens `bounds` (smallest, largest) to take `positions`.
+fn grow_bounds(bounds: &mut [[f32; 3]; 2], positions: &[[f32; 3]]) {
+    for p in positions {
+        for a in 0..3 {
+            bounds[0][a] = bounds[0][a].min(p[a]);
+            bounds[1][a] = bounds[1][a].max(p[a]);
+        }
+    }
+}
+
+/// The JSON document for `meshes` and the buffer views' offsets (each on a 4-byte boundary) and
+/// lengths, in the order the buffer holds them (per mesh: positions, normals, colours, scalars,
+/// indices), and the buffer's length; `uri` names the external buffer (`None` for .glb, whose
+/// buffer follows the JSON).
+fn document(meshes: &[Summary], uri: Option<&str>) -> io::Result<Document> {
     let (mut views, mut accessors, mut gmeshes, mut nodes) = (Vec::new(), Vec::new(), Vec::new(), Vec::new());
+    let mut spans = Vec::new();
     let mut bin_len = 0usize;
-    let mut view = |source: Source<'m>, target: u32| -> usize {
+    let mut view = |len: usize, target: u32| -> usize {
         bin_len = bin_len.next_multiple_of(4);
-        let len = source.byte_len();
         views.push(format!(r#"{{"buffer":0,"byteOffset":{bin_len},"byteLength":{len},"target":{target}}}"#));
-        sources.push((bin_len, source));
+        spans.push((bin_len, len));
         bin_len += len;
         views.len() - 1
     };
     for (k, m) in meshes.iter().enumerate() {
-        let mesh: &'m Mesh = m.mesh;
-        let n = mesh.positions.len();
-        if n == 0 || !m.data.fits(mesh) {
-            return Err(io::Error::other(format!("mesh {k} ({}): empty, or vertex data of the wrong length", m.name)));
+        let n = m.vertices;
+        if n == 0 {
+            return Err(empty_or_misfit(k, m.name));
         }
-        let (mut lo, mut hi) = ([f32::INFINITY; 3], [f32::NEG_INFINITY; 3]);
-        for p in &mesh.positions {
-            for a in 0..3 {
-                lo[a] = lo[a].min(p[a]);
-                hi[a] = hi[a].max(p[a]);
-            }
-        }
+        let [lo, hi] = m.bounds;
         let mut attrs = Vec::new();
-        let v = view(Source::Vec3(&mesh.positions), 34962);
+        let v = view(12 * n, 34962);
         accessors.push(format!(
             r#"{{"bufferView":{v},"componentType":5126,"count":{n},"type":"VEC3","min":[{},{},{}],"max":[{},{},{}]}}"#,
             lo[0], lo[1], lo[2], hi[0], hi[1], hi[2]
         ));
         attrs.push(format!(r#""POSITION":{}"#, accessors.len() - 1));
-        if !mesh.normals.is_empty() {
-            let v = view(Source::UnitNormals(&mesh.normals), 34962);
+        if m.normals {
+            let v = view(12 * n, 34962);
             accessors.push(format!(r#"{{"bufferView":{v},"componentType":5126,"count":{n},"type":"VEC3"}}"#));
             attrs.push(format!(r#""NORMAL":{}"#, accessors.len() - 1));
         }
-        if let Some(colors) = &m.data.colors {
-            let v = view(Source::Colors(colors), 34962);
+        if m.colors {
+            let v = view(4 * n, 34962);
             accessors.push(format!(
                 r#"{{"bufferView":{v},"componentType":5121,"normalized":true,"count":{n},"type":"VEC4"}}"#
             ));
             attrs.push(format!(r#""COLOR_0":{}"#, accessors.len() - 1));
         }
-        for (name, values) in &m.data.scalars {
-            let v = view(Source::Scalars(values), 34962);
+        for name in &m.scalars {
+            let v = view(4 * n, 34962);
             accessors.push(format!(r#"{{"bufferView":{v},"componentType":5126,"count":{n},"type":"SCALAR"}}"#));
             attrs.push(format!(r#""_{}":{}"#, json_name(name).to_ascii_uppercase(), accessors.len() - 1));
         }
-        // glTF primitives here are triangle lists: quads are split (`Mesh::all_triangles`), and
-        // the split triangles use all four corners of their quad.
-        let v = view(Source::Indices(mesh), 34963);
-        let max_index = mesh.triangles.iter().flatten().chain(mesh.quads.iter().flatten()).max().copied().unwrap_or(0);
+        // glTF primitives here are triangle lists: quads are split (`Mesh::all_triangles`).
+        let v = view(12 * m.triangles, 34963);
         accessors.push(format!(
-            r#"{{"bufferView":{v},"componentType":5125,"count":{},"type":"SCALAR","min":[0],"max":[{max_index}]}}"#,
-            mesh.num_split_triangles() * 3
+            r#"{{"bufferView":{v},"componentType":5125,"count":{},"type":"SCALAR","min":[0],"max":[{}]}}"#,
+            m.triangles * 3,
+            m.max_index
         ));
         gmeshes.push(format!(
             r#"{{"name":"{}","primitives":[{{"attributes":{{{}}},"indices":{},"mode":4}}]}}"#,
@@ -155,7 +212,36 @@ fn layout<'m>(meshes: &[NamedMesh<'m>], uri: Option<&str>) -> io::Result<Layout<
         accessors.join(","),
         views.join(",")
     );
-    Ok(Layout { views: sources, bin_len, json })
+    Ok(Document { json, spans, bin_len })
+}
+
+/// What [`document`] lays out: the JSON, each view's offset and length, the buffer's length.
+struct Document {
+    json: String,
+    spans: Vec<(usize, usize)>,
+    bin_len: usize,
+}
+
+/// Lays out `meshes` (no bytes copied).
+fn layout<'m>(meshes: &[NamedMesh<'m>], uri: Option<&str>) -> io::Result<Layout<'m>> {
+    let summaries = meshes.iter().enumerate().map(|(k, m)| Summary::of(m, k)).collect::<io::Result<Vec<_>>>()?;
+    let Document { json, spans, bin_len } = document(&summaries, uri)?;
+    let mut sources = Vec::new();
+    for m in meshes {
+        let mesh: &'m Mesh = m.mesh;
+        sources.push(Source::Vec3(&mesh.positions));
+        if !mesh.normals.is_empty() {
+            sources.push(Source::UnitNormals(&mesh.normals));
+        }
+        if let Some(c) = &m.data.colors {
+            sources.push(Source::Colors(c));
+        }
+        sources.extend(m.data.scalars.iter().map(|(_, v)| Source::Scalars(v)));
+        sources.push(Source::Indices(mesh));
+    }
+    debug_assert!(spans.iter().zip(&sources).all(|(s, src)| s.1 == src.byte_len()));
+    let views = spans.into_iter().map(|(at, _)| at).zip(sources).collect();
+    Ok(Layout { views, bin_len, json })
 }
 
 impl Layout<'_> {
@@ -176,24 +262,30 @@ fn json_name(s: &str) -> String {
     s.chars().map(|c| if c == '"' || c == '\\' || c.is_control() { '_' } else { c }).collect()
 }
 
-/// Writes a binary glTF (`.glb`).
-pub fn write_glb(w: &mut dyn Write, meshes: &[NamedMesh]) -> io::Result<()> {
-    let layout = layout(meshes, None)?;
-    let mut json = layout.json.as_bytes().to_vec();
+/// The start of a `.glb` up to its buffer's bytes: file header, JSON chunk, buffer chunk header.
+fn glb_head(json: &str, bin_len: usize) -> io::Result<Vec<u8>> {
+    let mut json = json.as_bytes().to_vec();
     while json.len() % 4 != 0 {
         json.push(b' ');
     }
-    let total = 12 + 8 + json.len() + 8 + layout.bin_len;
-    let too_big = || io::Error::other("the mesh exceeds the 4 GiB of a .glb file");
-    let total = u32::try_from(total).map_err(|_| too_big())?;
-    w.write_all(b"glTF")?;
-    w.write_all(&2u32.to_le_bytes())?;
-    w.write_all(&total.to_le_bytes())?;
-    w.write_all(&(json.len() as u32).to_le_bytes())?;
-    w.write_all(b"JSON")?;
-    w.write_all(&json)?;
-    w.write_all(&(layout.bin_len as u32).to_le_bytes())?;
-    w.write_all(b"BIN\0")?;
+    let total = 12 + 8 + json.len() + 8 + bin_len;
+    let total = u32::try_from(total).map_err(|_| io::Error::other("the mesh exceeds the 4 GiB of a .glb file"))?;
+    let mut head = Vec::with_capacity(28 + json.len());
+    head.extend_from_slice(b"glTF");
+    head.extend_from_slice(&2u32.to_le_bytes());
+    head.extend_from_slice(&total.to_le_bytes());
+    head.extend_from_slice(&(json.len() as u32).to_le_bytes());
+    head.extend_from_slice(b"JSON");
+    head.extend_from_slice(&json);
+    head.extend_from_slice(&(bin_len as u32).to_le_bytes());
+    head.extend_from_slice(b"BIN\0");
+    Ok(head)
+}
+
+/// Writes a binary glTF (`.glb`).
+pub fn write_glb(w: &mut dyn Write, meshes: &[NamedMesh]) -> io::Result<()> {
+    let layout = layout(meshes, None)?;
+    w.write_all(&glb_head(&layout.json, layout.bin_len)?)?;
     layout.write_bin(w)
 }
 
@@ -205,4 +297,146 @@ pub fn write_gltf_json(w: &mut dyn Write, meshes: &[NamedMesh], bin_uri: &str) -
 /// The binary buffer of a `.gltf` + `.bin` pair.
 pub fn write_gltf_bin(w: &mut dyn Write, meshes: &[NamedMesh]) -> io::Result<()> {
     layout(meshes, None)?.write_bin(w)
+}
+
+/// A `.glb` of one mesh ([`SINGLE_MESH`]) written as the mesh is produced
+/// ([`isoforge::mesh::MeshSink`]): positions, unit normals, triangles' and quads' halves' indices
+/// go to four scratch files while the bounds and counts are gathered; [`GlbStream::finish`] writes
+/// the header and JSON into the output's temporary file and appends the scratch files. The bytes
+/// are exactly [`write_glb`]'s for the same mesh. Nothing appears at the path before the batch
+/// commits; a stream dropped unfinished leaves nothing.
+pub struct GlbStream<'a> {
+    batch: &'a Batch,
+    path: PathBuf,
+    main: Option<TempFile>,
+    /// Positions, unit normals, triangles' indices, quads' halves' indices (created when first
+    /// needed).
+    parts: [Option<io::BufWriter<TempFile>>; 4],
+    /// Positions of the batches the pending quads may use.
+    window: PositionWindow,
+    /// The last batch's quads, split when the next batch (whose vertices they may use) arrives.
+    pending_quads: Vec<[u32; 4]>,
+    split: Vec<[u32; 3]>,
+    normals: bool,
+    bounds: [[f32; 3]; 2],
+    triangles: usize,
+    max_index: u32,
+    buf: Vec<u8>,
+}
+
+impl<'a> GlbStream<'a> {
+    /// Starts writing `path` (with normals when `normals`) as an output of `batch` (reserved
+    /// there first if needed); the batch's commit moves it into place.
+    ///
+    /// # Errors
+    /// As [`Batch::reserve`].
+    pub fn create_in(batch: &'a Batch, path: &Path, normals: bool) -> Result<Self> {
+        let mut main = batch.take(path)?;
+        main.reset().map_err(|source| Error::Io { path: path.to_path_buf(), source })?;
+        Ok(GlbStream {
+            batch,
+            path: path.to_path_buf(),
+            main: Some(main),
+            parts: [None, None, None, None],
+            window: PositionWindow::default(),
+            pending_quads: Vec::new(),
+            split: Vec::new(),
+            normals,
+            bounds: [[f32::INFINITY; 3], [f32::NEG_INFINITY; 3]],
+            triangles: 0,
+            max_index: 0,
+            buf: Vec::new(),
+        })
+    }
+
+    /// Appends a batch (its quads are split when the next batch or
+    /// [`finish`](GlbStream::finish) comes).
+    ///
+    /// # Errors
+    /// Writing fails, `normals` does not match the stream, or a quad of the previous batch
+    /// refers to a vertex beyond this one.
+    pub fn push(&mut self, batch: MeshBatch<'_>) -> io::Result<()> {
+        let MeshBatch { positions, normals, triangles, quads } = batch;
+        if self.main.is_none() {
+            return Err(io::Error::other("the stream is finished"));
+        }
+        if self.normals == normals.is_empty() && !positions.is_empty() {
+            return Err(io::Error::other("normals given to a stream created without them, or missing"));
+        }
+        self.window.push(positions);
+        grow_bounds(&mut self.bounds, positions);
+        let corners = triangles.iter().flatten().chain(quads.iter().flatten());
+        self.max_index = corners.copied().fold(self.max_index, u32::max);
+        let path = &self.path;
+        let [pos, nrm, tri, _] = &mut self.parts;
+        Source::Vec3(positions).write(scratch(pos, path)?, &mut self.buf)?;
+        if !normals.is_empty() {
+            Source::UnitNormals(normals).write(scratch(nrm, path)?, &mut self.buf)?;
+        }
+        if !triangles.is_empty() {
+            Source::Triangles(triangles).write(scratch(tri, path)?, &mut self.buf)?;
+        }
+        self.split_pending()?;
+        self.window.release();
+        self.pending_quads.extend_from_slice(quads);
+        self.triangles += triangles.len() + 2 * quads.len();
+        Ok(())
+    }
+
+    /// Splits the pending quads and writes their halves' indices.
+    fn split_pending(&mut self) -> io::Result<()> {
+        if self.pending_quads.is_empty() {
+            return Ok(());
+        }
+        self.split.clear();
+        self.window.split_quads(&self.pending_quads, &mut self.split)?;
+        self.pending_quads.clear();
+        Source::Triangles(&self.split).write(scratch(&mut self.parts[3], &self.path)?, &mut self.buf)
+    }
+
+    /// Writes the header and JSON, appends the buffer's parts; then hands the file back to its
+    /// batch. Returns the vertex and triangle counts.
+    ///
+    /// # Errors
+    /// [`Error::Io`] naming the path when writing fails or the mesh is empty (nothing is left
+    /// behind).
+    pub fn finish(mut self) -> Result<(u64, u64)> {
+        let written = self.split_pending().and_then(|()| self.assemble());
+        if let Some(main) = self.main.take() {
+            self.batch.put(&self.path, main);
+        }
+        written.map_err(|source| Error::Io { path: self.path.clone(), source })?;
+        Ok((self.window.vertices(), self.triangles as u64))
+    }
+
+    /// The header, the JSON and the buffer's parts, into the output.
+    fn assemble(&mut self) -> io::Result<()> {
+        let summary = Summary {
+            name: SINGLE_MESH,
+            vertices: usize::try_from(self.window.vertices()).map_err(|_| io::Error::other("too many vertices"))?,
+            bounds: self.bounds,
+            normals: self.normals,
+            colors: false,
+            scalars: Vec::new(),
+            triangles: self.triangles,
+            max_index: self.max_index,
+        };
+        let Document { json, bin_len, .. } = document(&[summary], None)?;
+        let main = self.main.as_mut().ok_or_else(|| io::Error::other("the stream is finished"))?;
+        main.write_all(&glb_head(&json, bin_len)?)?;
+        let total = append_scratch(main, &mut self.parts)?;
+        if total != bin_len as u64 {
+            return Err(io::Error::other(format!("internal: the buffer holds {total} bytes, not {bin_len}")));
+        }
+        Ok(())
+    }
+}
+
+impl isoforge::mesh::MeshSink for GlbStream<'_> {
+    fn push(&mut self, batch: MeshBatch<'_>) -> std::result::Result<(), isoforge::mesh::ExternalError> {
+        GlbStream::push(self, batch).map_err(|e| {
+            let msg = format!("{}: {}", self.path.display(), crate::error::os_reason(&e));
+            msg.into()
+        })
+    }
 }

@@ -18,12 +18,106 @@ pub mod volume;
 
 use std::path::Path;
 
+/// The positions of the last batches of a streamed mesh, for writers that need a polygon's
+/// corners: a batch's polygons use vertices of the batch before, their own and the next
+/// ([`isoforge::mesh::MeshSink`]), so after the polygons of batch k − 1 are written (batch k has
+/// arrived), those of batch k − 1 and later are kept.
+#[derive(Default)]
+pub(crate) struct PositionWindow {
+    /// Positions of vertices `base..end`.
+    positions: Vec<[f32; 3]>,
+    base: u64,
+    /// First vertex of the batch before the last one pushed, and of the last one.
+    starts: [u64; 2],
+    end: u64,
+}
+
+impl PositionWindow {
+    /// Adds a batch's positions.
+    pub(crate) fn push(&mut self, positions: &[[f32; 3]]) {
+        self.positions.extend_from_slice(positions);
+        self.starts = [self.starts[1], self.end];
+        self.end += positions.len() as u64;
+    }
+
+    /// Lets go of the batches before the one before the last (call after writing the polygons
+    /// of the batch before the last).
+    pub(crate) fn release(&mut self) {
+        let keep = self.starts[0];
+        self.positions.drain(..(keep - self.base) as usize);
+        self.base = keep;
+    }
+
+    /// The position of vertex `v`, if held.
+    pub(crate) fn get(&self, v: u32) -> Option<[f32; 3]> {
+        self.positions.get(usize::try_from((v as u64).checked_sub(self.base)?).ok()?).copied()
+    }
+
+    /// Vertices pushed so far.
+    pub(crate) fn vertices(&self) -> u64 {
+        self.end
+    }
+
+    /// Appends `quads` split as [`isoforge::mesh::Mesh::split_quad`] splits them to `out`.
+    ///
+    /// # Errors
+    /// A corner the window does not hold.
+    pub(crate) fn split_quads(&self, quads: &[[u32; 4]], out: &mut Vec<[u32; 3]>) -> std::io::Result<()> {
+        for &q in quads {
+            let p = q.map(|v| self.get(v));
+            let [Some(a), Some(b), Some(c), Some(d)] = p else {
+                let bad = q.iter().zip(p).find(|(_, p)| p.is_none()).map_or(q[0], |(v, _)| *v);
+                return Err(missing_vertex(bad));
+            };
+            out.extend(isoforge::mesh::split_quad(q, [a, b, c, d]));
+        }
+        Ok(())
+    }
+}
+
+/// The scratch file in `part`, created beside `path` when first needed.
+pub(crate) fn scratch<'p>(
+    part: &'p mut Option<std::io::BufWriter<crate::atomic::TempFile>>,
+    path: &Path,
+) -> std::io::Result<&'p mut std::io::BufWriter<crate::atomic::TempFile>> {
+    match part {
+        Some(w) => Ok(w),
+        None => Ok(part.insert(std::io::BufWriter::with_capacity(1 << 20, crate::atomic::TempFile::create(path)?))),
+    }
+}
+
+/// Appends the scratch files in `parts` (in order, those created) to `main` at its position,
+/// leaving it at the end; returns the bytes appended.
+pub(crate) fn append_scratch(
+    main: &mut crate::atomic::TempFile,
+    parts: &mut [Option<std::io::BufWriter<crate::atomic::TempFile>>],
+) -> std::io::Result<u64> {
+    use std::io::{Seek, SeekFrom, Write};
+    let mut files = Vec::new();
+    for p in parts.iter_mut().flatten() {
+        p.flush()?;
+        let f = p.get_mut().file_mut();
+        let len = f.metadata()?.len();
+        files.push((&*f, len));
+    }
+    let total: u64 = files.iter().map(|(_, n)| n).sum();
+    let at = main.file_mut().stream_position()?;
+    copy::copy_span(&files, main.file_mut(), at, 0..total)?;
+    main.file_mut().seek(SeekFrom::Start(at + total))?;
+    Ok(total)
+}
+
+/// The error for a polygon corner `v` a writer does not hold.
+pub(crate) fn missing_vertex(v: u32) -> std::io::Error {
+    std::io::Error::other(format!("a triangle refers to vertex {v}, which the mesh does not hold here"))
+}
+
 use crate::error::Result;
 use crate::{Batch, MeshFormat};
 
 /// A mesh file written as the mesh is produced, batch by batch, in memory bounded by a few
 /// batches: the formats whose streamed bytes are exactly the in-memory writer's (binary PLY,
-/// binary STL and OBJ).
+/// binary STL, OBJ and binary glTF).
 pub enum MeshStream<'a> {
     /// Binary PLY ([`ply::PlyStream`]).
     #[cfg(feature = "ply")]
@@ -34,6 +128,8 @@ pub enum MeshStream<'a> {
     /// OBJ ([`obj::ObjStream`]).
     #[cfg(feature = "obj")]
     Obj(obj::ObjStream<'a>),
+    /// Binary glTF ([`gltf::GlbStream`]).
+    Glb(gltf::GlbStream<'a>),
 }
 
 impl<'a> MeshStream<'a> {
@@ -42,6 +138,7 @@ impl<'a> MeshStream<'a> {
         (cfg!(feature = "ply") && format == MeshFormat::Ply)
             || (cfg!(feature = "stl") && format == MeshFormat::Stl)
             || (cfg!(feature = "obj") && format == MeshFormat::Obj)
+            || format == MeshFormat::Glb
     }
 
     /// Starts writing `path` in `format` (with vertex normals when `normals` and the format has
@@ -58,12 +155,13 @@ impl<'a> MeshStream<'a> {
             MeshFormat::Stl => Some(MeshStream::Stl(stl::StlStream::create_in(batch, path)?)),
             #[cfg(feature = "obj")]
             MeshFormat::Obj => Some(MeshStream::Obj(obj::ObjStream::create_in(batch, path, normals)?)),
+            MeshFormat::Glb => Some(MeshStream::Glb(gltf::GlbStream::create_in(batch, path, normals)?)),
             _ => None,
         })
     }
 
     /// Completes the file (see each stream's `finish`); returns the vertex and polygon counts
-    /// written (STL: facets, quads counted twice).
+    /// written (STL and glTF: triangles, quads counted twice).
     ///
     /// # Errors
     /// [`crate::Error::Io`] naming the path when writing fails.
@@ -75,6 +173,7 @@ impl<'a> MeshStream<'a> {
             MeshStream::Stl(s) => s.finish(),
             #[cfg(feature = "obj")]
             MeshStream::Obj(s) => s.finish(),
+            MeshStream::Glb(s) => s.finish(),
         }
     }
 }
@@ -88,6 +187,7 @@ impl isoforge::mesh::MeshSink for MeshStream<'_> {
             MeshStream::Stl(s) => isoforge::mesh::MeshSink::push(s, batch),
             #[cfg(feature = "obj")]
             MeshStream::Obj(s) => isoforge::mesh::MeshSink::push(s, batch),
+            MeshStream::Glb(s) => isoforge::mesh::MeshSink::push(s, batch),
         }
     }
 }

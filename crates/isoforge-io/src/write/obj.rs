@@ -7,8 +7,8 @@ use std::path::{Path, PathBuf};
 
 use isoforge::mesh::{Mesh, MeshBatch};
 
-use super::copy::copy_span;
 use super::text::{write_lines, LINES_PER_PIECE, PIECES_PER_WINDOW};
+use super::{append_scratch, scratch};
 use crate::atomic::TempFile;
 use crate::attributes::MeshData;
 use crate::error::{Error, Result};
@@ -184,41 +184,15 @@ impl<'a> ObjStream<'a> {
     /// # Errors
     /// [`Error::Io`] naming the path when writing fails (nothing is left behind).
     pub fn finish(mut self) -> Result<(u64, u64)> {
-        let written = self.write_held().and_then(|()| self.append_parts());
+        let written = self.write_held().and_then(|()| {
+            let main = self.main.as_mut().ok_or_else(|| io::Error::other("the stream is finished"))?;
+            append_scratch(main, &mut self.parts).map(|_| ())
+        });
         if let Some(main) = self.main.take() {
             self.batch.put(&self.path, main);
         }
         written.map_err(|source| Error::Io { path: self.path.clone(), source })?;
         Ok((self.vertices, self.polygons))
-    }
-
-    /// Appends the scratch files to the output.
-    fn append_parts(&mut self) -> io::Result<()> {
-        use std::io::{Seek, SeekFrom};
-        let main = self.main.as_mut().ok_or_else(|| io::Error::other("the stream is finished"))?;
-        let mut files = Vec::new();
-        for p in self.parts.iter_mut().flatten() {
-            p.flush()?;
-            let f = p.get_mut().file_mut();
-            let len = f.metadata()?.len();
-            files.push((&*f, len));
-        }
-        let at = main.file_mut().stream_position()?;
-        let total: u64 = files.iter().map(|(_, n)| n).sum();
-        copy_span(&files, main.file_mut(), at, 0..total)?;
-        main.file_mut().seek(SeekFrom::Start(at + total))?;
-        Ok(())
-    }
-}
-
-/// The scratch file in `part`, created beside `path` when first needed.
-fn scratch<'p>(
-    part: &'p mut Option<io::BufWriter<TempFile>>,
-    path: &Path,
-) -> io::Result<&'p mut io::BufWriter<TempFile>> {
-    match part {
-        Some(w) => Ok(w),
-        None => Ok(part.insert(io::BufWriter::with_capacity(1 << 20, TempFile::create(path)?))),
     }
 }
 

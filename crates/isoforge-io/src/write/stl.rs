@@ -7,6 +7,7 @@ use std::path::{Path, PathBuf};
 
 use isoforge::mesh::{Mesh, MeshBatch};
 
+use super::{append_scratch, missing_vertex, scratch, PositionWindow};
 use crate::atomic::TempFile;
 use crate::error::{Error, Result};
 use crate::Batch;
@@ -39,11 +40,6 @@ fn header(facets: u64) -> io::Result<[u8; 84]> {
     h[..tag.len()].copy_from_slice(tag.as_bytes());
     h[80..].copy_from_slice(&n.to_le_bytes());
     Ok(h)
-}
-
-/// A triangle whose corner `v` is not among the positions `corner` can look up.
-fn missing_vertex(v: u32) -> io::Error {
-    io::Error::other(format!("a triangle refers to vertex {v}, which the mesh does not hold here"))
 }
 
 /// Appends the facets of `triangles` to `buf`, corners from `corner` (fixed-size records written
@@ -124,11 +120,7 @@ pub struct StlStream<'a> {
     main: Option<TempFile>,
     /// Facets of split quads (created at the first quad).
     quads: Option<io::BufWriter<TempFile>>,
-    /// Positions of vertices `base..`.
-    window: Vec<[f32; 3]>,
-    base: u64,
-    /// First vertex of the batch before the last one pushed, and of the last one.
-    starts: [u64; 2],
+    window: PositionWindow,
     /// The last batch's polygons, written when the next batch (whose vertices they may use)
     /// arrives.
     pending_triangles: Vec<[u32; 3]>,
@@ -136,7 +128,6 @@ pub struct StlStream<'a> {
     /// Reused packing buffers.
     buf: Vec<u8>,
     split: Vec<[u32; 3]>,
-    vertices: u64,
     facets: u64,
 }
 
@@ -155,14 +146,11 @@ impl<'a> StlStream<'a> {
             path: path.to_path_buf(),
             main: Some(main),
             quads: None,
-            window: Vec::new(),
-            base: 0,
-            starts: [0; 2],
+            window: PositionWindow::default(),
             pending_triangles: Vec::new(),
             pending_quads: Vec::new(),
             buf: Vec::new(),
             split: Vec::new(),
-            vertices: 0,
             facets: 0,
         })
     }
@@ -177,14 +165,9 @@ impl<'a> StlStream<'a> {
         if self.main.is_none() {
             return Err(io::Error::other("the stream is finished"));
         }
-        self.window.extend_from_slice(batch.positions);
-        self.starts = [self.starts[1], self.vertices];
-        self.vertices += batch.positions.len() as u64;
+        self.window.push(batch.positions);
         self.write_pending()?;
-        // The next batch's polygons may use this batch's vertices and the one's before.
-        let keep = self.starts[0];
-        self.window.drain(..(keep - self.base) as usize);
-        self.base = keep;
+        self.window.release();
         self.pending_triangles.extend_from_slice(batch.triangles);
         self.pending_quads.extend_from_slice(batch.quads);
         self.facets += (batch.triangles.len() + 2 * batch.quads.len()) as u64;
@@ -193,27 +176,16 @@ impl<'a> StlStream<'a> {
 
     /// Writes the pending polygons' facets: triangles into the output, quads' halves aside.
     fn write_pending(&mut self) -> io::Result<()> {
-        let (window, base) = (&self.window, self.base);
-        let corner = |v: u32| window.get(usize::try_from((v as u64).checked_sub(base)?).ok()?).copied();
+        let window = &self.window;
+        let corner = |v: u32| window.get(v);
         let main = self.main.as_mut().ok_or_else(|| io::Error::other("the stream is finished"))?;
         write_facets(main, &self.pending_triangles, corner, &mut self.buf)?;
         self.pending_triangles.clear();
         if !self.pending_quads.is_empty() {
             self.split.clear();
-            for &q in &self.pending_quads {
-                let p = q.map(corner);
-                let [Some(a), Some(b), Some(c), Some(d)] = p else {
-                    let bad = q.iter().zip(p).find(|(_, p)| p.is_none()).map_or(q[0], |(v, _)| *v);
-                    return Err(missing_vertex(bad));
-                };
-                self.split.extend(isoforge::mesh::split_quad(q, [a, b, c, d]));
-            }
+            window.split_quads(&self.pending_quads, &mut self.split)?;
             self.pending_quads.clear();
-            let quads = match &mut self.quads {
-                Some(q) => q,
-                None => self.quads.insert(io::BufWriter::with_capacity(1 << 20, TempFile::create(&self.path)?)),
-            };
-            write_facets(quads, &self.split, corner, &mut self.buf)?;
+            write_facets(scratch(&mut self.quads, &self.path)?, &self.split, corner, &mut self.buf)?;
         }
         Ok(())
     }
@@ -224,29 +196,19 @@ impl<'a> StlStream<'a> {
     /// # Errors
     /// [`Error::Io`] naming the path when writing fails (nothing is left behind).
     pub fn finish(mut self) -> Result<(u64, u64)> {
-        let path = self.path.clone();
-        let io_err = |source| Error::Io { path: path.clone(), source };
-        let written = (|| {
-            self.write_pending()?;
-            let mut main = self.main.take().ok_or_else(|| io::Error::other("the stream is finished"))?;
-            let result = (|| {
-                let end = main.file_mut().stream_position()?;
-                let mut len = 0;
-                if let Some(q) = self.quads.take() {
-                    let mut q = q.into_inner().map_err(|e| e.into_error())?;
-                    len = q.file_mut().metadata()?.len();
-                    super::copy::copy_at(q.file_mut(), 0, main.file_mut(), end, len)?;
-                }
-                main.file_mut().seek(SeekFrom::Start(0))?;
-                main.write_all(&header(self.facets)?)?;
-                main.file_mut().seek(SeekFrom::Start(end + len))?;
-                Ok(())
-            })();
-            self.batch.put(&path, main);
-            result
-        })();
-        written.map_err(io_err)?;
-        Ok((self.vertices, self.facets))
+        let written = self.write_pending().and_then(|()| {
+            let main = self.main.as_mut().ok_or_else(|| io::Error::other("the stream is finished"))?;
+            append_scratch(main, std::slice::from_mut(&mut self.quads))?;
+            let end = main.file_mut().stream_position()?;
+            main.file_mut().seek(SeekFrom::Start(0))?;
+            main.write_all(&header(self.facets)?)?;
+            main.file_mut().seek(SeekFrom::Start(end)).map(|_| ())
+        });
+        if let Some(main) = self.main.take() {
+            self.batch.put(&self.path, main);
+        }
+        written.map_err(|source| Error::Io { path: self.path.clone(), source })?;
+        Ok((self.window.vertices(), self.facets))
     }
 }
 
