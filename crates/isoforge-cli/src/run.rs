@@ -237,7 +237,7 @@ impl MeshSink for Tee<'_, '_> {
     }
 }
 
-/// Out-of-core extraction: slab by slab from the file straight into a binary PLY or STL or an OBJ, checked
+/// Out-of-core extraction: slab by slab from the file straight into a binary PLY, STL or glTF or an OBJ, checked
 /// in the same pass when `--require` asks.
 fn extract_streaming(
     c: &ExtractConfig,

@@ -433,7 +433,15 @@ fn streaming_by_default_gives_the_in_memory_bytes() {
     let raw_args = ["-i", p(&raw), "--dims", "61,47,29", "--dtype", "i16"];
     let gz = testdata().join("volumes/i16_gzip.nrrd");
     let gz_args = ["-i", p(&gz)];
-    let runs = [("mc", "1", "none"), ("mc", "2", "none"), ("mc", "2", "gradient"), ("surface-nets", "1", "none")];
+    // mt-bcc: polygons using the batch before (segments from the centres of the cells below).
+    let runs = [
+        ("mc", "1", "none"),
+        ("mc", "2", "none"),
+        ("mc", "2", "gradient"),
+        ("surface-nets", "1", "none"),
+        ("mt-bcc", "2", "none"),
+        ("mc33", "2", "none"),
+    ];
     let cases = [("raw", &raw_args[..], "1000.5"), ("gzip", &gz_args[..], "0.5")];
     for ((name, input, iso), ext) in cases.into_iter().flat_map(|c| ["ply", "stl", "obj", "glb"].map(|e| (c, e))) {
         for (method, threads, normals) in runs {

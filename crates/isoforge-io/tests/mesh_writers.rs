@@ -291,7 +291,8 @@ fn an_stl_stream_refuses_vertices_it_has_let_go_and_leaves_nothing() {
     let batch = Batch::new();
     let e = stream_stl(&m, &batch, &path, 4, 3).unwrap_err().to_string();
     assert!(e.contains("late.stl") && e.contains("refers to vertex"), "{e}");
-    drop(batch);
+    // The failed file never goes back to the batch, which refuses to commit without it.
+    assert!(batch.commit().is_err(), "a failed stream must not commit");
     assert_eq!(std::fs::read_dir(dir.path()).unwrap().count(), 0, "no output, no scratch file");
 }
 
@@ -399,6 +400,6 @@ fn streamed_glb_is_the_in_memory_glb() {
     let batch = Batch::new();
     let e = stream_as(MeshFormat::Glb, &Mesh::default(), &batch, &path, 2, 0).unwrap_err();
     assert!(e.contains("empty.glb") && e.contains("empty"), "{e}");
-    drop(batch);
+    assert!(batch.commit().is_err(), "a failed stream must not commit");
     assert!(!path.exists());
 }

@@ -107,7 +107,7 @@ struct Summary<'a> {
 impl<'a> Summary<'a> {
     fn of(m: &NamedMesh<'a>, k: usize) -> io::Result<Self> {
         let mesh = m.mesh;
-        if !m.data.fits(mesh) {
+        if !m.data.fits(mesh) || !(mesh.normals.is_empty() || mesh.normals.len() == mesh.positions.len()) {
             return Err(empty_or_misfit(k, m.name));
         }
         let mut bounds = [[f32::INFINITY; 3], [f32::NEG_INFINITY; 3]];
@@ -356,13 +356,8 @@ impl<'a> GlbStream<'a> {
     /// Writing fails, `normals` does not match the stream, or a quad of the previous batch
     /// refers to a vertex beyond this one.
     pub fn push(&mut self, batch: MeshBatch<'_>) -> io::Result<()> {
+        super::check_batch(self.main.is_none(), self.normals, &batch)?;
         let MeshBatch { positions, normals, triangles, quads } = batch;
-        if self.main.is_none() {
-            return Err(io::Error::other("the stream is finished"));
-        }
-        if self.normals == normals.is_empty() && !positions.is_empty() {
-            return Err(io::Error::other("normals given to a stream created without them, or missing"));
-        }
         self.window.push(positions);
         grow_bounds(&mut self.bounds, positions);
         let corners = triangles.iter().flatten().chain(quads.iter().flatten());
@@ -380,6 +375,12 @@ impl<'a> GlbStream<'a> {
         self.window.release();
         self.pending_quads.extend_from_slice(quads);
         self.triangles += triangles.len() + 2 * quads.len();
+        // The .glb's 32-bit length, checked as it grows (the JSON of one mesh is under 4 KiB).
+        let vertex_bytes = if self.normals { 24 } else { 12 };
+        let bytes = 28 + 4096 + vertex_bytes * self.window.vertices() + 12 * self.triangles as u64;
+        if bytes > u32::MAX as u64 {
+            return Err(io::Error::other("the mesh exceeds the 4 GiB of a .glb file"));
+        }
         Ok(())
     }
 
@@ -402,10 +403,12 @@ impl<'a> GlbStream<'a> {
     /// behind).
     pub fn finish(mut self) -> Result<(u64, u64)> {
         let written = self.split_pending().and_then(|()| self.assemble());
+        written.map_err(|source| Error::Io { path: self.path.clone(), source })?;
+        // Only a complete file goes back to the batch (a failed one is dropped, and the batch
+        // then refuses to commit the output it never got).
         if let Some(main) = self.main.take() {
             self.batch.put(&self.path, main);
         }
-        written.map_err(|source| Error::Io { path: self.path.clone(), source })?;
         Ok((self.window.vertices(), self.triangles as u64))
     }
 
@@ -434,9 +437,6 @@ impl<'a> GlbStream<'a> {
 
 impl isoforge::mesh::MeshSink for GlbStream<'_> {
     fn push(&mut self, batch: MeshBatch<'_>) -> std::result::Result<(), isoforge::mesh::ExternalError> {
-        GlbStream::push(self, batch).map_err(|e| {
-            let msg = format!("{}: {}", self.path.display(), crate::error::os_reason(&e));
-            msg.into()
-        })
+        GlbStream::push(self, batch).map_err(|e| super::sink_error(&self.path, &e))
     }
 }

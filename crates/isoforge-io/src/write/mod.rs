@@ -1,4 +1,4 @@
-//! Mesh writers: PLY (binary or ASCII), OBJ, STL (binary or ASCII), OFF; contour writers (SVG, GeoJSON,
+//! Mesh writers: PLY (binary or ASCII), OBJ, STL (binary or ASCII), OFF, glTF; contour writers (SVG, GeoJSON,
 //! CSV). All go through [`write_atomic`](crate::write_atomic): a failed write leaves no file.
 
 pub mod contour;
@@ -12,6 +12,7 @@ pub mod off;
 pub mod ply;
 #[cfg(feature = "stl")]
 pub mod stl;
+#[cfg(any(feature = "obj", feature = "off", feature = "ply"))]
 mod text;
 #[cfg(all(feature = "nrrd", feature = "nifti"))]
 pub mod volume;
@@ -66,8 +67,7 @@ impl PositionWindow {
         for &q in quads {
             let p = q.map(|v| self.get(v));
             let [Some(a), Some(b), Some(c), Some(d)] = p else {
-                let bad = q.iter().zip(p).find(|(_, p)| p.is_none()).map_or(q[0], |(v, _)| *v);
-                return Err(missing_vertex(bad));
+                return Err(missing_vertex(&q, &p));
             };
             out.extend(isoforge::mesh::split_quad(q, [a, b, c, d]));
         }
@@ -107,9 +107,34 @@ pub(crate) fn append_scratch(
     Ok(total)
 }
 
-/// The error for a polygon corner `v` a writer does not hold.
-pub(crate) fn missing_vertex(v: u32) -> std::io::Error {
-    std::io::Error::other(format!("a triangle refers to vertex {v}, which the mesh does not hold here"))
+/// The error for the first of a polygon's `corners` that a writer does not hold (`got`: the
+/// positions looked up).
+pub(crate) fn missing_vertex(corners: &[u32], got: &[Option<[f32; 3]>]) -> std::io::Error {
+    let v = corners.iter().zip(got).find(|(_, p)| p.is_none()).map_or(corners[0], |(v, _)| *v);
+    std::io::Error::other(format!("a polygon refers to vertex {v}, which the mesh does not hold here"))
+}
+
+/// A stream's error as a [`isoforge::mesh::MeshSink`] reports it: the file, then the reason.
+pub(crate) fn sink_error(path: &Path, e: &std::io::Error) -> isoforge::mesh::ExternalError {
+    format!("{}: {}", path.display(), crate::error::os_reason(e)).into()
+}
+
+/// Checks a batch given to a stream: the stream is not finished, and the batch has one normal
+/// per vertex when the stream writes normals (none otherwise).
+pub(crate) fn check_batch(finished: bool, normals: bool, batch: &isoforge::mesh::MeshBatch<'_>) -> std::io::Result<()> {
+    if finished {
+        return Err(std::io::Error::other("the stream is finished"));
+    }
+    let want = if normals { batch.positions.len() } else { 0 };
+    if batch.normals.len() != want {
+        return Err(std::io::Error::other(format!(
+            "{} normals for {} vertices given to a stream {} normals",
+            batch.normals.len(),
+            batch.positions.len(),
+            if normals { "with" } else { "without" }
+        )));
+    }
+    Ok(())
 }
 
 use crate::error::Result;

@@ -137,13 +137,8 @@ impl<'a> ObjStream<'a> {
     /// # Errors
     /// Writing fails, or `normals` does not match the stream.
     pub fn push(&mut self, batch: MeshBatch<'_>) -> io::Result<()> {
+        super::check_batch(self.main.is_none(), self.normals, &batch)?;
         let MeshBatch { positions, normals, triangles, quads } = batch;
-        if self.main.is_none() {
-            return Err(io::Error::other("the stream is finished"));
-        }
-        if self.normals == normals.is_empty() && !positions.is_empty() {
-            return Err(io::Error::other("normals given to a stream created without them, or missing"));
-        }
         // Batches (a slab's worth) are gathered into windows, whose lines are formatted in
         // parallel pieces.
         let held = &mut self.held;
@@ -188,19 +183,18 @@ impl<'a> ObjStream<'a> {
             let main = self.main.as_mut().ok_or_else(|| io::Error::other("the stream is finished"))?;
             append_scratch(main, &mut self.parts).map(|_| ())
         });
+        written.map_err(|source| Error::Io { path: self.path.clone(), source })?;
+        // Only a complete file goes back to the batch (a failed one is dropped, and the batch
+        // then refuses to commit the output it never got).
         if let Some(main) = self.main.take() {
             self.batch.put(&self.path, main);
         }
-        written.map_err(|source| Error::Io { path: self.path.clone(), source })?;
         Ok((self.vertices, self.polygons))
     }
 }
 
 impl isoforge::mesh::MeshSink for ObjStream<'_> {
     fn push(&mut self, batch: MeshBatch<'_>) -> std::result::Result<(), isoforge::mesh::ExternalError> {
-        ObjStream::push(self, batch).map_err(|e| {
-            let msg = format!("{}: {}", self.path.display(), crate::error::os_reason(&e));
-            msg.into()
-        })
+        ObjStream::push(self, batch).map_err(|e| super::sink_error(&self.path, &e))
     }
 }

@@ -4,7 +4,7 @@ use std::io::{self, Write};
 
 use isoforge::mesh::Mesh;
 
-use super::text::write_lines;
+use super::text::{face_lines, write_lines};
 use crate::attributes::MeshData;
 
 /// Writes `mesh` as OFF.
@@ -34,17 +34,4 @@ pub fn write_off_with(w: &mut dyn Write, mesh: &Mesh, data: &MeshData) -> io::Re
     })?;
     write_lines(w, &mesh.triangles, |buf, ts, _| face_lines(buf, ts))?;
     write_lines(w, &mesh.quads, |buf, qs, _| face_lines(buf, qs))
-}
-
-/// Appends `N i j k …` lines (0-based indices).
-fn face_lines<const N: usize>(buf: &mut Vec<u8>, faces: &[[u32; N]]) {
-    let mut num = itoa::Buffer::new();
-    for f in faces {
-        buf.extend_from_slice(num.format(N).as_bytes());
-        for &v in f {
-            buf.push(b' ');
-            buf.extend_from_slice(num.format(v).as_bytes());
-        }
-        buf.push(b'\n');
-    }
 }

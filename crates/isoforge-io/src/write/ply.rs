@@ -6,7 +6,7 @@ use std::path::{Path, PathBuf};
 use isoforge::mesh::Mesh;
 
 use super::copy::copy_span;
-use super::text::write_lines;
+use super::text::{face_lines, write_lines};
 use crate::atomic::TempFile;
 use crate::attributes::MeshData;
 use crate::error::{Error, Result};
@@ -137,19 +137,15 @@ pub fn write_ply_with(w: &mut dyn Write, mesh: &Mesh, data: &MeshData, ascii: bo
                 buf.push(b'\n');
             }
         })?;
-        write_lines(w, &mesh.triangles, |buf, ts, at| {
-            for (j, t) in ts.iter().enumerate() {
-                let _ = match &data.triangle_labels {
-                    Some(l) => writeln!(buf, "3 {} {} {} {}", t[0], t[1], t[2], l[at + j]),
-                    None => writeln!(buf, "3 {} {} {}", t[0], t[1], t[2]),
-                };
-            }
-        })?;
-        return write_lines(w, &mesh.quads, |buf, qs, _| {
-            for q in qs {
-                let _ = writeln!(buf, "4 {} {} {} {}", q[0], q[1], q[2], q[3]);
-            }
-        });
+        match &data.triangle_labels {
+            Some(l) => write_lines(w, &mesh.triangles, |buf, ts, at| {
+                for (j, t) in ts.iter().enumerate() {
+                    let _ = writeln!(buf, "3 {} {} {} {}", t[0], t[1], t[2], l[at + j]);
+                }
+            })?,
+            None => write_lines(w, &mesh.triangles, |buf, ts, _| face_lines(buf, ts))?,
+        }
+        return write_lines(w, &mesh.quads, |buf, qs, _| face_lines(buf, qs));
     }
     let mut buf = Vec::with_capacity(1 << 16);
     if data.colors.is_none() && data.scalars.is_empty() {
@@ -281,13 +277,8 @@ impl<'a> PlyStream<'a> {
     /// # Errors
     /// Writing fails, or `normals` does not match the stream.
     pub fn push(&mut self, batch: isoforge::mesh::MeshBatch<'_>) -> io::Result<()> {
+        super::check_batch(self.main.is_none(), self.normals, &batch)?;
         let isoforge::mesh::MeshBatch { positions, normals, triangles, quads } = batch;
-        if self.main.is_none() {
-            return Err(io::Error::other("the stream is finished"));
-        }
-        if self.normals == normals.is_empty() && !positions.is_empty() {
-            return Err(io::Error::other("normals given to a stream created without them, or missing"));
-        }
         write_vertices(&mut self.verts, positions, normals, &mut self.buf)?;
         // Faces are packed into one buffer across batches and written from it directly (the
         // buffered writer would copy them once more).
@@ -350,9 +341,6 @@ impl<'a> PlyStream<'a> {
 
 impl isoforge::mesh::MeshSink for PlyStream<'_> {
     fn push(&mut self, batch: isoforge::mesh::MeshBatch<'_>) -> Result<(), isoforge::mesh::ExternalError> {
-        PlyStream::push(self, batch).map_err(|e| {
-            let msg = format!("{}: {}", self.path.display(), crate::error::os_reason(&e));
-            msg.into()
-        })
+        PlyStream::push(self, batch).map_err(|e| super::sink_error(&self.path, &e))
     }
 }

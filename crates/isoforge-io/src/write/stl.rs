@@ -50,8 +50,7 @@ fn pack_facets(buf: &mut Vec<u8>, triangles: &[[u32; 3]], corner: impl Fn(u32) -
     for (r, t) in buf[at..].chunks_exact_mut(FACET).zip(triangles) {
         let p = [corner(t[0]), corner(t[1]), corner(t[2])];
         let [Some(a), Some(b), Some(c)] = p else {
-            let bad = t.iter().zip(p).find(|(_, p)| p.is_none()).map_or(t[0], |(v, _)| *v);
-            return Err(missing_vertex(bad));
+            return Err(missing_vertex(t, &p));
         };
         let floats = [facet_normal([a, b, c]), a, b, c];
         for (f, x) in r[..48].chunks_exact_mut(4).zip(floats.as_flattened()) {
@@ -204,19 +203,18 @@ impl<'a> StlStream<'a> {
             main.write_all(&header(self.facets)?)?;
             main.file_mut().seek(SeekFrom::Start(end)).map(|_| ())
         });
+        written.map_err(|source| Error::Io { path: self.path.clone(), source })?;
+        // Only a complete file goes back to the batch (a failed one is dropped, and the batch
+        // then refuses to commit the output it never got).
         if let Some(main) = self.main.take() {
             self.batch.put(&self.path, main);
         }
-        written.map_err(|source| Error::Io { path: self.path.clone(), source })?;
         Ok((self.window.vertices(), self.facets))
     }
 }
 
 impl isoforge::mesh::MeshSink for StlStream<'_> {
     fn push(&mut self, batch: MeshBatch<'_>) -> Result<(), isoforge::mesh::ExternalError> {
-        StlStream::push(self, batch).map_err(|e| {
-            let msg = format!("{}: {}", self.path.display(), crate::error::os_reason(&e));
-            msg.into()
-        })
+        StlStream::push(self, batch).map_err(|e| super::sink_error(&self.path, &e))
     }
 }

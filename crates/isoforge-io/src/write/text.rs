@@ -35,3 +35,17 @@ pub(super) fn write_lines<T: Sync>(
     }
     Ok(())
 }
+
+/// Appends `N i j k …` lines, 0-based indices (OFF and ASCII PLY faces).
+#[cfg(any(feature = "off", feature = "ply"))]
+pub(super) fn face_lines<const N: usize>(buf: &mut Vec<u8>, faces: &[[u32; N]]) {
+    let mut num = itoa::Buffer::new();
+    for f in faces {
+        buf.extend_from_slice(num.format(N).as_bytes());
+        for &v in f {
+            buf.push(b' ');
+            buf.extend_from_slice(num.format(v).as_bytes());
+        }
+        buf.push(b'\n');
+    }
+}

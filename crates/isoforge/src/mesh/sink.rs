@@ -16,10 +16,11 @@ pub struct MeshBatch<'a> {
     pub quads: &'a [[u32; 4]],
 }
 
-/// Receives a mesh as it is produced, in batches (one per slab of the walk). Vertices are numbered
-/// from 0 in arrival order over all batches; a batch's polygons refer to vertices of earlier
-/// batches, of the batch itself, and of the **next** batch (the vertices on the slab above), never
-/// further ahead.
+/// Receives a mesh as it is produced, in batches (one per slab of the walk, empty ones included).
+/// Vertices are numbered from 0 in arrival order over all batches; a batch's polygons refer to
+/// vertices of the batch **before** (mt-bcc's segments from the centres of the cells below), of the
+/// batch itself, and of the **next** batch (the vertices on the slab above), never further away:
+/// writers that need corner positions keep three batches.
 pub trait MeshSink {
     /// Takes the next batch.
     ///
