@@ -147,24 +147,31 @@ fn triangle_labels_refuse_quads() {
     assert!(e.to_string().contains("quads"), "{e}");
 }
 
+/// `m` cut into `parts` batches, batch `b` taking the share `cut(n, b)..cut(n, b + 1)` of each
+/// array of `n` items (OBJ and PLY number vertices globally, so any cut will do).
+fn batches(m: &Mesh, parts: usize, cut: impl Fn(usize, usize) -> usize) -> Vec<MeshBatch<'_>> {
+    let (nv, nt, nq) = (m.positions.len(), m.triangles.len(), m.quads.len());
+    (0..parts)
+        .map(|b| {
+            let r = |n: usize| cut(n, b)..cut(n, b + 1);
+            MeshBatch {
+                positions: &m.positions[r(nv)],
+                normals: if m.normals.is_empty() { &[][..] } else { &m.normals[r(nv)] },
+                triangles: &m.triangles[r(nt)],
+                quads: &m.quads[r(nq)],
+            }
+        })
+        .collect()
+}
+
 /// Pushes `m` to a [`PlyStream`] in uneven batches, as a walk would.
 fn stream(m: &Mesh, path: &std::path::Path) {
     let mut s = PlyStream::create(path, !m.normals.is_empty()).unwrap();
-    let (nv, nt, nq) = (m.positions.len(), m.triangles.len(), m.quads.len());
-    let parts = 7;
-    for b in 0..parts {
-        let r = |n: usize| n * b / parts..n * (b + 1) / parts;
-        let normals = if m.normals.is_empty() { &[][..] } else { &m.normals[r(nv)] };
-        s.push(MeshBatch {
-            positions: &m.positions[r(nv)],
-            normals,
-            triangles: &m.triangles[r(nt)],
-            quads: &m.quads[r(nq)],
-        })
-        .unwrap();
+    for b in batches(m, 7, |n, b| n * b / 7) {
+        s.push(b).unwrap();
     }
     assert!(!path.exists(), "nothing at the path before finish");
-    assert_eq!(s.finish().unwrap(), (nv as u64, (nt + nq) as u64));
+    assert_eq!(s.finish().unwrap(), (m.positions.len() as u64, (m.triangles.len() + m.quads.len()) as u64));
 }
 
 #[test]
@@ -301,17 +308,8 @@ fn an_stl_stream_refuses_vertices_it_has_let_go_and_leaves_nothing() {
 fn stream_obj(m: &Mesh, path: &std::path::Path, parts: usize) -> (u64, u64) {
     let batch = Batch::new();
     let mut s = ObjStream::create_in(&batch, path, !m.normals.is_empty()).unwrap();
-    let (nv, nt, nq) = (m.positions.len(), m.triangles.len(), m.quads.len());
-    for b in 0..parts {
-        let r = |n: usize| n * b * b / (parts * parts)..n * (b + 1) * (b + 1) / (parts * parts);
-        let normals = if m.normals.is_empty() { &[][..] } else { &m.normals[r(nv)] };
-        s.push(MeshBatch {
-            positions: &m.positions[r(nv)],
-            normals,
-            triangles: &m.triangles[r(nt)],
-            quads: &m.quads[r(nq)],
-        })
-        .unwrap();
+    for b in batches(m, parts, |n, b| n * b * b / (parts * parts)) {
+        s.push(b).unwrap();
     }
     assert!(!path.exists(), "nothing at the path before the batch commits");
     let n = s.finish().unwrap();
