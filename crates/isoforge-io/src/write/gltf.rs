@@ -1,6 +1,6 @@
 //! glTF 2.0 writer: `.glb` (one binary file) or `.gltf` + `.bin`. One mesh and node per
 //! [`NamedMesh`]: POSITION (with its bounds), NORMAL when present, COLOR_0 (normalised unsigned
-//! bytes) and `_NAME` float attributes from [`MeshData`], u32 indices, triangles. Units are the
+//! bytes) and `_NAME` float attributes from [`MeshData`](crate::MeshData), u32 indices, triangles. Units are the
 //! mesh's (millimetres for medical volumes; glTF viewers assume metres, so scale in the viewer).
 
 use std::io::{self, Write};
@@ -9,7 +9,7 @@ use std::path::{Path, PathBuf};
 
 use isoforge::mesh::{Mesh, MeshBatch};
 
-use super::{append_scratch, scratch, PositionWindow};
+use super::stream::{append_scratch, scratch, PositionWindow};
 use crate::atomic::TempFile;
 use crate::attributes::NamedMesh;
 use crate::error::{Error, Result};
@@ -356,7 +356,7 @@ impl<'a> GlbStream<'a> {
     /// Writing fails, `normals` does not match the stream, or a quad of the previous batch
     /// refers to a vertex beyond this one.
     pub fn push(&mut self, batch: MeshBatch<'_>) -> io::Result<()> {
-        super::check_batch(self.main.is_none(), self.normals, &batch)?;
+        super::stream::check_batch(self.main.is_none(), self.normals, &batch)?;
         let MeshBatch { positions, normals, triangles, quads } = batch;
         self.window.push(positions);
         grow_bounds(&mut self.bounds, positions);
@@ -437,6 +437,6 @@ impl<'a> GlbStream<'a> {
 
 impl isoforge::mesh::MeshSink for GlbStream<'_> {
     fn push(&mut self, batch: MeshBatch<'_>) -> std::result::Result<(), isoforge::mesh::ExternalError> {
-        GlbStream::push(self, batch).map_err(|e| super::sink_error(&self.path, &e))
+        GlbStream::push(self, batch).map_err(|e| super::stream::sink_error(&self.path, &e))
     }
 }

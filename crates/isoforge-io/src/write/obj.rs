@@ -7,8 +7,8 @@ use std::path::{Path, PathBuf};
 
 use isoforge::mesh::{Mesh, MeshBatch};
 
+use super::stream::{append_scratch, scratch};
 use super::text::{write_lines, LINES_PER_PIECE, PIECES_PER_WINDOW};
-use super::{append_scratch, scratch};
 use crate::atomic::TempFile;
 use crate::attributes::MeshData;
 use crate::error::{Error, Result};
@@ -137,7 +137,7 @@ impl<'a> ObjStream<'a> {
     /// # Errors
     /// Writing fails, or `normals` does not match the stream.
     pub fn push(&mut self, batch: MeshBatch<'_>) -> io::Result<()> {
-        super::check_batch(self.main.is_none(), self.normals, &batch)?;
+        super::stream::check_batch(self.main.is_none(), self.normals, &batch)?;
         let MeshBatch { positions, normals, triangles, quads } = batch;
         // Batches (a slab's worth) are gathered into windows, whose lines are formatted in
         // parallel pieces.
@@ -195,6 +195,6 @@ impl<'a> ObjStream<'a> {
 
 impl isoforge::mesh::MeshSink for ObjStream<'_> {
     fn push(&mut self, batch: MeshBatch<'_>) -> std::result::Result<(), isoforge::mesh::ExternalError> {
-        ObjStream::push(self, batch).map_err(|e| super::sink_error(&self.path, &e))
+        ObjStream::push(self, batch).map_err(|e| super::stream::sink_error(&self.path, &e))
     }
 }

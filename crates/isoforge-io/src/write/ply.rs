@@ -277,7 +277,7 @@ impl<'a> PlyStream<'a> {
     /// # Errors
     /// Writing fails, or `normals` does not match the stream.
     pub fn push(&mut self, batch: isoforge::mesh::MeshBatch<'_>) -> io::Result<()> {
-        super::check_batch(self.main.is_none(), self.normals, &batch)?;
+        super::stream::check_batch(self.main.is_none(), self.normals, &batch)?;
         let isoforge::mesh::MeshBatch { positions, normals, triangles, quads } = batch;
         write_vertices(&mut self.verts, positions, normals, &mut self.buf)?;
         // Faces are packed into one buffer across batches and written from it directly (the
@@ -341,6 +341,6 @@ impl<'a> PlyStream<'a> {
 
 impl isoforge::mesh::MeshSink for PlyStream<'_> {
     fn push(&mut self, batch: isoforge::mesh::MeshBatch<'_>) -> Result<(), isoforge::mesh::ExternalError> {
-        PlyStream::push(self, batch).map_err(|e| super::sink_error(&self.path, &e))
+        PlyStream::push(self, batch).map_err(|e| super::stream::sink_error(&self.path, &e))
     }
 }

@@ -7,7 +7,7 @@ use std::path::{Path, PathBuf};
 
 use isoforge::mesh::{Mesh, MeshBatch};
 
-use super::{append_scratch, missing_vertex, scratch, PositionWindow};
+use super::stream::{append_scratch, missing_vertex, scratch, PositionWindow};
 use crate::atomic::TempFile;
 use crate::error::{Error, Result};
 use crate::Batch;
@@ -215,6 +215,6 @@ impl<'a> StlStream<'a> {
 
 impl isoforge::mesh::MeshSink for StlStream<'_> {
     fn push(&mut self, batch: MeshBatch<'_>) -> Result<(), isoforge::mesh::ExternalError> {
-        StlStream::push(self, batch).map_err(|e| super::sink_error(&self.path, &e))
+        StlStream::push(self, batch).map_err(|e| super::stream::sink_error(&self.path, &e))
     }
 }
