@@ -105,7 +105,7 @@ fn streams(path: &Path) -> bool {
 
 /// Whether `extract` streams a volume file that can stream (decode, walk and write overlapping, in
 /// O(nx·ny) memory) without `--max-memory`: when the streamed file is byte for byte the
-/// in-memory one, i.e. one iso into binary PLY, binary STL, OBJ or .glb with nothing that needs the whole grid or mesh
+/// in-memory one, i.e. one iso into PLY, binary STL, OBJ, OFF or .glb with nothing that needs the whole grid or mesh
 /// (ROI, labels, mask, attributes, colours, `--require`'s full report) and no benchmarking flags
 /// (`--repeat`, `--time-json`: their seconds are the extraction's alone). Quads are written as
 /// quads on both paths.
@@ -237,7 +237,7 @@ impl MeshSink for Tee<'_, '_> {
     }
 }
 
-/// Out-of-core extraction: slab by slab from the file straight into a binary PLY, STL or glTF or an OBJ, checked
+/// Out-of-core extraction: slab by slab from the file straight into a mesh file that streams, checked
 /// in the same pass when `--require` asks.
 fn extract_streaming(
     c: &ExtractConfig,
@@ -249,7 +249,7 @@ fn extract_streaming(
     let normals = c.request.options.normals == Normals::Gradient;
     let Some(mut out) = MeshStream::create_in(&batch, &c.output, c.format, normals)? else {
         bail!(
-            "{}: out-of-core extraction (--max-memory) writes binary PLY, binary STL, OBJ or binary glTF only",
+            "{}: out-of-core extraction (--max-memory) writes PLY, binary STL, OBJ, OFF or .glb only",
             c.output.display()
         );
     };

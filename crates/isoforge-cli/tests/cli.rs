@@ -387,7 +387,7 @@ fn streamed_mesh_equals_in_memory_mesh() {
         "is outside the value range",
         &out,
     );
-    let out = dir.path().join("x.off");
+    let out = dir.path().join("x.gltf");
     fails(
         &[
             "extract",
@@ -404,14 +404,14 @@ fn streamed_mesh_equals_in_memory_mesh() {
             "-o",
             p(&out),
         ],
-        "binary PLY, binary STL, OBJ or binary glTF only",
+        "PLY, binary STL, OBJ, OFF or .glb only",
         &out,
     );
 }
 
 /// Issue 11: a volume file that streams (binary NRRD, raw, NIfTI, …) is meshed slab by slab by
-/// default, decoding ahead in a background thread, and the binary PLY, STL, OBJ or glTF is byte
-/// for byte the in-memory one (`--time-json` keeps the extraction in memory: its seconds are the extraction's
+/// default, decoding ahead in a background thread, and the binary PLY, STL, OBJ, OFF or glTF is
+/// byte for byte the in-memory one (`--time-json` keeps the extraction in memory: its seconds are the extraction's
 /// alone). STL's quads are split after all triangles on both paths.
 #[test]
 fn streaming_by_default_gives_the_in_memory_bytes() {
@@ -443,7 +443,8 @@ fn streaming_by_default_gives_the_in_memory_bytes() {
         ("mc33", "2", "none"),
     ];
     let cases = [("raw", &raw_args[..], "1000.5"), ("gzip", &gz_args[..], "0.5")];
-    for ((name, input, iso), ext) in cases.into_iter().flat_map(|c| ["ply", "stl", "obj", "glb"].map(|e| (c, e))) {
+    for ((name, input, iso), ext) in cases.into_iter().flat_map(|c| ["ply", "stl", "obj", "off", "glb"].map(|e| (c, e)))
+    {
         for (method, threads, normals) in runs {
             let out = |tag: &str| dir.path().join(format!("{name}-{method}-{threads}-{normals}-{tag}.{ext}"));
             let (streamed, mem, t) = (out("stream"), out("mem"), dir.path().join("t.json"));

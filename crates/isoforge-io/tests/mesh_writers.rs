@@ -1,12 +1,12 @@
-//! Issue 11: the mesh writers take quads (PLY, OBJ, OFF) and read them back; the streamed PLY,
-//! STL and OBJ writers give the in-memory writers' bytes; the binary PLY and STL layouts are the
+//! Issue 11: the mesh writers take quads (PLY, OBJ, OFF) and read them back; the streamed PLY
+//! (binary and ASCII), STL, glTF, OBJ and OFF writers give the in-memory writers' bytes; the binary PLY and STL layouts are the
 //! ones they always were.
 
 use isoforge::grid::{AnyGrid, DenseGrid, Lattice};
 use isoforge::mesh::{Mesh, MeshBatch, MeshSink};
 use isoforge::pipeline::{self, Method, Options};
 use isoforge::volume::Iso;
-use isoforge_io::write::obj::{write_obj, ObjStream};
+use isoforge_io::write::obj::write_obj;
 use isoforge_io::write::ply::{write_ply, PlyStream};
 use isoforge_io::write::stl::write_stl;
 use isoforge_io::write::MeshStream;
@@ -303,13 +303,13 @@ fn an_stl_stream_refuses_vertices_it_has_let_go_and_leaves_nothing() {
     assert_eq!(std::fs::read_dir(dir.path()).unwrap().count(), 0, "no output, no scratch file");
 }
 
-/// Pushes `m` to an [`ObjStream`] in `parts` uneven batches (OBJ numbers vertices globally, so
-/// any split will do) and commits it.
-fn stream_obj(m: &Mesh, path: &std::path::Path, parts: usize) -> (u64, u64) {
+/// Pushes `m` to a text [`MeshStream`] (OBJ, OFF, ASCII PLY) in `parts` uneven batches (they
+/// number vertices globally, so any split will do) and commits it.
+fn stream_text(format: MeshFormat, m: &Mesh, path: &std::path::Path, parts: usize) -> (u64, u64) {
     let batch = Batch::new();
-    let mut s = ObjStream::create_in(&batch, path, !m.normals.is_empty()).unwrap();
+    let mut s = MeshStream::create_in(&batch, path, format, !m.normals.is_empty()).unwrap().expect("streams");
     for b in batches(m, parts, |n, b| n * b * b / (parts * parts)) {
-        s.push(b).unwrap();
+        MeshSink::push(&mut s, b).unwrap();
     }
     assert!(!path.exists(), "nothing at the path before the batch commits");
     let n = s.finish().unwrap();
@@ -318,7 +318,7 @@ fn stream_obj(m: &Mesh, path: &std::path::Path, parts: usize) -> (u64, u64) {
 }
 
 #[test]
-fn streamed_obj_is_the_in_memory_obj() {
+fn streamed_text_is_the_in_memory_text() {
     let dir = tempfile::tempdir().unwrap();
     let obj = |m: &Mesh| {
         let mut v = Vec::new();
@@ -350,13 +350,20 @@ fn streamed_obj_is_the_in_memory_obj() {
         ("big", big),
         ("empty", Mesh::default()),
     ];
-    for (name, m) in &cases {
-        let want = obj(m);
-        for parts in [1, 7] {
-            let path = dir.path().join(format!("{name}-{parts}.obj"));
-            let n = stream_obj(m, &path, parts);
-            assert_eq!(n, (m.positions.len() as u64, (m.triangles.len() + m.quads.len()) as u64));
-            assert!(std::fs::read(&path).unwrap() == want, "{name} in {parts} batches: streamed OBJ differs");
+    for (format, ext) in [(MeshFormat::Obj, "obj"), (MeshFormat::Off, "off"), (MeshFormat::PlyAscii, "ply")] {
+        for (name, m) in &cases {
+            let path = dir.path().join(format!("memory.{ext}"));
+            isoforge_io::write_mesh(&path, m, format).unwrap();
+            let want = std::fs::read(&path).unwrap();
+            if format == MeshFormat::Obj {
+                assert!(want == obj(m), "{name}: write_mesh writes write_obj's bytes");
+            }
+            for parts in [1, 7] {
+                let path = dir.path().join(format!("{name}-{parts}.{ext}"));
+                let n = stream_text(format, m, &path, parts);
+                assert_eq!(n, (m.positions.len() as u64, (m.triangles.len() + m.quads.len()) as u64));
+                assert!(std::fs::read(&path).unwrap() == want, "{name} in {parts} batches: streamed {ext} differs");
+            }
         }
     }
     // The in-memory lines themselves: the first vertex and the last face of the big mesh.

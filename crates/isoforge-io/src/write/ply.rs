@@ -18,7 +18,7 @@ pub fn write_ply(w: &mut dyn Write, mesh: &Mesh, ascii: bool) -> io::Result<()> 
 }
 
 /// The header of a PLY file: `faces` triangles and quads as one `face` element.
-fn header(vertices: usize, faces: usize, normals: bool, data: &MeshData, ascii: bool) -> String {
+pub(super) fn header(vertices: usize, faces: usize, normals: bool, data: &MeshData, ascii: bool) -> String {
     use std::fmt::Write as _;
     let format = if ascii { "ascii" } else { "binary_little_endian" };
     let mut h = format!(
@@ -41,6 +41,32 @@ fn header(vertices: usize, faces: usize, normals: bool, data: &MeshData, ascii: 
     }
     h.push_str("end_header\n");
     h
+}
+
+/// Appends ASCII vertex lines for `points`, which start at vertex `at`: position, then the
+/// vertex's normal (`normals[at..]`, when not empty), colour and scalars from `data`.
+pub(super) fn ascii_vertex_lines(
+    buf: &mut Vec<u8>,
+    points: &[[f32; 3]],
+    normals: &[[f32; 3]],
+    data: &MeshData,
+    at: usize,
+) {
+    for (j, p) in points.iter().enumerate() {
+        let i = at + j;
+        // Lines into a Vec cannot fail.
+        let _ = write!(buf, "{} {} {}", p[0], p[1], p[2]);
+        if let Some(n) = normals.get(i) {
+            let _ = write!(buf, " {} {} {}", n[0], n[1], n[2]);
+        }
+        if let Some(c) = &data.colors {
+            let _ = write!(buf, " {} {} {}", c[i][0], c[i][1], c[i][2]);
+        }
+        for (_, v) in &data.scalars {
+            let _ = write!(buf, " {}", v[i]);
+        }
+        buf.push(b'\n');
+    }
 }
 
 /// Faces packed per write (13 bytes a triangle, 17 a quad).
@@ -120,23 +146,7 @@ pub fn write_ply_with(w: &mut dyn Write, mesh: &Mesh, data: &MeshData, ascii: bo
     w.write_all(header(mesh.positions.len(), faces, normals, data, ascii).as_bytes())?;
     if ascii {
         // Lines into a Vec cannot fail.
-        write_lines(w, &mesh.positions, |buf, ps, at| {
-            for (j, p) in ps.iter().enumerate() {
-                let i = at + j;
-                let _ = write!(buf, "{} {} {}", p[0], p[1], p[2]);
-                if normals {
-                    let n = mesh.normals[i];
-                    let _ = write!(buf, " {} {} {}", n[0], n[1], n[2]);
-                }
-                if let Some(c) = &data.colors {
-                    let _ = write!(buf, " {} {} {}", c[i][0], c[i][1], c[i][2]);
-                }
-                for (_, v) in &data.scalars {
-                    let _ = write!(buf, " {}", v[i]);
-                }
-                buf.push(b'\n');
-            }
-        })?;
+        write_lines(w, &mesh.positions, |buf, ps, at| ascii_vertex_lines(buf, ps, &mesh.normals, data, at))?;
         match &data.triangle_labels {
             Some(l) => write_lines(w, &mesh.triangles, |buf, ts, at| {
                 for (j, t) in ts.iter().enumerate() {

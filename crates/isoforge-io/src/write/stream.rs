@@ -127,7 +127,7 @@ pub(crate) fn check_batch(finished: bool, normals: bool, batch: &isoforge::mesh:
 
 /// A mesh file written as the mesh is produced, batch by batch, in memory bounded by a few
 /// batches: the formats whose streamed bytes are exactly the in-memory writer's (binary PLY,
-/// binary STL, OBJ and binary glTF).
+/// binary STL, binary glTF, and the text formats OBJ, OFF and ASCII PLY).
 pub enum MeshStream<'a> {
     /// Binary PLY ([`super::ply::PlyStream`]).
     #[cfg(feature = "ply")]
@@ -135,9 +135,9 @@ pub enum MeshStream<'a> {
     /// Binary STL ([`super::stl::StlStream`]).
     #[cfg(feature = "stl")]
     Stl(super::stl::StlStream<'a>),
-    /// OBJ ([`super::obj::ObjStream`]).
-    #[cfg(feature = "obj")]
-    Obj(super::obj::ObjStream<'a>),
+    /// OBJ, OFF or ASCII PLY ([`super::text::TextStream`]).
+    #[cfg(any(feature = "obj", feature = "off", feature = "ply"))]
+    Text(super::text::TextStream<'a>),
     /// Binary glTF ([`super::gltf::GlbStream`]).
     Glb(super::gltf::GlbStream<'a>),
 }
@@ -148,6 +148,8 @@ impl<'a> MeshStream<'a> {
         (cfg!(feature = "ply") && format == MeshFormat::Ply)
             || (cfg!(feature = "stl") && format == MeshFormat::Stl)
             || (cfg!(feature = "obj") && format == MeshFormat::Obj)
+            || (cfg!(feature = "off") && format == MeshFormat::Off)
+            || (cfg!(feature = "ply") && format == MeshFormat::PlyAscii)
             || format == MeshFormat::Glb
     }
 
@@ -164,10 +166,19 @@ impl<'a> MeshStream<'a> {
             #[cfg(feature = "stl")]
             MeshFormat::Stl => Some(MeshStream::Stl(super::stl::StlStream::create_in(batch, path)?)),
             #[cfg(feature = "obj")]
-            MeshFormat::Obj => Some(MeshStream::Obj(super::obj::ObjStream::create_in(batch, path, normals)?)),
+            MeshFormat::Obj => Some(MeshStream::text(batch, path, super::text::TextFormat::Obj, normals)?),
+            #[cfg(feature = "off")]
+            MeshFormat::Off => Some(MeshStream::text(batch, path, super::text::TextFormat::Off, normals)?),
+            #[cfg(feature = "ply")]
+            MeshFormat::PlyAscii => Some(MeshStream::text(batch, path, super::text::TextFormat::PlyAscii, normals)?),
             MeshFormat::Glb => Some(MeshStream::Glb(super::gltf::GlbStream::create_in(batch, path, normals)?)),
             _ => None,
         })
+    }
+
+    #[cfg(any(feature = "obj", feature = "off", feature = "ply"))]
+    fn text(batch: &'a Batch, path: &Path, format: super::text::TextFormat, normals: bool) -> Result<Self> {
+        Ok(MeshStream::Text(super::text::TextStream::create_in(batch, path, format, normals)?))
     }
 
     /// Completes the file (see each stream's `finish`); returns the vertex and polygon counts
@@ -181,8 +192,8 @@ impl<'a> MeshStream<'a> {
             MeshStream::Ply(s) => s.finish(),
             #[cfg(feature = "stl")]
             MeshStream::Stl(s) => s.finish(),
-            #[cfg(feature = "obj")]
-            MeshStream::Obj(s) => s.finish(),
+            #[cfg(any(feature = "obj", feature = "off", feature = "ply"))]
+            MeshStream::Text(s) => s.finish(),
             MeshStream::Glb(s) => s.finish(),
         }
     }
@@ -195,8 +206,8 @@ impl isoforge::mesh::MeshSink for MeshStream<'_> {
             MeshStream::Ply(s) => isoforge::mesh::MeshSink::push(s, batch),
             #[cfg(feature = "stl")]
             MeshStream::Stl(s) => isoforge::mesh::MeshSink::push(s, batch),
-            #[cfg(feature = "obj")]
-            MeshStream::Obj(s) => isoforge::mesh::MeshSink::push(s, batch),
+            #[cfg(any(feature = "obj", feature = "off", feature = "ply"))]
+            MeshStream::Text(s) => isoforge::mesh::MeshSink::push(s, batch),
             MeshStream::Glb(s) => isoforge::mesh::MeshSink::push(s, batch),
         }
     }
