@@ -117,11 +117,22 @@ fn streams_by_default(c: &ExtractConfig) -> bool {
         && c.time_json.is_none()
         && r.region.is_identity()
         && r.labels.is_none()
-        && c.mask.is_none()
-        && r.attributes.is_empty()
-        && r.color.is_none()
-        && c.color_volume.is_none()
+        && needs_memory(c).is_empty()
         && c.require.is_empty()
+}
+
+/// The flags given that sample or colour the whole mesh, which a streamed extraction cannot honour.
+fn needs_memory(c: &ExtractConfig) -> Vec<&'static str> {
+    let r = &c.request;
+    [
+        (c.mask.is_some(), "--mask"),
+        (!r.attributes.is_empty(), "--attribute"),
+        (r.color.is_some(), "--color-by"),
+        (c.color_volume.is_some(), "--color-volume"),
+    ]
+    .into_iter()
+    .filter_map(|(given, flag)| given.then_some(flag))
+    .collect()
 }
 
 /// "N triangles", and ", M quads" when the mesh has quads.
@@ -342,6 +353,9 @@ pub fn extract(c: &ExtractConfig) -> Result<Outcome> {
         Loaded::Stream(_) if isos.len() > 1 => bail!("--iso with several values: out-of-core extraction runs one"),
         Loaded::Stream(_) if !r.region.is_identity() => {
             bail!("--roi, --close and --space index need the volume in memory (drop --max-memory)")
+        }
+        Loaded::Stream(_) if !needs_memory(c).is_empty() => {
+            bail!("{} need the volume and mesh in memory (drop --max-memory)", needs_memory(c).join(", "))
         }
         Loaded::Stream(reader) => return extract_streaming(c, reader, isos[0], &name, batch),
         Loaded::Field(_) if !r.region.is_identity() => {

@@ -387,6 +387,32 @@ fn streamed_mesh_equals_in_memory_mesh() {
         "is outside the value range",
         &out,
     );
+    // What samples or colours the whole mesh cannot be honoured slab by slab: refused, not dropped.
+    let out = dir.path().join("attr.ply");
+    let attr = format!("self={}", p(&raw));
+    fails(
+        &[
+            "extract",
+            "-i",
+            p(&raw),
+            "--dims",
+            "70,40,33",
+            "--dtype",
+            "u16",
+            "--iso",
+            "1000.5",
+            "--max-memory",
+            "1K",
+            "--attribute",
+            &attr,
+            "--color-by",
+            "self",
+            "-o",
+            p(&out),
+        ],
+        "--attribute, --color-by need the volume and mesh in memory (drop --max-memory)",
+        &out,
+    );
     let out = dir.path().join("x.gltf");
     fails(
         &[
