@@ -430,7 +430,7 @@ fn streamed_mesh_equals_in_memory_mesh() {
             "-o",
             p(&out),
         ],
-        "PLY, binary STL, OBJ, OFF or .glb only",
+        "PLY, STL, OBJ, OFF or .glb only",
         &out,
     );
 }

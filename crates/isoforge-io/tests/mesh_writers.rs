@@ -204,28 +204,50 @@ fn a_stream_dropped_unfinished_leaves_nothing() {
     assert_eq!(std::fs::read_dir(dir.path()).unwrap().count(), 0);
 }
 
+/// Every facet of `m` (triangles, then quads split), with the unit normal of its winding (zero
+/// when degenerate), computed independently of the writer.
+fn reference_facets(m: &Mesh) -> Vec<[[f32; 3]; 4]> {
+    let tris: Vec<[u32; 3]> =
+        m.triangles.iter().copied().chain(m.quads.iter().flat_map(|&q| m.split_quad(q))).collect();
+    tris.iter()
+        .map(|t| {
+            let [a, b, c] = t.map(|v| m.positions[v as usize]);
+            let (u, v) = ([0, 1, 2].map(|i| b[i] - a[i]), [0, 1, 2].map(|i| c[i] - a[i]));
+            let n = [u[1] * v[2] - u[2] * v[1], u[2] * v[0] - u[0] * v[2], u[0] * v[1] - u[1] * v[0]];
+            let len = (n[0] * n[0] + n[1] * n[1] + n[2] * n[2]).sqrt();
+            [if len > 0.0 { n.map(|x| x / len) } else { n }, a, b, c]
+        })
+        .collect()
+}
+
 /// The binary STL layout written field by field, independently of the writer: the 80-byte
-/// header, the count, then per triangle (quads split after them) the unit normal of its winding,
-/// its corners and a zero attribute count.
+/// header, the count, then per facet its normal, its corners and a zero attribute count.
 fn reference_stl(m: &Mesh) -> Vec<u8> {
     let mut out = vec![0u8; 80];
     let tag = format!("isoforge {} binary STL", env!("CARGO_PKG_VERSION"));
     out[..tag.len()].copy_from_slice(tag.as_bytes());
-    let tris: Vec<[u32; 3]> =
-        m.triangles.iter().copied().chain(m.quads.iter().flat_map(|&q| m.split_quad(q))).collect();
-    out.extend_from_slice(&(tris.len() as u32).to_le_bytes());
-    for t in tris {
-        let [a, b, c] = t.map(|v| m.positions[v as usize]);
-        let (u, v) = ([0, 1, 2].map(|i| b[i] - a[i]), [0, 1, 2].map(|i| c[i] - a[i]));
-        let n = [u[1] * v[2] - u[2] * v[1], u[2] * v[0] - u[0] * v[2], u[0] * v[1] - u[1] * v[0]];
-        let len = (n[0] * n[0] + n[1] * n[1] + n[2] * n[2]).sqrt();
-        let n = if len > 0.0 { n.map(|x| x / len) } else { n };
-        for x in [n, a, b, c].as_flattened() {
+    let facets = reference_facets(m);
+    out.extend_from_slice(&(facets.len() as u32).to_le_bytes());
+    for f in facets {
+        for x in f.as_flattened() {
             out.extend_from_slice(&x.to_le_bytes());
         }
         out.extend_from_slice(&[0, 0]);
     }
     out
+}
+
+/// The ASCII STL text, independently of the writer.
+fn reference_stl_ascii(m: &Mesh) -> Vec<u8> {
+    let mut out = String::from("solid isoforge\n");
+    for [n, a, b, c] in reference_facets(m) {
+        out += &format!("  facet normal {} {} {}\n    outer loop\n", n[0], n[1], n[2]);
+        for p in [a, b, c] {
+            out += &format!("      vertex {} {} {}\n", p[0], p[1], p[2]);
+        }
+        out += "    endloop\n  endfacet\n";
+    }
+    (out + "endsolid isoforge\n").into_bytes()
 }
 
 fn stl_bytes(m: &Mesh) -> Vec<u8> {
@@ -265,21 +287,31 @@ fn stream_stl(m: &Mesh, batch: &Batch, path: &std::path::Path, parts: usize, at:
 }
 
 #[test]
-fn binary_stl_keeps_its_layout_and_streams_the_same_bytes() {
+fn stl_keeps_its_layout_and_streams_the_same_bytes() {
     let dir = tempfile::tempdir().unwrap();
     for method in [Method::MarchingCubes, Method::SurfaceNets] {
         let m = mesh(method, isoforge::mesh::Normals::None);
         let want = reference_stl(&m);
         assert!(want.len() > 84 + 50 * 100, "{method:?}: a real mesh");
         assert!(stl_bytes(&m) == want, "{method:?}: in-memory STL layout");
-        for (parts, at) in [(1, 0), (2, 1), (3, 1)] {
-            let path = dir.path().join(format!("{method:?}-{parts}.stl"));
+        let text = reference_stl_ascii(&m);
+        let path = dir.path().join("memory.stl");
+        isoforge_io::write_mesh(&path, &m, MeshFormat::StlAscii).unwrap();
+        assert!(std::fs::read(&path).unwrap() == text, "{method:?}: in-memory ASCII STL");
+        for ((parts, at), (format, want)) in [(1, 0), (2, 1), (3, 1)]
+            .into_iter()
+            .flat_map(|p| [(MeshFormat::Stl, &want), (MeshFormat::StlAscii, &text)].map(|f| (p, f)))
+        {
+            let path = dir.path().join(format!("{method:?}-{parts}-{format:?}.stl"));
             let batch = Batch::new();
-            let n = stream_stl(&m, &batch, &path, parts, at).unwrap();
+            let n = stream_as(format, &m, &batch, &path, parts, at).unwrap();
             assert_eq!(n, (m.positions.len() as u64, (m.triangles.len() + 2 * m.quads.len()) as u64));
             assert!(!path.exists(), "nothing at the path before the batch commits");
             batch.commit().unwrap();
-            assert!(std::fs::read(&path).unwrap() == want, "{method:?} in {parts} batches: streamed STL differs");
+            assert!(
+                std::fs::read(&path).unwrap() == *want,
+                "{method:?} {format:?} in {parts} batches: streamed STL differs"
+            );
         }
     }
     let path = dir.path().join("empty.stl");

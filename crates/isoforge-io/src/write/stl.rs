@@ -6,6 +6,7 @@ use std::io::{self, Seek, SeekFrom, Write};
 use std::path::{Path, PathBuf};
 
 use isoforge::mesh::{Mesh, MeshBatch};
+use rayon::prelude::*;
 
 use super::stream::{append_scratch, missing_vertex, scratch, PositionWindow};
 use crate::atomic::TempFile;
@@ -42,9 +43,44 @@ fn header(facets: u64) -> io::Result<[u8; 84]> {
     Ok(h)
 }
 
-/// Appends the facets of `triangles` to `buf`, corners from `corner` (fixed-size records written
-/// in place).
-fn pack_facets(buf: &mut Vec<u8>, triangles: &[[u32; 3]], corner: impl Fn(u32) -> Option<[f32; 3]>) -> io::Result<()> {
+/// The first and last lines of an ASCII STL.
+const SOLID: &str = "solid isoforge\n";
+const END_SOLID: &str = "endsolid isoforge\n";
+
+/// Appends the facets of `triangles` to `buf`, corners from `corner`: as text (`ascii`), or as
+/// fixed-size binary records written in place.
+fn pack_facets(
+    buf: &mut Vec<u8>,
+    triangles: &[[u32; 3]],
+    corner: impl Fn(u32) -> Option<[f32; 3]> + Sync,
+    ascii: bool,
+) -> io::Result<()> {
+    if ascii {
+        // Text formatting is most of the cost: pieces formatted in parallel, appended in order.
+        let pieces: Vec<io::Result<Vec<u8>>> = triangles
+            .par_chunks(1 << 12)
+            .map(|piece| {
+                let mut text = Vec::with_capacity(piece.len() * 256);
+                for t in piece {
+                    let p = [corner(t[0]), corner(t[1]), corner(t[2])];
+                    let [Some(a), Some(b), Some(c)] = p else {
+                        return Err(missing_vertex(t, &p));
+                    };
+                    let n = facet_normal([a, b, c]);
+                    writeln!(text, "  facet normal {} {} {}\n    outer loop", n[0], n[1], n[2])?;
+                    for q in [a, b, c] {
+                        writeln!(text, "      vertex {} {} {}", q[0], q[1], q[2])?;
+                    }
+                    text.extend_from_slice(b"    endloop\n  endfacet\n");
+                }
+                Ok(text)
+            })
+            .collect();
+        for p in pieces {
+            buf.extend_from_slice(&p?);
+        }
+        return Ok(());
+    }
     let at = buf.len();
     buf.resize(at + triangles.len() * FACET, 0);
     for (r, t) in buf[at..].chunks_exact_mut(FACET).zip(triangles) {
@@ -65,12 +101,13 @@ fn pack_facets(buf: &mut Vec<u8>, triangles: &[[u32; 3]], corner: impl Fn(u32) -
 fn write_facets(
     w: &mut dyn Write,
     triangles: &[[u32; 3]],
-    corner: impl Fn(u32) -> Option<[f32; 3]> + Copy,
+    corner: impl Fn(u32) -> Option<[f32; 3]> + Copy + Sync,
+    ascii: bool,
     buf: &mut Vec<u8>,
 ) -> io::Result<()> {
     for chunk in triangles.chunks(FACETS_PER_WRITE) {
         buf.clear();
-        pack_facets(buf, chunk, corner)?;
+        pack_facets(buf, chunk, corner, ascii)?;
         w.write_all(buf)?;
     }
     Ok(())
@@ -79,34 +116,29 @@ fn write_facets(
 /// Writes `mesh` as binary STL.
 pub fn write_stl(w: &mut dyn Write, mesh: &Mesh) -> io::Result<()> {
     w.write_all(&header(mesh.num_split_triangles() as u64)?)?;
-    let corner = |v: u32| mesh.positions.get(v as usize).copied();
-    let mut buf = Vec::with_capacity(FACET * FACETS_PER_WRITE);
-    write_facets(w, &mesh.triangles, corner, &mut buf)?;
-    for quads in mesh.quads.chunks(FACETS_PER_WRITE / 2) {
-        let split: Vec<[u32; 3]> = quads.iter().flat_map(|&q| mesh.split_quad(q)).collect();
-        write_facets(w, &split, corner, &mut buf)?;
-    }
-    Ok(())
+    write_all_facets(w, mesh, false)
 }
 
 /// Writes `mesh` as ASCII STL (`solid … endsolid`), facet normals from the winding.
 pub fn write_stl_ascii(w: &mut dyn Write, mesh: &Mesh) -> io::Result<()> {
-    writeln!(w, "solid isoforge")?;
-    let mut out = io::BufWriter::with_capacity(1 << 16, w);
-    for t in mesh.all_triangles() {
-        let p = t.map(|v| mesh.positions[v as usize]);
-        let n = facet_normal(p);
-        writeln!(out, "  facet normal {} {} {}\n    outer loop", n[0], n[1], n[2])?;
-        for q in p {
-            writeln!(out, "      vertex {} {} {}", q[0], q[1], q[2])?;
-        }
-        writeln!(out, "    endloop\n  endfacet")?;
-    }
-    writeln!(out, "endsolid isoforge")?;
-    out.flush()
+    w.write_all(SOLID.as_bytes())?;
+    write_all_facets(w, mesh, true)?;
+    w.write_all(END_SOLID.as_bytes())
 }
 
-/// A binary STL written as the mesh is produced ([`isoforge::mesh::MeshSink`]), in memory
+/// The facets of `mesh`: its triangles, then its quads split.
+fn write_all_facets(w: &mut dyn Write, mesh: &Mesh, ascii: bool) -> io::Result<()> {
+    let corner = |v: u32| mesh.positions.get(v as usize).copied();
+    let mut buf = Vec::with_capacity(FACET * FACETS_PER_WRITE);
+    write_facets(w, &mesh.triangles, corner, ascii, &mut buf)?;
+    for quads in mesh.quads.chunks(FACETS_PER_WRITE / 2) {
+        let split: Vec<[u32; 3]> = quads.iter().flat_map(|&q| mesh.split_quad(q)).collect();
+        write_facets(w, &split, corner, ascii, &mut buf)?;
+    }
+    Ok(())
+}
+
+/// An STL (binary or ASCII) written as the mesh is produced ([`isoforge::mesh::MeshSink`]), in memory
 /// bounded by a few batches: the positions of the batches its polygons may still refer to (the
 /// one before, their own and the next, as the sink's contract allows), and their polygons until
 /// the next batch arrives. Triangles go straight into the output's temporary file, quads' halves
@@ -117,6 +149,8 @@ pub struct StlStream<'a> {
     batch: &'a Batch,
     path: PathBuf,
     main: Option<TempFile>,
+    /// Text facets between `solid` and `endsolid` lines, or binary ones after a counted header.
+    ascii: bool,
     /// Facets of split quads (created at the first quad).
     quads: Option<io::BufWriter<TempFile>>,
     window: PositionWindow,
@@ -136,14 +170,16 @@ impl<'a> StlStream<'a> {
     ///
     /// # Errors
     /// As [`Batch::reserve`].
-    pub fn create_in(batch: &'a Batch, path: &Path) -> Result<Self> {
+    pub fn create_in(batch: &'a Batch, path: &Path, ascii: bool) -> Result<Self> {
         let io_err = |source| Error::Io { path: path.to_path_buf(), source };
         let mut main = batch.take(path)?;
-        main.reset().and_then(|()| main.write_all(&header(0)?)).map_err(io_err)?;
+        let start = || if ascii { Ok(SOLID.as_bytes().to_vec()) } else { header(0).map(|h| h.to_vec()) };
+        main.reset().and_then(|()| main.write_all(&start()?)).map_err(io_err)?;
         Ok(StlStream {
             batch,
             path: path.to_path_buf(),
             main: Some(main),
+            ascii,
             quads: None,
             window: PositionWindow::default(),
             pending_triangles: Vec::new(),
@@ -170,6 +206,9 @@ impl<'a> StlStream<'a> {
         self.pending_triangles.extend_from_slice(batch.triangles);
         self.pending_quads.extend_from_slice(batch.quads);
         self.facets += (batch.triangles.len() + 2 * batch.quads.len()) as u64;
+        if self.ascii {
+            return Ok(());
+        }
         header(self.facets).map(|_| ())
     }
 
@@ -178,19 +217,19 @@ impl<'a> StlStream<'a> {
         let window = &self.window;
         let corner = |v: u32| window.get(v);
         let main = self.main.as_mut().ok_or_else(|| io::Error::other("the stream is finished"))?;
-        write_facets(main, &self.pending_triangles, corner, &mut self.buf)?;
+        write_facets(main, &self.pending_triangles, corner, self.ascii, &mut self.buf)?;
         self.pending_triangles.clear();
         if !self.pending_quads.is_empty() {
             self.split.clear();
             window.split_quads(&self.pending_quads, &mut self.split)?;
             self.pending_quads.clear();
-            write_facets(scratch(&mut self.quads, &self.path)?, &self.split, corner, &mut self.buf)?;
+            write_facets(scratch(&mut self.quads, &self.path)?, &self.split, corner, self.ascii, &mut self.buf)?;
         }
         Ok(())
     }
 
     /// Writes the last polygons, appends the quads' facets and patches the count into the
-    /// header; then hands the file back to its batch. Returns the vertex and facet counts.
+    /// header (binary) or ends the solid (ASCII); then hands the file back to its batch. Returns the vertex and facet counts.
     ///
     /// # Errors
     /// [`Error::Io`] naming the path when writing fails (nothing is left behind).
@@ -198,6 +237,9 @@ impl<'a> StlStream<'a> {
         let written = self.write_pending().and_then(|()| {
             let main = self.main.as_mut().ok_or_else(|| io::Error::other("the stream is finished"))?;
             append_scratch(main, std::slice::from_mut(&mut self.quads))?;
+            if self.ascii {
+                return main.write_all(END_SOLID.as_bytes());
+            }
             let end = main.file_mut().stream_position()?;
             main.file_mut().seek(SeekFrom::Start(0))?;
             main.write_all(&header(self.facets)?)?;

@@ -127,12 +127,12 @@ pub(crate) fn check_batch(finished: bool, normals: bool, batch: &isoforge::mesh:
 
 /// A mesh file written as the mesh is produced, batch by batch, in memory bounded by a few
 /// batches: the formats whose streamed bytes are exactly the in-memory writer's (binary PLY,
-/// binary STL, binary glTF, and the text formats OBJ, OFF and ASCII PLY).
+/// STL, binary glTF, and the text formats OBJ, OFF and ASCII PLY).
 pub enum MeshStream<'a> {
     /// Binary PLY ([`super::ply::PlyStream`]).
     #[cfg(feature = "ply")]
     Ply(super::ply::PlyStream<'a>),
-    /// Binary STL ([`super::stl::StlStream`]).
+    /// STL, binary or ASCII ([`super::stl::StlStream`]).
     #[cfg(feature = "stl")]
     Stl(super::stl::StlStream<'a>),
     /// OBJ, OFF or ASCII PLY ([`super::text::TextStream`]).
@@ -146,7 +146,7 @@ impl<'a> MeshStream<'a> {
     /// Whether `format` can be written as a stream.
     pub fn streams(format: MeshFormat) -> bool {
         (cfg!(feature = "ply") && format == MeshFormat::Ply)
-            || (cfg!(feature = "stl") && format == MeshFormat::Stl)
+            || (cfg!(feature = "stl") && matches!(format, MeshFormat::Stl | MeshFormat::StlAscii))
             || (cfg!(feature = "obj") && format == MeshFormat::Obj)
             || (cfg!(feature = "off") && format == MeshFormat::Off)
             || (cfg!(feature = "ply") && format == MeshFormat::PlyAscii)
@@ -164,7 +164,9 @@ impl<'a> MeshStream<'a> {
             #[cfg(feature = "ply")]
             MeshFormat::Ply => Some(MeshStream::Ply(super::ply::PlyStream::create_in(batch, path, normals)?)),
             #[cfg(feature = "stl")]
-            MeshFormat::Stl => Some(MeshStream::Stl(super::stl::StlStream::create_in(batch, path)?)),
+            MeshFormat::Stl => Some(MeshStream::Stl(super::stl::StlStream::create_in(batch, path, false)?)),
+            #[cfg(feature = "stl")]
+            MeshFormat::StlAscii => Some(MeshStream::Stl(super::stl::StlStream::create_in(batch, path, true)?)),
             #[cfg(feature = "obj")]
             MeshFormat::Obj => Some(MeshStream::text(batch, path, super::text::TextFormat::Obj, normals)?),
             #[cfg(feature = "off")]
