@@ -366,73 +366,26 @@ fn streamed_mesh_equals_in_memory_mesh() {
         assert_eq!(a.positions, b.positions, "normals {normals}");
         assert_eq!(a.triangles, b.triangles, "normals {normals}");
     }
+    // Out-of-core runs of the raw volume into `out` with `extra` flags.
+    let out_of_core = |extra: &[&str], out: &Path| -> Vec<String> {
+        let base = ["extract", "-i", p(&raw), "--dims", "70,40,33", "--dtype", "u16", "--max-memory", "1K"];
+        base.iter().chain(extra).copied().chain(["-o", p(out)]).map(String::from).collect()
+    };
+    let fails_out_of_core = |extra: &[&str], name: &str, message: &str| {
+        let out = dir.path().join(name);
+        let args = out_of_core(extra, &out);
+        fails(&args.iter().map(String::as_str).collect::<Vec<_>>(), message, &out);
+    };
     // A streamed extraction that fails leaves nothing behind.
-    let out = dir.path().join("none.ply");
-    fails(
-        &[
-            "extract",
-            "-i",
-            p(&raw),
-            "--dims",
-            "70,40,33",
-            "--dtype",
-            "u16",
-            "--iso",
-            "99999",
-            "--max-memory",
-            "1K",
-            "-o",
-            p(&out),
-        ],
-        "is outside the value range",
-        &out,
-    );
+    fails_out_of_core(&["--iso", "99999"], "none.ply", "is outside the value range");
     // What samples or colours the whole mesh cannot be honoured slab by slab: refused, not dropped.
-    let out = dir.path().join("attr.ply");
     let attr = format!("self={}", p(&raw));
-    fails(
-        &[
-            "extract",
-            "-i",
-            p(&raw),
-            "--dims",
-            "70,40,33",
-            "--dtype",
-            "u16",
-            "--iso",
-            "1000.5",
-            "--max-memory",
-            "1K",
-            "--attribute",
-            &attr,
-            "--color-by",
-            "self",
-            "-o",
-            p(&out),
-        ],
+    fails_out_of_core(
+        &["--iso", "1000.5", "--attribute", &attr, "--color-by", "self"],
+        "attr.ply",
         "--attribute, --color-by need the volume and mesh in memory (drop --max-memory)",
-        &out,
     );
-    let out = dir.path().join("x.gltf");
-    fails(
-        &[
-            "extract",
-            "-i",
-            p(&raw),
-            "--dims",
-            "70,40,33",
-            "--dtype",
-            "u16",
-            "--iso",
-            "1000",
-            "--max-memory",
-            "1K",
-            "-o",
-            p(&out),
-        ],
-        "PLY, STL, OBJ, OFF or .glb only",
-        &out,
-    );
+    fails_out_of_core(&["--iso", "1000"], "x.gltf", "PLY, STL, OBJ, OFF or .glb only");
 }
 
 /// Issue 11: a volume file that streams (binary NRRD, raw, NIfTI, …) is meshed slab by slab by
