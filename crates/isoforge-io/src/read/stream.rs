@@ -20,7 +20,9 @@ const PROGRESS_STEP: usize = 16 << 20;
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 pub(crate) enum Compression {
     None,
+    #[cfg(feature = "gzip")]
     Gzip,
+    #[cfg(feature = "gzip")]
     Zlib,
 }
 
@@ -333,7 +335,9 @@ pub(crate) fn open_data(
 pub(crate) fn wrap<R: Read + Send + 'static>(r: R, compression: Compression, what: &'static str) -> StreamSpec {
     let reader: Box<dyn Read + Send> = match compression {
         Compression::None => Box::new(r),
+        #[cfg(feature = "gzip")]
         Compression::Gzip => Box::new(flate2::read::MultiGzDecoder::new(r)),
+        #[cfg(feature = "gzip")]
         Compression::Zlib => Box::new(flate2::read::ZlibDecoder::new(r)),
     };
     StreamSpec { reader, compressed: compression != Compression::None, what }

@@ -128,6 +128,8 @@ pub(crate) fn check_batch(finished: bool, normals: bool, batch: &isoforge::mesh:
 /// A mesh file written as the mesh is produced, batch by batch, in memory bounded by a few
 /// batches: the formats whose streamed bytes are exactly the in-memory writer's (binary PLY,
 /// STL, binary glTF, and the text formats OBJ, OFF and ASCII PLY).
+// One per output file: its variants' sizes do not matter (and depend on the format features).
+#[allow(clippy::large_enum_variant)]
 pub enum MeshStream<'a> {
     /// Binary PLY ([`super::ply::PlyStream`]).
     #[cfg(feature = "ply")]
