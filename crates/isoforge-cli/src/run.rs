@@ -105,7 +105,7 @@ fn streams(path: &Path) -> bool {
 
 /// Whether `extract` streams a volume file that can stream (decode, walk and write overlapping, in
 /// O(nx·ny) memory) without `--max-memory`: when the streamed file is byte for byte the
-/// in-memory one, i.e. one iso into PLY, STL, OBJ, OFF or .glb with nothing that needs the whole grid or mesh
+/// in-memory one, i.e. one iso into PLY, STL, OBJ, OFF or glTF with nothing that needs the whole grid or mesh
 /// (ROI, labels, mask, attributes, colours, `--require`'s full report) and no benchmarking flags
 /// (`--repeat`, `--time-json`: their seconds are the extraction's alone). Quads are written as
 /// quads on both paths.
@@ -259,7 +259,7 @@ fn extract_streaming(
 ) -> Result<Outcome> {
     let normals = c.request.options.normals == Normals::Gradient;
     let Some(mut out) = MeshStream::create_in(&batch, &c.output, c.format, normals)? else {
-        bail!("{}: out-of-core extraction (--max-memory) writes PLY, STL, OBJ, OFF or .glb only", c.output.display());
+        bail!("{}: out-of-core extraction (--max-memory) writes PLY, STL, OBJ, OFF or glTF only", c.output.display());
     };
     let mut check = (!c.require.is_empty())
         .then(|| StreamCheck::new(&CheckOptions { max_examples: CheckOptions::default().max_examples, lattice: None }));

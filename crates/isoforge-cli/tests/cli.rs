@@ -385,7 +385,14 @@ fn streamed_mesh_equals_in_memory_mesh() {
         "attr.ply",
         "--attribute, --color-by need the volume and mesh in memory (drop --max-memory)",
     );
-    fails_out_of_core(&["--iso", "1000"], "x.gltf", "PLY, STL, OBJ, OFF or .glb only");
+    // A .gltf streams too, its buffer beside it.
+    let gltf = dir.path().join("x.gltf");
+    let o = isoforge(&out_of_core(&["--iso", "1000.5"], &gltf).iter().map(String::as_str).collect::<Vec<_>>());
+    assert_eq!(o.status.code(), Some(0), "{}", stderr(&o));
+    assert!(stderr(&o).contains("streamed slab by slab"), "{}", stderr(&o));
+    let json = std::fs::read_to_string(&gltf).unwrap();
+    assert!(json.contains(r#""uri":"x.bin""#), "{json}");
+    assert!(std::fs::metadata(dir.path().join("x.bin")).unwrap().len() > 10_000);
 }
 
 /// Issue 11: a volume file that streams (binary NRRD, raw, NIfTI, …) is meshed slab by slab by
@@ -422,11 +429,16 @@ fn streaming_by_default_gives_the_in_memory_bytes() {
         ("mc33", "2", "none"),
     ];
     let cases = [("raw", &raw_args[..], "1000.5"), ("gzip", &gz_args[..], "0.5")];
-    for ((name, input, iso), ext) in cases.into_iter().flat_map(|c| ["ply", "stl", "obj", "off", "glb"].map(|e| (c, e)))
+    // Each path writes into its own folder, under the same names (a .gltf holds its .bin's name).
+    let (stream_dir, mem_dir) = (dir.path().join("stream"), dir.path().join("mem"));
+    std::fs::create_dir_all(&stream_dir).unwrap();
+    std::fs::create_dir_all(&mem_dir).unwrap();
+    for ((name, input, iso), ext) in
+        cases.into_iter().flat_map(|c| ["ply", "stl", "obj", "off", "glb", "gltf"].map(|e| (c, e)))
     {
         for (method, threads, normals) in runs {
-            let out = |tag: &str| dir.path().join(format!("{name}-{method}-{threads}-{normals}-{tag}.{ext}"));
-            let (streamed, mem, t) = (out("stream"), out("mem"), dir.path().join("t.json"));
+            let file = format!("{name}-{method}-{threads}-{normals}.{ext}");
+            let (streamed, mem, t) = (stream_dir.join(&file), mem_dir.join(&file), dir.path().join("t.json"));
             let flags = ["--iso", iso, "--method", method, "--threads", threads, "--normals", normals];
             let base = [&["extract"][..], input, &flags[..]].concat();
             let o = isoforge(&[&base[..], &["-o", p(&streamed)]].concat());
@@ -438,6 +450,10 @@ fn streaming_by_default_gives_the_in_memory_bytes() {
             let (a, b) = (std::fs::read(&streamed).unwrap(), std::fs::read(&mem).unwrap());
             assert!(a.len() > 500, "{name}: a real mesh ({} bytes)", a.len());
             assert!(a == b, "{name} {method} threads {threads} normals {normals}: streamed and in-memory {ext} differ");
+            if ext == "gltf" {
+                let bin = |path: &Path| std::fs::read(path.with_extension("bin")).unwrap();
+                assert!(bin(&streamed) == bin(&mem), "{name} {method}: streamed and in-memory .bin differ");
+            }
             if method == "surface-nets" {
                 // Quads on both paths (PLY and OBJ take polygons; STL and glTF split them), and
                 // the file checks as a closed surface (`check` reads all but glTF; the validator
@@ -446,7 +462,7 @@ fn streaming_by_default_gives_the_in_memory_bytes() {
                 assert!(t["quads"].as_u64().unwrap() > 50, "{name}: {t}");
                 assert_eq!(t["triangles"].as_u64(), Some(0), "{name}: {t}");
                 assert!(stderr(&o).contains(" quads"), "{}", stderr(&o));
-                if ext != "glb" {
+                if !ext.starts_with("gl") {
                     let c = isoforge(&["check", p(&streamed), "--require", "oriented"]);
                     assert_eq!(c.status.code(), Some(0), "{}", stderr(&c));
                 }
@@ -707,9 +723,11 @@ fn gltf_output_passes_the_khronos_validator() {
     let gltf = dir.path().join("field.gltf");
     let colored = dir.path().join("colored.glb");
     let labels = dir.path().join("labels.glb");
-    // One iso from a volume file: streamed, with surface nets' quads split.
+    // One iso from a volume file: streamed, with surface nets' quads split; as .glb and .gltf.
     let streamed = dir.path().join("streamed.glb");
+    let streamed_gltf = dir.path().join("streamed.gltf");
     for args in [
+        vec!["extract", "-i", v, "--iso", "10.5", "--method", "mc33", "-o", p(&streamed_gltf)],
         vec![
             "extract",
             "-i",
@@ -734,7 +752,7 @@ fn gltf_output_passes_the_khronos_validator() {
     assert!(dir.path().join("field.bin").exists(), ".gltf writes its buffer beside it");
     let o = Command::new("node")
         .arg(tool.join("validate.mjs"))
-        .args([&glb, &gltf, &colored, &labels, &streamed])
+        .args([&glb, &gltf, &colored, &labels, &streamed, &streamed_gltf])
         .output()
         .expect("node");
     let report = String::from_utf8_lossy(&o.stdout);
@@ -744,7 +762,7 @@ fn gltf_output_passes_the_khronos_validator() {
         assert_eq!(r["numErrors"], 0, "{line}");
         assert_eq!(r["numWarnings"], 0, "{line}");
     }
-    assert_eq!(report.lines().count(), 5);
+    assert_eq!(report.lines().count(), 6);
 }
 
 #[test]

@@ -146,29 +146,37 @@ fn issue_10_outputs_never_overwrite_inputs() {
     );
 }
 
-/// Issue 10 item 6: writing out.gltf replaced an unrelated out.bin.
+/// Issue 10 item 6: writing out.gltf replaced an unrelated out.bin; in memory and streamed.
 #[test]
 fn issue_10_gltf_buffers_replace_only_their_own() {
     let dir = tempfile::tempdir().unwrap();
-    let (gltf, bin) = (dir.path().join("out.gltf"), dir.path().join("out.bin"));
-    std::fs::write(&bin, b"unrelated").unwrap();
-    fails_with(
-        &["extract", "-i", "field:sphere", "-o", p(&gltf)],
-        &format!(
-            "{}: -o writes its buffer to {}, which exists and is not the buffer of {}; remove it or choose another name",
-            gltf.display(),
-            bin.display(),
-            gltf.display()
-        ),
-    );
-    assert_eq!(std::fs::read(&bin).unwrap(), b"unrelated");
-    std::fs::remove_file(&bin).unwrap();
-    for _ in 0..2 {
-        // The second run replaces its own pair.
-        let o = isoforge(&["extract", "-i", "field:sphere", "-o", p(&gltf)]);
-        assert_eq!(o.status.code(), Some(0), "{}", String::from_utf8_lossy(&o.stderr));
+    let raw = dir.path().join("sphere.raw");
+    sphere_raw(&raw, 24);
+    let streamed = ["-i", p(&raw), "--dims", "24,24,24", "--dtype", "f32", "--iso", "0"];
+    for (name, input) in [("memory", &["-i", "field:sphere"][..]), ("streamed", &streamed[..])] {
+        let out = dir.path().join(name);
+        std::fs::create_dir_all(&out).unwrap();
+        let (gltf, bin) = (out.join("out.gltf"), out.join("out.bin"));
+        std::fs::write(&bin, b"unrelated").unwrap();
+        fails_with(
+            &[&["extract"], input, &["-o", p(&gltf)]].concat(),
+            &format!(
+                "{}: -o writes its buffer to {}, which exists and is not the buffer of {}; remove it or choose another name",
+                gltf.display(),
+                bin.display(),
+                gltf.display()
+            ),
+        );
+        assert_eq!(std::fs::read(&bin).unwrap(), b"unrelated");
+        std::fs::remove_file(&bin).unwrap();
+        for _ in 0..2 {
+            // The second run replaces its own pair.
+            let o = isoforge(&[&["extract"], input, &["-o", p(&gltf)]].concat());
+            assert_eq!(o.status.code(), Some(0), "{}", String::from_utf8_lossy(&o.stderr));
+            assert_eq!(name == "streamed", String::from_utf8_lossy(&o.stderr).contains("streamed slab by slab"));
+        }
+        assert_eq!(names(&out), ["out.bin", "out.gltf"]);
     }
-    assert_eq!(names(dir.path()), ["out.bin", "out.gltf"]);
 }
 
 /// Issue 10 item 9: `--iso 70,80` left o-70.ply when the second failed; an unwritable

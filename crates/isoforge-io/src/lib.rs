@@ -323,7 +323,7 @@ impl Batch {
         if !self.paths().contains(&bin) {
             self.reserve_mesh(path, MeshFormat::Gltf, "the output")?;
         }
-        let uri = bin.file_name().map(|n| n.to_string_lossy().into_owned()).unwrap_or_default();
+        let uri = write::gltf::buffer_uri(&bin);
         self.write(&bin, |w| write::gltf::write_gltf_bin(w, meshes))?;
         self.write(path, |w| write::gltf::write_gltf_json(w, meshes, &uri))
     }

@@ -406,37 +406,66 @@ fn streamed_text_is_the_in_memory_text() {
     assert!(text.ends_with(&format!("f {} {} {} {}\n", q[0], q[1], q[2], q[3])), "last quad line");
 }
 
-#[test]
-fn streamed_glb_is_the_in_memory_glb() {
-    let dir = tempfile::tempdir().unwrap();
-    for (method, normals) in [
-        (Method::MarchingCubes, isoforge::mesh::Normals::None),
-        (Method::MarchingCubes, isoforge::mesh::Normals::Gradient),
-        (Method::SurfaceNets, isoforge::mesh::Normals::Gradient),
-    ] {
-        let m = mesh(method, normals);
-        let path = dir.path().join("memory.glb");
-        isoforge_io::write_mesh(&path, &m, MeshFormat::Glb).unwrap();
-        let want = std::fs::read(&path).unwrap();
-        assert!(want.len() > 12 * m.positions.len(), "{method:?}: a real mesh");
-        for (parts, at) in [(1, 0), (2, 1), (3, 1)] {
-            let path = dir.path().join(format!("{method:?}-{normals:?}-{parts}.glb"));
-            let batch = Batch::new();
-            let n = stream_as(MeshFormat::Glb, &m, &batch, &path, parts, at).unwrap();
-            assert_eq!(n, (m.positions.len() as u64, (m.triangles.len() + 2 * m.quads.len()) as u64));
-            assert!(!path.exists(), "nothing at the path before the batch commits");
-            batch.commit().unwrap();
-            assert!(
-                std::fs::read(&path).unwrap() == want,
-                "{method:?} {normals:?} in {parts} batches: streamed .glb differs"
-            );
-        }
+/// The files a glTF output of `name` in `dir` consists of: the `.glb`, or the `.gltf` and its
+/// `.bin` (whose name the JSON holds, so both runs use the same names, in different folders).
+fn gltf_files(dir: &std::path::Path, name: &str, format: MeshFormat) -> Vec<Vec<u8>> {
+    let ext = if format == MeshFormat::Glb { "glb" } else { "gltf" };
+    let path = dir.join(format!("{name}.{ext}"));
+    let mut files = vec![std::fs::read(&path).unwrap()];
+    if format == MeshFormat::Gltf {
+        files.push(std::fs::read(MeshFormat::gltf_buffer(&path)).unwrap());
     }
-    // An empty mesh is an error, as in memory, and leaves nothing.
-    let path = dir.path().join("empty.glb");
-    let batch = Batch::new();
-    let e = stream_as(MeshFormat::Glb, &Mesh::default(), &batch, &path, 2, 0).unwrap_err();
-    assert!(e.contains("empty.glb") && e.contains("empty"), "{e}");
-    assert!(batch.commit().is_err(), "a failed stream must not commit");
-    assert!(!path.exists());
+    files
+}
+
+#[test]
+fn streamed_gltf_is_the_in_memory_gltf() {
+    let dir = tempfile::tempdir().unwrap();
+    let folder = |name: &str| {
+        let d = dir.path().join(name);
+        std::fs::create_dir_all(&d).unwrap();
+        d
+    };
+    for format in [MeshFormat::Glb, MeshFormat::Gltf] {
+        let ext = if format == MeshFormat::Glb { "glb" } else { "gltf" };
+        for (method, normals) in [
+            (Method::MarchingCubes, isoforge::mesh::Normals::None),
+            (Method::MarchingCubes, isoforge::mesh::Normals::Gradient),
+            (Method::SurfaceNets, isoforge::mesh::Normals::Gradient),
+        ] {
+            let m = mesh(method, normals);
+            let name = format!("{method:?}-{normals:?}");
+            isoforge_io::write_mesh(&folder("memory").join(format!("{name}.{ext}")), &m, format).unwrap();
+            let want = gltf_files(&folder("memory"), &name, format);
+            assert!(want.iter().map(Vec::len).sum::<usize>() > 12 * m.positions.len(), "{name}: a real mesh");
+            if format == MeshFormat::Gltf {
+                let json = String::from_utf8(want[0].clone()).unwrap();
+                assert!(json.contains(&format!(r#""uri":"{name}.bin""#)), "the .gltf names its buffer: {json}");
+                let (vertex_bytes, triangles) =
+                    (12 + 12 * !m.normals.is_empty() as usize, m.triangles.len() + 2 * m.quads.len());
+                assert_eq!(want[1].len(), vertex_bytes * m.positions.len() + 12 * triangles, "{name}: the buffer");
+            }
+            for (parts, at) in [(1, 0), (2, 1), (3, 1)] {
+                let streamed = folder(&format!("stream-{parts}"));
+                let path = streamed.join(format!("{name}.{ext}"));
+                let batch = Batch::new();
+                let n = stream_as(format, &m, &batch, &path, parts, at).unwrap();
+                assert_eq!(n, (m.positions.len() as u64, (m.triangles.len() + 2 * m.quads.len()) as u64));
+                assert!(!path.exists(), "nothing at the path before the batch commits");
+                assert!(!MeshFormat::gltf_buffer(&path).exists(), "no buffer before the batch commits");
+                batch.commit().unwrap();
+                assert!(
+                    gltf_files(&streamed, &name, format) == want,
+                    "{name} in {parts} batches: streamed .{ext} differs"
+                );
+            }
+        }
+        // An empty mesh is an error, as in memory, and leaves nothing.
+        let path = dir.path().join(format!("empty.{ext}"));
+        let batch = Batch::new();
+        let e = stream_as(format, &Mesh::default(), &batch, &path, 2, 0).unwrap_err();
+        assert!(e.contains(&format!("empty.{ext}")) && e.contains("empty"), "{e}");
+        assert!(batch.commit().is_err(), "a failed stream must not commit");
+        assert!(!path.exists() && !MeshFormat::gltf_buffer(&path).exists());
+    }
 }

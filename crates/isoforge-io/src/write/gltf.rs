@@ -13,7 +13,7 @@ use super::stream::{append_scratch, scratch, PositionWindow};
 use crate::atomic::TempFile;
 use crate::attributes::NamedMesh;
 use crate::error::{Error, Result};
-use crate::Batch;
+use crate::{Batch, MeshFormat};
 
 /// The name of the mesh and node of a file with one mesh.
 pub const SINGLE_MESH: &str = "isosurface";
@@ -257,6 +257,11 @@ impl Layout<'_> {
     }
 }
 
+/// The `uri` a `.gltf` gives its buffer file `bin` (beside it: the file name).
+pub(crate) fn buffer_uri(bin: &Path) -> String {
+    bin.file_name().map(|n| n.to_string_lossy().into_owned()).unwrap_or_default()
+}
+
 /// A string safe inside JSON quotes (names come from file names and iso values).
 fn json_name(s: &str) -> String {
     s.chars().map(|c| if c == '"' || c == '\\' || c.is_control() { '_' } else { c }).collect()
@@ -299,16 +304,20 @@ pub fn write_gltf_bin(w: &mut dyn Write, meshes: &[NamedMesh]) -> io::Result<()>
     layout(meshes, None)?.write_bin(w)
 }
 
-/// A `.glb` of one mesh ([`SINGLE_MESH`]) written as the mesh is produced
-/// ([`isoforge::mesh::MeshSink`]): positions, unit normals, triangles' and quads' halves' indices
-/// go to four scratch files while the bounds and counts are gathered; [`GlbStream::finish`] writes
-/// the header and JSON into the output's temporary file and appends the scratch files. The bytes
-/// are exactly [`write_glb`]'s for the same mesh. Nothing appears at the path before the batch
-/// commits; a stream dropped unfinished leaves nothing.
-pub struct GlbStream<'a> {
+/// A glTF file of one mesh ([`SINGLE_MESH`]) written as the mesh is produced
+/// ([`isoforge::mesh::MeshSink`]): a `.glb`, or a `.gltf` with its `.bin` buffer beside it
+/// ([`MeshFormat::gltf_buffer`]). Positions, unit normals, triangles' and quads' halves' indices
+/// go to four scratch files while the bounds and counts are gathered; [`GltfStream::finish`]
+/// writes the JSON (after the `.glb` header, or as the `.gltf`) and appends the scratch files to
+/// the `.glb` or writes them as the `.bin`. The bytes are exactly [`write_glb`]'s, or
+/// [`write_gltf_json`]'s and [`write_gltf_bin`]'s, for the same mesh. Nothing appears before the
+/// batch commits; a stream dropped unfinished leaves nothing.
+pub struct GltfStream<'a> {
     batch: &'a Batch,
     path: PathBuf,
     main: Option<TempFile>,
+    /// A `.gltf`'s buffer: its path and file (`None` for a `.glb`).
+    bin: Option<(PathBuf, TempFile)>,
     /// Positions, unit normals, triangles' indices, quads' halves' indices (created when first
     /// needed).
     parts: [Option<io::BufWriter<TempFile>>; 4],
@@ -324,19 +333,35 @@ pub struct GlbStream<'a> {
     buf: Vec<u8>,
 }
 
-impl<'a> GlbStream<'a> {
+impl<'a> GltfStream<'a> {
     /// Starts writing `path` (with normals when `normals`) as an output of `batch` (reserved
-    /// there first if needed); the batch's commit moves it into place.
+    /// there first if needed, a `.gltf` with its buffer as [`Batch::reserve_mesh`] does); the
+    /// batch's commit moves it into place. `binary`: a `.glb`, else a `.gltf` and its `.bin`.
     ///
     /// # Errors
-    /// As [`Batch::reserve`].
-    pub fn create_in(batch: &'a Batch, path: &Path, normals: bool) -> Result<Self> {
-        let mut main = batch.take(path)?;
-        main.reset().map_err(|source| Error::Io { path: path.to_path_buf(), source })?;
-        Ok(GlbStream {
+    /// As [`Batch::reserve_mesh`].
+    pub fn create_in(batch: &'a Batch, path: &Path, normals: bool, binary: bool) -> Result<Self> {
+        let take = |path: &Path| {
+            let mut file = batch.take(path)?;
+            file.reset().map_err(|source| Error::Io { path: path.to_path_buf(), source })?;
+            Ok::<_, Error>(file)
+        };
+        let bin = if binary {
+            None
+        } else {
+            let bin = MeshFormat::gltf_buffer(path);
+            if !batch.paths().contains(&bin) {
+                batch.reserve_mesh(path, MeshFormat::Gltf, "the output")?;
+            }
+            let file = take(&bin)?;
+            Some((bin, file))
+        };
+        let main = take(path)?;
+        Ok(GltfStream {
             batch,
             path: path.to_path_buf(),
             main: Some(main),
+            bin,
             parts: [None, None, None, None],
             window: PositionWindow::default(),
             pending_quads: Vec::new(),
@@ -350,7 +375,7 @@ impl<'a> GlbStream<'a> {
     }
 
     /// Appends a batch (its quads are split when the next batch or
-    /// [`finish`](GlbStream::finish) comes).
+    /// [`finish`](GltfStream::finish) comes).
     ///
     /// # Errors
     /// Writing fails, `normals` does not match the stream, or a quad of the previous batch
@@ -378,7 +403,7 @@ impl<'a> GlbStream<'a> {
         // The .glb's 32-bit length, checked as it grows (the JSON of one mesh is under 4 KiB).
         let vertex_bytes = if self.normals { 24 } else { 12 };
         let bytes = 28 + 4096 + vertex_bytes * self.window.vertices() + 12 * self.triangles as u64;
-        if bytes > u32::MAX as u64 {
+        if self.bin.is_none() && bytes > u32::MAX as u64 {
             return Err(io::Error::other("the mesh exceeds the 4 GiB of a .glb file"));
         }
         Ok(())
@@ -409,10 +434,14 @@ impl<'a> GlbStream<'a> {
         if let Some(main) = self.main.take() {
             self.batch.put(&self.path, main);
         }
+        if let Some((bin, file)) = self.bin.take() {
+            self.batch.put(&bin, file);
+        }
         Ok((self.window.vertices(), self.triangles as u64))
     }
 
-    /// The header, the JSON and the buffer's parts, into the output.
+    /// The JSON and the buffer's parts: into the output after the `.glb` header, or as the
+    /// `.gltf` and its `.bin`.
     fn assemble(&mut self) -> io::Result<()> {
         let summary = Summary {
             name: SINGLE_MESH,
@@ -424,10 +453,19 @@ impl<'a> GlbStream<'a> {
             triangles: self.triangles,
             max_index: self.max_index,
         };
-        let Document { json, bin_len, .. } = document(&[summary], None)?;
+        let uri = self.bin.as_ref().map(|(bin, _)| buffer_uri(bin));
+        let Document { json, bin_len, .. } = document(&[summary], uri.as_deref())?;
         let main = self.main.as_mut().ok_or_else(|| io::Error::other("the stream is finished"))?;
-        main.write_all(&glb_head(&json, bin_len)?)?;
-        let total = append_scratch(main, &mut self.parts)?;
+        let total = match &mut self.bin {
+            None => {
+                main.write_all(&glb_head(&json, bin_len)?)?;
+                append_scratch(main, &mut self.parts)?
+            }
+            Some((_, bin)) => {
+                main.write_all(json.as_bytes())?;
+                append_scratch(bin, &mut self.parts)?
+            }
+        };
         if total != bin_len as u64 {
             return Err(io::Error::other(format!("internal: the buffer holds {total} bytes, not {bin_len}")));
         }
@@ -435,8 +473,8 @@ impl<'a> GlbStream<'a> {
     }
 }
 
-impl isoforge::mesh::MeshSink for GlbStream<'_> {
+impl isoforge::mesh::MeshSink for GltfStream<'_> {
     fn push(&mut self, batch: MeshBatch<'_>) -> std::result::Result<(), isoforge::mesh::ExternalError> {
-        GlbStream::push(self, batch).map_err(|e| super::stream::sink_error(&self.path, &e))
+        GltfStream::push(self, batch).map_err(|e| super::stream::sink_error(&self.path, &e))
     }
 }

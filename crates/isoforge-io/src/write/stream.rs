@@ -127,7 +127,7 @@ pub(crate) fn check_batch(finished: bool, normals: bool, batch: &isoforge::mesh:
 
 /// A mesh file written as the mesh is produced, batch by batch, in memory bounded by a few
 /// batches: the formats whose streamed bytes are exactly the in-memory writer's (binary PLY,
-/// STL, binary glTF, and the text formats OBJ, OFF and ASCII PLY).
+/// STL, glTF (`.glb`, or `.gltf` + `.bin`), and the text formats OBJ, OFF and ASCII PLY).
 // One per output file: its variants' sizes do not matter (and depend on the format features).
 #[allow(clippy::large_enum_variant)]
 pub enum MeshStream<'a> {
@@ -140,8 +140,8 @@ pub enum MeshStream<'a> {
     /// OBJ, OFF or ASCII PLY ([`super::text::TextStream`]).
     #[cfg(any(feature = "obj", feature = "off", feature = "ply"))]
     Text(super::text::TextStream<'a>),
-    /// Binary glTF ([`super::gltf::GlbStream`]).
-    Glb(super::gltf::GlbStream<'a>),
+    /// glTF, a `.glb` or a `.gltf` and its `.bin` ([`super::gltf::GltfStream`]).
+    Gltf(super::gltf::GltfStream<'a>),
 }
 
 impl<'a> MeshStream<'a> {
@@ -152,7 +152,7 @@ impl<'a> MeshStream<'a> {
             || (cfg!(feature = "obj") && format == MeshFormat::Obj)
             || (cfg!(feature = "off") && format == MeshFormat::Off)
             || (cfg!(feature = "ply") && format == MeshFormat::PlyAscii)
-            || format == MeshFormat::Glb
+            || matches!(format, MeshFormat::Glb | MeshFormat::Gltf)
     }
 
     /// Starts writing `path` in `format` (with vertex normals when `normals` and the format has
@@ -161,7 +161,6 @@ impl<'a> MeshStream<'a> {
     /// # Errors
     /// As [`Batch::reserve`].
     pub fn create_in(batch: &'a Batch, path: &Path, format: MeshFormat, normals: bool) -> Result<Option<Self>> {
-        let _ = (batch, path, normals);
         Ok(match format {
             #[cfg(feature = "ply")]
             MeshFormat::Ply => Some(MeshStream::Ply(super::ply::PlyStream::create_in(batch, path, normals)?)),
@@ -175,7 +174,13 @@ impl<'a> MeshStream<'a> {
             MeshFormat::Off => Some(MeshStream::text(batch, path, super::text::TextFormat::Off, normals)?),
             #[cfg(feature = "ply")]
             MeshFormat::PlyAscii => Some(MeshStream::text(batch, path, super::text::TextFormat::PlyAscii, normals)?),
-            MeshFormat::Glb => Some(MeshStream::Glb(super::gltf::GlbStream::create_in(batch, path, normals)?)),
+            MeshFormat::Glb | MeshFormat::Gltf => Some(MeshStream::Gltf(super::gltf::GltfStream::create_in(
+                batch,
+                path,
+                normals,
+                format == MeshFormat::Glb,
+            )?)),
+            #[allow(unreachable_patterns)] // every format, with all format features on
             _ => None,
         })
     }
@@ -198,7 +203,7 @@ impl<'a> MeshStream<'a> {
             MeshStream::Stl(s) => s.finish(),
             #[cfg(any(feature = "obj", feature = "off", feature = "ply"))]
             MeshStream::Text(s) => s.finish(),
-            MeshStream::Glb(s) => s.finish(),
+            MeshStream::Gltf(s) => s.finish(),
         }
     }
 }
@@ -212,7 +217,7 @@ impl isoforge::mesh::MeshSink for MeshStream<'_> {
             MeshStream::Stl(s) => isoforge::mesh::MeshSink::push(s, batch),
             #[cfg(any(feature = "obj", feature = "off", feature = "ply"))]
             MeshStream::Text(s) => isoforge::mesh::MeshSink::push(s, batch),
-            MeshStream::Glb(s) => isoforge::mesh::MeshSink::push(s, batch),
+            MeshStream::Gltf(s) => isoforge::mesh::MeshSink::push(s, batch),
         }
     }
 }
