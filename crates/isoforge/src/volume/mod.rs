@@ -88,17 +88,19 @@ impl Iso {
     /// all eight are first scaled by one power of two (exactly) that brings the largest near 1, so
     /// that what extractors compute from their ratios (crossings, MC33's decisions) survives the
     /// rounding to `f32`. The signs are [`offset`](Iso::offset)'s either way.
+    #[inline]
     pub fn cell_offsets(&self, values: [f64; 8]) -> [f32; 8] {
         let d = values.map(|v| self.exact_offset(v));
-        let normal = |x: f64| x == 0.0 || (f32::MIN_POSITIVE as f64..=f32::MAX as f64).contains(&x.abs());
-        if d.iter().all(|&x| normal(x)) {
-            return d.map(narrow);
+        // All eight tested without branching (vectorised): the values of a cell are rarely abnormal.
+        let abnormal = d.iter().fold(false, |m, &x| {
+            let a = x.abs();
+            m | ((a < f32::MIN_POSITIVE as f64) & (x != 0.0)) | !(a <= f32::MAX as f64)
+            // NaN too
+        });
+        if abnormal {
+            return scaled_offsets(d);
         }
-        let largest = d.iter().fold(0.0f64, |m, x| m.max(x.abs()));
-        // 2^-e in two factors, each within f64's range for any finite `largest`.
-        let e = largest.log2().floor() as i32;
-        let (a, b) = (-e / 2, -e - -e / 2);
-        d.map(|x| narrow(x * 2f64.powi(a) * 2f64.powi(b)))
+        d.map(narrow)
     }
 
     /// The offset of [`offset`](Iso::offset) unrounded, in `f64`: exact for every sample type but
@@ -238,6 +240,17 @@ impl<V: Volume + ?Sized> Volume for &V {
     fn bounded_by_corners(&self) -> bool {
         (**self).bounded_by_corners()
     }
+}
+
+/// [`Iso::cell_offsets`] of a cell with a value beyond `f32`'s normal range: the offsets `d`
+/// scaled by the power of two that brings the largest near 1, then rounded.
+#[cold]
+fn scaled_offsets(d: [f64; 8]) -> [f32; 8] {
+    let largest = d.iter().fold(0.0f64, |m, x| m.max(x.abs()));
+    // 2^-e in two factors, each within f64's range for any finite `largest`.
+    let e = largest.log2().floor() as i32;
+    let (a, b) = (-e / 2, -e - -e / 2);
+    d.map(|x| narrow(x * 2f64.powi(a) * 2f64.powi(b)))
 }
 
 /// An offset rounded to `f32`, a negative one kept negative (at least `f32::MIN_POSITIVE` in
