@@ -67,11 +67,7 @@ fn open_input(input: &InputConfig, budget: Option<&Budget>, prefer_stream: bool)
     };
     let name = path.display();
     let open_limits = if budget.is_some() { Limits::new(u64::MAX) } else { input.limits };
-    // Opening decodes images, DICOM series and VTI files whole; other readers parse a header.
-    let reader = spin(format!("opening {name}"), || match raw {
-        Some(spec) => isoforge_io::read::raw::open_raw(path, spec, &open_limits),
-        None => isoforge_io::open_volume(path, &open_limits),
-    })?;
+    let reader = open_reader(path, raw.as_ref(), &open_limits)?;
     if let Some(b) = budget {
         let need = in_memory_estimate(&reader, b);
         if need > b.bytes {
@@ -94,6 +90,15 @@ fn open_input(input: &InputConfig, budget: Option<&Budget>, prefer_stream: bool)
     let grid = reader.read_grid_with_progress(&input.limits, Some(&task))?;
     task.finish();
     Ok(Loaded::Grid(place(grid, &input.placement)?))
+}
+
+/// Opens the volume file `path` (raw with `raw`'s layout); opening decodes images, DICOM series
+/// and VTI files whole, other readers parse a header.
+fn open_reader(path: &Path, raw: Option<&isoforge_io::RawSpec>, limits: &Limits) -> Result<VolumeReader> {
+    Ok(spin(format!("opening {}", path.display()), || match raw {
+        Some(spec) => isoforge_io::read::raw::open_raw(path, spec, limits),
+        None => isoforge_io::open_volume(path, limits),
+    })?)
 }
 
 /// Whether the reader of `path` can deliver slabs one by one (see ARCHITECTURE.md, Readers):
@@ -248,18 +253,63 @@ impl MeshSink for Tee<'_, '_> {
     }
 }
 
-/// Out-of-core extraction: slab by slab from the file straight into a mesh file that streams, checked
-/// in the same pass when `--require` asks.
+/// Out-of-core extraction of every iso in `isos`: slab by slab from the file straight into mesh
+/// files that stream (one per iso; the file is read once per iso), each checked in the same pass
+/// when `--require` asks. The files appear together once every iso succeeded.
 fn extract_streaming(
     c: &ExtractConfig,
-    mut reader: VolumeReader,
-    iso: Iso,
+    reader: VolumeReader,
+    isos: &[Iso],
     name: &str,
     batch: isoforge_io::Batch,
 ) -> Result<Outcome> {
+    if crate::outputs::one_file_for_all_isos(c, isos.len()) {
+        bail!(
+            "{}: several isos in one {} file need their meshes in memory (drop --max-memory, or write .ply, .stl or .off: a file per iso)",
+            c.output.display(),
+            c.format.name()
+        );
+    }
+    let mut reports = Vec::new();
+    let mut reader = Some(reader);
+    for &iso in isos {
+        let reader = match reader.take() {
+            Some(r) => r,
+            None => {
+                let Source::File { path, raw } = &c.input.source else { bail!("internal: a streamed field") };
+                open_reader(path, raw.as_ref(), &Limits::new(u64::MAX))?
+            }
+        };
+        reports.push(stream_one(c, reader, iso, isos.len(), name, &batch)?);
+    }
+    batch.commit()?;
+    let mut outcome = Outcome::Success;
+    for (line, check) in reports {
+        eprintln!("{line}");
+        if let Some((output, rep)) = check {
+            print!("{}", report::mesh_text(&rep));
+            if verdict(&output, &rep, &c.require) != Outcome::Success {
+                outcome = Outcome::CheckFailed;
+            }
+        }
+    }
+    Ok(outcome)
+}
+
+/// One iso of [`extract_streaming`] into its file (and `--time-json`) in `batch`: the summary
+/// line, and the check report with the file's path when `--require` asks.
+fn stream_one(
+    c: &ExtractConfig,
+    mut reader: VolumeReader,
+    iso: Iso,
+    count: usize,
+    name: &str,
+    batch: &isoforge_io::Batch,
+) -> Result<(String, Option<(std::path::PathBuf, MeshReport)>)> {
+    let (output, time_json) = crate::outputs::extract_paths(c, iso.value, count);
     let normals = c.request.options.normals == Normals::Gradient;
-    let Some(mut out) = MeshStream::create_in(&batch, &c.output, c.format, normals)? else {
-        bail!("{}: out-of-core extraction (--max-memory) writes PLY, STL, OBJ, OFF or glTF only", c.output.display());
+    let Some(mut out) = MeshStream::create_in(batch, &output, c.format, normals)? else {
+        bail!("{}: out-of-core extraction (--max-memory) writes PLY, STL, OBJ, OFF or glTF only", output.display());
     };
     let mut check = (!c.require.is_empty())
         .then(|| StreamCheck::new(&CheckOptions { max_examples: CheckOptions::default().max_examples, lattice: None }));
@@ -278,7 +328,7 @@ fn extract_streaming(
         bail!("{name}: {none}");
     }
     out.finish()?;
-    if let Some(t) = &c.time_json {
+    if let Some(t) = &time_json {
         let body = json!({
             "seconds": seconds,
             "vertices": stats.vertices,
@@ -288,21 +338,21 @@ fn extract_streaming(
         });
         batch.write(t, |w| w.write_all(body.to_string().as_bytes()))?;
     }
-    batch.commit()?;
     let quads = if stats.quads > 0 { format!(", {} quads", stats.quads) } else { String::new() };
-    eprintln!(
+    let line = format!(
         "{}: {} vertices, {} triangles{quads} ({}, streamed slab by slab, iso {}, reading + extraction + writing {:.3} s)",
-        c.output.display(),
+        output.display(),
         stats.vertices,
         stats.triangles,
         c.request.options.method.name(),
         iso.value,
         seconds
     );
-    let Some(check) = check else { return Ok(Outcome::Success) };
-    let rep = check.finish()?;
-    print!("{}", report::mesh_text(&rep));
-    Ok(verdict(&c.output, &rep, &c.require))
+    let check = match check {
+        Some(check) => Some((output, check.finish()?)),
+        None => None,
+    };
+    Ok((line, check))
 }
 
 /// `topo::check` with a progress bar.
@@ -347,14 +397,13 @@ pub fn extract(c: &ExtractConfig) -> Result<Outcome> {
     }
     let loaded = match loaded {
         Loaded::Stream(_) if c.repeat > 1 => bail!("--repeat: out-of-core extraction (--max-memory) runs once"),
-        Loaded::Stream(_) if isos.len() > 1 => bail!("--iso with several values: out-of-core extraction runs one"),
         Loaded::Stream(_) if !r.region.is_identity() => {
             bail!("--roi, --close and --space index need the volume in memory (drop --max-memory)")
         }
         Loaded::Stream(_) if !needs_memory(c).is_empty() => {
             bail!("{} need the volume and mesh in memory (drop --max-memory)", needs_memory(c).join(", "))
         }
-        Loaded::Stream(reader) => return extract_streaming(c, reader, isos[0], &name, batch),
+        Loaded::Stream(reader) => return extract_streaming(c, reader, &isos, &name, batch),
         Loaded::Field(_) if !r.region.is_identity() => {
             bail!("--roi, --close and --space index apply to volume files (a field has its own lattice)")
         }

@@ -395,6 +395,59 @@ fn streamed_mesh_equals_in_memory_mesh() {
     assert!(std::fs::metadata(dir.path().join("x.bin")).unwrap().len() > 10_000);
 }
 
+/// Several isos out of core: a file per iso, each streamed (the volume read once per iso), each
+/// byte for byte the in-memory run's, all appearing together; several isos into one glTF or OBJ
+/// file are refused (their meshes would be held together).
+#[test]
+fn several_isos_stream_out_of_core_a_file_each() {
+    let dir = tempfile::tempdir().unwrap();
+    let gz = testdata().join("volumes/i16_gzip.nrrd");
+    let (mem_dir, stream_dir) = (dir.path().join("mem"), dir.path().join("stream"));
+    std::fs::create_dir_all(&mem_dir).unwrap();
+    std::fs::create_dir_all(&stream_dir).unwrap();
+    let isos = ["0.5", "-0.25", "1.5"];
+    for (method, ext) in [("mc", "ply"), ("mc33", "stl"), ("mt-bcc", "off")] {
+        let run = |out: &Path, extra: &[&str]| {
+            let (o, t) = (out.join(format!("m.{ext}")), out.join("t.json"));
+            let args = [&["extract", "-i", p(&gz), "--iso", "0.5,-0.25,1.5", "--method", method][..], extra]
+                .concat()
+                .into_iter()
+                .chain(["-o", p(&o), "--time-json", p(&t), "--require", "oriented"])
+                .collect::<Vec<_>>();
+            let o = isoforge(&args);
+            assert_eq!(o.status.code(), Some(0), "{method}: {}", stderr(&o));
+            stderr(&o)
+        };
+        let (mem, streamed) = (run(&mem_dir, &[]), run(&stream_dir, &["--max-memory", "64K"]));
+        assert!(!mem.contains("streamed"), "{mem}");
+        assert_eq!(streamed.matches("streamed slab by slab").count(), 3, "{streamed}");
+        for iso in isos {
+            let file = format!("m-{iso}.{ext}");
+            let (a, b) = (std::fs::read(mem_dir.join(&file)).unwrap(), std::fs::read(stream_dir.join(&file)).unwrap());
+            assert!(a.len() > 500 && a == b, "{method} iso {iso}: the streamed {ext} differs from the in-memory one");
+            let t: serde_json::Value =
+                serde_json::from_slice(&std::fs::read(stream_dir.join(format!("t-{iso}.json"))).unwrap()).unwrap();
+            assert_eq!(t["streamed"], true, "{t}");
+        }
+    }
+    // A failing iso (outside the values) leaves none of the files.
+    let none = dir.path().join("none");
+    std::fs::create_dir_all(&none).unwrap();
+    let o =
+        isoforge(&["extract", "-i", p(&gz), "--iso", "0.5,99999", "--max-memory", "1K", "-o", p(&none.join("m.ply"))]);
+    assert_eq!(o.status.code(), Some(2), "{}", stderr(&o));
+    assert!(stderr(&o).contains("is outside the value range"), "{}", stderr(&o));
+    assert_eq!(std::fs::read_dir(&none).unwrap().count(), 0, "a failed run leaves nothing");
+    for ext in ["glb", "obj"] {
+        let out = none.join(format!("m.{ext}"));
+        fails(
+            &["extract", "-i", p(&gz), "--iso", "0.5,1.5", "--max-memory", "1K", "-o", p(&out)],
+            "several isos in one",
+            &out,
+        );
+    }
+}
+
 /// Issue 11: a volume file that streams (binary NRRD, raw, NIfTI, …) is meshed slab by slab by
 /// default, decoding ahead in a background thread, and the binary PLY, STL, OBJ, OFF or glTF is
 /// byte for byte the in-memory one (`--time-json` keeps the extraction in memory: its seconds are the extraction's
