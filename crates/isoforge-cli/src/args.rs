@@ -218,8 +218,9 @@ pub struct ExtractArgs {
     pub repeat: u32,
     /// Memory budget (suffixes K, M, G): unless the volume and the largest mesh the method can
     /// make (and its check, with --require) fit, a volume is meshed slab by slab from the file
-    /// (raw, NRRD, NIfTI, MetaImage, MRC, VTK; binary PLY output) in O(nx·ny)
-    /// memory, checked as it streams (4 bytes per vertex with --require).
+    /// (raw, NRRD, NIfTI, MetaImage, MRC, VTK) into any mesh format in O(nx·ny) memory, checked
+    /// as it streams (4 bytes per vertex with --require); several isos write a file each, the
+    /// file read once per iso (not into one glTF or OBJ file).
     #[arg(long, value_name = "BYTES", allow_hyphen_values = true)]
     pub max_memory: Option<String>,
     /// Check the mesh after extraction and exit 1 unless these hold (closed manifold oriented watertight no-degenerate).

@@ -314,7 +314,7 @@ fn stream_one(
     let mut check = (!c.require.is_empty())
         .then(|| StreamCheck::new(&CheckOptions { max_examples: CheckOptions::default().max_examples, lattice: None }));
     let mut sink = Tee { out: &mut out, check: check.as_mut(), budget: c.max_memory.unwrap_or(u64::MAX) };
-    let task = Task::start(format!("meshing {name} slab by slab"));
+    let task = Task::start(format!("meshing iso {} of {name} slab by slab", iso.value));
     let start = Instant::now();
     let stats = pipeline::extract_streamed(&mut reader, iso, &c.request.options, &mut sink, Some(&task))?;
     let seconds = start.elapsed().as_secs_f64();

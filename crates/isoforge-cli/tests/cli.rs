@@ -31,7 +31,7 @@ fn fails(args: &[&str], needle: &str, out: &Path) {
     let leftovers: Vec<_> = std::fs::read_dir(out.parent().unwrap())
         .unwrap()
         .filter_map(|e| e.ok())
-        .filter(|e| e.file_name().to_string_lossy().contains(".tmp-"))
+        .filter(|e| e.file_name().to_string_lossy().contains(".tmp"))
         .collect();
     assert!(leftovers.is_empty(), "temporary files left: {leftovers:?}");
 }
@@ -416,11 +416,15 @@ fn several_isos_stream_out_of_core_a_file_each() {
                 .collect::<Vec<_>>();
             let o = isoforge(&args);
             assert_eq!(o.status.code(), Some(0), "{method}: {}", stderr(&o));
-            stderr(&o)
+            (stderr(&o), String::from_utf8_lossy(&o.stdout).into_owned())
         };
-        let (mem, streamed) = (run(&mem_dir, &[]), run(&stream_dir, &["--max-memory", "64K"]));
+        let ((mem, mem_report), (streamed, streamed_report)) =
+            (run(&mem_dir, &[]), run(&stream_dir, &["--max-memory", "64K"]));
         assert!(!mem.contains("streamed"), "{mem}");
         assert_eq!(streamed.matches("streamed slab by slab").count(), 3, "{streamed}");
+        // --require's report of every file, in iso order, as in memory.
+        assert_eq!(streamed_report.matches("components").count(), 3, "{streamed_report}");
+        assert_eq!(mem_report, streamed_report, "{method}: the check reports differ");
         for iso in isos {
             let file = format!("m-{iso}.{ext}");
             let (a, b) = (std::fs::read(mem_dir.join(&file)).unwrap(), std::fs::read(stream_dir.join(&file)).unwrap());
@@ -429,6 +433,30 @@ fn several_isos_stream_out_of_core_a_file_each() {
                 serde_json::from_slice(&std::fs::read(stream_dir.join(format!("t-{iso}.json"))).unwrap()).unwrap();
             assert_eq!(t["streamed"], true, "{t}");
         }
+    }
+    // A guarantee that fails (the surfaces reach the lattice's faces): every file is written and
+    // named in its own verdict, exit 1.
+    let open = dir.path().join("open");
+    std::fs::create_dir_all(&open).unwrap();
+    let o = isoforge(&[
+        "extract",
+        "-i",
+        p(&gz),
+        "--iso",
+        "0.5,1.5",
+        "--max-memory",
+        "64K",
+        "--require",
+        "closed",
+        "-o",
+        p(&open.join("m.ply")),
+    ]);
+    assert_eq!(o.status.code(), Some(1), "{}", stderr(&o));
+    for iso in ["0.5", "1.5"] {
+        let file = open.join(format!("m-{iso}.ply"));
+        assert!(file.exists(), "{}", file.display());
+        let verdict = format!("{}: required but failed: closed", file.display());
+        assert_eq!(stderr(&o).matches(&verdict).count(), 1, "{}", stderr(&o));
     }
     // A failing iso (outside the values) leaves none of the files.
     let none = dir.path().join("none");

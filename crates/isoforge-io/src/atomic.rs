@@ -578,6 +578,13 @@ impl Batch {
         e.temp.take().ok_or_else(internal)
     }
 
+    /// [`Batch::take`], emptied (a stream starts from its first byte).
+    pub(crate) fn take_empty(&self, path: &Path) -> Result<TempFile> {
+        let mut file = self.take(path)?;
+        file.reset().map_err(|source| crate::Error::Io { path: path.to_path_buf(), source })?;
+        Ok(file)
+    }
+
     /// Gives back a written temporary file taken with [`Batch::take`].
     pub(crate) fn put(&self, path: &Path, temp: TempFile) {
         if let Some(e) = self.lock().iter_mut().find(|e| e.path == path) {

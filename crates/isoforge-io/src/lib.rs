@@ -241,6 +241,20 @@ fn gltf_owns_buffer(gltf: &Path, bin: &Path) -> bool {
     })
 }
 
+/// Refuses a `.gltf` at `path` whose `.bin` buffer exists and is not its own (a previous run's).
+fn check_gltf_buffer(path: &Path, role: &str) -> Result<()> {
+    let bin = MeshFormat::gltf_buffer(path);
+    if bin.exists() && !gltf_owns_buffer(path, &bin) {
+        return Err(Error::InvalidInput(format!(
+            "{}: {role} writes its buffer to {}, which exists and is not the buffer of {}; remove it or choose another name",
+            path.display(),
+            bin.display(),
+            path.display()
+        )));
+    }
+    Ok(())
+}
+
 /// Writers that fill a [`Batch`]: nothing appears before [`Batch::commit`].
 impl Batch {
     /// Reserves the files a mesh written to `path` in `format` produces ([`MeshFormat::files`]:
@@ -252,20 +266,33 @@ impl Batch {
     /// As [`Batch::reserve`]; [`Error::InvalidInput`] for an unrelated existing `.bin`.
     pub fn reserve_mesh(&self, path: &Path, format: MeshFormat, role: &str) -> Result<()> {
         if format == MeshFormat::Gltf {
-            let bin = MeshFormat::gltf_buffer(path);
-            if bin.exists() && !gltf_owns_buffer(path, &bin) {
-                return Err(Error::InvalidInput(format!(
-                    "{}: {role} writes its buffer to {}, which exists and is not the buffer of {}; remove it or choose another name",
-                    path.display(),
-                    bin.display(),
-                    path.display()
-                )));
-            }
+            check_gltf_buffer(path, role)?;
         }
         for (file, file_role) in format.outputs(path, role) {
             self.reserve(&file, &file_role)?;
         }
         Ok(())
+    }
+
+    /// The `.bin` buffer of the `.gltf` at `path`, reserved with the `.gltf` when it is not yet
+    /// (checked as [`Batch::reserve_mesh`] does).
+    ///
+    /// # Errors
+    /// As [`Batch::reserve_mesh`].
+    pub(crate) fn reserve_gltf_buffer(&self, path: &Path) -> Result<PathBuf> {
+        let bin = MeshFormat::gltf_buffer(path);
+        let reserved = self.paths();
+        if reserved.contains(&bin) {
+            return Ok(bin);
+        }
+        if reserved.iter().any(|p| p == path) {
+            // The .gltf reserved alone: its buffer beside it, as `reserve_mesh` would have added.
+            check_gltf_buffer(path, "the output")?;
+            self.reserve(&bin, "the buffer of the output")?;
+        } else {
+            self.reserve_mesh(path, MeshFormat::Gltf, "the output")?;
+        }
+        Ok(bin)
     }
 
     /// Writes `mesh` (with `data`) to `path` in `format`.
@@ -319,10 +346,7 @@ impl Batch {
         if binary {
             return self.write(path, |w| write::gltf::write_glb(w, meshes));
         }
-        let bin = MeshFormat::gltf_buffer(path);
-        if !self.paths().contains(&bin) {
-            self.reserve_mesh(path, MeshFormat::Gltf, "the output")?;
-        }
+        let bin = self.reserve_gltf_buffer(path)?;
         let uri = write::gltf::buffer_uri(&bin);
         self.write(&bin, |w| write::gltf::write_gltf_bin(w, meshes))?;
         self.write(path, |w| write::gltf::write_gltf_json(w, meshes, &uri))

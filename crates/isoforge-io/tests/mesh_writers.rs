@@ -418,6 +418,25 @@ fn gltf_files(dir: &std::path::Path, name: &str, format: MeshFormat) -> Vec<Vec<
     files
 }
 
+/// A `.gltf` stream refuses a `.bin` beside it that is not its own, unreserved as reserved.
+#[test]
+fn a_gltf_stream_keeps_an_unrelated_buffer() {
+    let dir = tempfile::tempdir().unwrap();
+    let (path, bin) = (dir.path().join("x.gltf"), dir.path().join("x.bin"));
+    std::fs::write(&bin, b"unrelated").unwrap();
+    for reserve_first in [false, true] {
+        let batch = Batch::new();
+        if reserve_first {
+            batch.reserve(&path, "the output").unwrap();
+        }
+        let e = MeshStream::create_in(&batch, &path, MeshFormat::Gltf, false).err().expect("refused").to_string();
+        assert!(e.contains("is not the buffer of"), "{e}");
+        drop(batch);
+        assert_eq!(std::fs::read(&bin).unwrap(), b"unrelated");
+        assert!(!path.exists());
+    }
+}
+
 #[test]
 fn streamed_gltf_is_the_in_memory_gltf() {
     let dir = tempfile::tempdir().unwrap();
@@ -460,6 +479,22 @@ fn streamed_gltf_is_the_in_memory_gltf() {
                 );
             }
         }
+        // A stream that fails midway (the second batch's normals do not match) leaves nothing at
+        // either path, and its batch refuses to commit.
+        let m = mesh(Method::MarchingCubes, isoforge::mesh::Normals::Gradient);
+        let path = folder("midway").join(format!("m.{ext}"));
+        let batch = Batch::new();
+        let mut s = MeshStream::create_in(&batch, &path, format, true).unwrap().expect("streams");
+        let half = m.positions.len() / 2;
+        let first =
+            MeshBatch { positions: &m.positions[..half], normals: &m.normals[..half], triangles: &[], quads: &[] };
+        MeshSink::push(&mut s, first).unwrap();
+        let second = MeshBatch { positions: &m.positions[half..], normals: &[], triangles: &m.triangles, quads: &[] };
+        let e = MeshSink::push(&mut s, second).unwrap_err().to_string();
+        assert!(e.contains(&format!("m.{ext}")) && e.contains("normals"), "{e}");
+        drop(s);
+        assert!(batch.commit().is_err(), "a failed stream must not commit");
+        assert_eq!(std::fs::read_dir(folder("midway")).unwrap().count(), 0, "the failed stream left files");
         // An empty mesh is an error, as in memory, and leaves nothing.
         let path = dir.path().join(format!("empty.{ext}"));
         let batch = Batch::new();

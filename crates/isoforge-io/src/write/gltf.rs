@@ -336,27 +336,22 @@ pub struct GltfStream<'a> {
 impl<'a> GltfStream<'a> {
     /// Starts writing `path` (with normals when `normals`) as an output of `batch` (reserved
     /// there first if needed, a `.gltf` with its buffer as [`Batch::reserve_mesh`] does); the
-    /// batch's commit moves it into place. `binary`: a `.glb`, else a `.gltf` and its `.bin`.
+    /// batch's commit moves it into place. `format`: [`MeshFormat::Glb`], or [`MeshFormat::Gltf`]
+    /// and its `.bin`.
     ///
     /// # Errors
     /// As [`Batch::reserve_mesh`].
-    pub fn create_in(batch: &'a Batch, path: &Path, normals: bool, binary: bool) -> Result<Self> {
-        let take = |path: &Path| {
-            let mut file = batch.take(path)?;
-            file.reset().map_err(|source| Error::Io { path: path.to_path_buf(), source })?;
-            Ok::<_, Error>(file)
-        };
-        let bin = if binary {
-            None
-        } else {
-            let bin = MeshFormat::gltf_buffer(path);
-            if !batch.paths().contains(&bin) {
-                batch.reserve_mesh(path, MeshFormat::Gltf, "the output")?;
+    pub fn create_in(batch: &'a Batch, path: &Path, format: MeshFormat, normals: bool) -> Result<Self> {
+        let bin = match format {
+            MeshFormat::Glb => None,
+            MeshFormat::Gltf => {
+                let bin = batch.reserve_gltf_buffer(path)?;
+                let file = batch.take_empty(&bin)?;
+                Some((bin, file))
             }
-            let file = take(&bin)?;
-            Some((bin, file))
+            f => return Err(Error::InvalidInput(format!("internal: {} is not glTF", f.name()))),
         };
-        let main = take(path)?;
+        let main = batch.take_empty(path)?;
         Ok(GltfStream {
             batch,
             path: path.to_path_buf(),

@@ -264,8 +264,7 @@ impl<'a> PlyStream<'a> {
 
     fn start(batch: Owner<'a>, path: &Path, normals: bool) -> Result<Self> {
         let io_err = |source| Error::Io { path: path.to_path_buf(), source };
-        let mut main = batch.batch().take(path)?;
-        main.reset().map_err(io_err)?;
+        let main = batch.batch().take_empty(path)?;
         let verts = TempFile::create(path).map_err(io_err)?;
         let faces = TempFile::create(path).map_err(io_err)?;
         Ok(PlyStream {

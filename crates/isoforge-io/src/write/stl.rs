@@ -172,9 +172,9 @@ impl<'a> StlStream<'a> {
     /// As [`Batch::reserve`].
     pub fn create_in(batch: &'a Batch, path: &Path, ascii: bool) -> Result<Self> {
         let io_err = |source| Error::Io { path: path.to_path_buf(), source };
-        let mut main = batch.take(path)?;
+        let mut main = batch.take_empty(path)?;
         let start = || if ascii { Ok(SOLID.as_bytes().to_vec()) } else { header(0).map(|h| h.to_vec()) };
-        main.reset().and_then(|()| main.write_all(&start()?)).map_err(io_err)?;
+        start().and_then(|bytes| main.write_all(&bytes)).map_err(io_err)?;
         Ok(StlStream {
             batch,
             path: path.to_path_buf(),

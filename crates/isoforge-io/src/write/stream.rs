@@ -174,12 +174,9 @@ impl<'a> MeshStream<'a> {
             MeshFormat::Off => Some(MeshStream::text(batch, path, super::text::TextFormat::Off, normals)?),
             #[cfg(feature = "ply")]
             MeshFormat::PlyAscii => Some(MeshStream::text(batch, path, super::text::TextFormat::PlyAscii, normals)?),
-            MeshFormat::Glb | MeshFormat::Gltf => Some(MeshStream::Gltf(super::gltf::GltfStream::create_in(
-                batch,
-                path,
-                normals,
-                format == MeshFormat::Glb,
-            )?)),
+            MeshFormat::Glb | MeshFormat::Gltf => {
+                Some(MeshStream::Gltf(super::gltf::GltfStream::create_in(batch, path, format, normals)?))
+            }
             #[allow(unreachable_patterns)] // every format, with all format features on
             _ => None,
         })

@@ -76,6 +76,7 @@ impl TextFormat {
     /// The file's start, given the counts.
     fn header(self, vertices: u64, faces: u64, normals: bool) -> io::Result<String> {
         let _ = (vertices, faces, normals);
+        #[cfg(feature = "ply")]
         let count = |n: u64| {
             usize::try_from(n).map_err(|_| io::Error::other("more vertices or faces than this machine can count"))
         };
@@ -145,8 +146,7 @@ impl<'a> TextStream<'a> {
     /// # Errors
     /// As [`Batch::reserve`].
     pub fn create_in(batch: &'a Batch, path: &Path, format: TextFormat, normals: bool) -> Result<Self> {
-        let mut main = batch.take(path)?;
-        main.reset().map_err(|source| Error::Io { path: path.to_path_buf(), source })?;
+        let main = batch.take_empty(path)?;
         Ok(TextStream {
             batch,
             path: path.to_path_buf(),

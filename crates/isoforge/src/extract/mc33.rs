@@ -628,7 +628,7 @@ const ROOT_MERGE: f64 = 1e-9;
 /// (a slice saddle reaching iso without crossing it, a double root) are joined there only, as a
 /// face saddle exactly at iso joins the outside corners. Integer data makes these ties (issue 10).
 // Out of line: a few percent of the value-decided cells need the sweep even on noise, and inlined
-// into `of_case_with` its set-up cost every call (9 % of mc33's instructions on white noise).
+// into `of_case_with` its set-up was paid on every call (9 % of mc33's instructions on white noise).
 #[inline(never)]
 fn interior_components(d: &[f32; 8], class_inside: bool) -> Interior {
     let member = |v: f64| (v < 0.0) == class_inside;
