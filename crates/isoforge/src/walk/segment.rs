@@ -32,7 +32,19 @@ fn point_normal<V: Volume + ?Sized>(vol: &V, p: [f64; 3], iso: Iso, flat: impl F
 /// (`d0`) and `b` (`d1`). Shared by every walker.
 #[inline]
 pub(crate) fn segment_point<V: Volume + ?Sized>(vol: &V, key: SegmentKey, d0: f32, d1: f32, iso: Iso) -> [f64; 3] {
-    let (p0, p1) = key.ends();
+    point_between(vol, key.ends().into(), d0, d1, iso)
+}
+
+/// [`segment_point`] of the segment whose index-space ends ([`SegmentKey::ends`]) are `p0` (offset
+/// `d0`) and `p1`: for walkers that know the ends without building the key.
+#[inline(always)]
+pub(crate) fn point_between<V: Volume + ?Sized>(
+    vol: &V,
+    [p0, p1]: [[f64; 3]; 2],
+    d0: f32,
+    d1: f32,
+    iso: Iso,
+) -> [f64; 3] {
     let t = vol.segment_crossing(p0, p1, d0, d1, iso) as f64;
     [0, 1, 2].map(|a| p0[a] + (p1[a] - p0[a]) * t)
 }
@@ -41,8 +53,19 @@ pub(crate) fn segment_point<V: Volume + ?Sized>(vol: &V, key: SegmentKey, d0: f3
 /// gradient's, or the segment's direction towards its outside end where the gradient vanishes.
 #[inline]
 pub(crate) fn segment_normal<V: Volume + ?Sized>(vol: &V, key: SegmentKey, p: [f64; 3], d0: f32, iso: Iso) -> [f32; 3] {
+    normal_between(vol, key.ends().into(), p, d0, iso)
+}
+
+/// [`segment_normal`] of the segment whose index-space ends are `p0` (offset `d0`) and `p1`.
+#[inline]
+pub(crate) fn normal_between<V: Volume + ?Sized>(
+    vol: &V,
+    [p0, p1]: [[f64; 3]; 2],
+    p: [f64; 3],
+    d0: f32,
+    iso: Iso,
+) -> [f32; 3] {
     point_normal(vol, p, iso, || {
-        let (p0, p1) = key.ends();
         let (w0, w1) = (vol.lattice().to_world(p0), vol.lattice().to_world(p1));
         let s = if d0 < 0.0 { 1.0 } else { -1.0 };
         [0, 1, 2].map(|a| ((w1[a] - w0[a]) * s) as f32)

@@ -29,6 +29,7 @@
 //! tabulated fields take the keyed path.
 
 use std::cell::Cell;
+use std::mem::MaybeUninit;
 use std::sync::atomic::{AtomicU64, Ordering};
 
 use super::bits::{
@@ -46,7 +47,7 @@ use crate::extract::tetrahedra::BccSolid;
 use crate::extract::{BodyCentredTables, Extractor};
 use crate::grid::Sample;
 use crate::mesh::{MeshBuilder, MeshSink, OwnedBatch};
-use crate::volume::SampleSlabs;
+use crate::volume::{Iso, SampleSlabs};
 use crate::walk::segment;
 use crate::walk::{edge_crossing, edge_normal};
 use crate::walk::{Progress, WalkStats};
@@ -145,6 +146,28 @@ const SLOT_SOURCE: [(usize, Src); SLOTS] = {
     t
 };
 const SLOTS: usize = 33;
+/// The slots of each source row (`Src as usize`) as `(slot, family)`, in slot order, and their
+/// count: the fill sets a cell row's slots source by source, without a branch on each slot's.
+const SLOTS_OF: [([(u8, u8); SLOTS], usize); 6] = {
+    let mut t = [([(0u8, 0u8); SLOTS], 0usize); 6];
+    let mut slot = 0;
+    while slot < SLOTS {
+        let (f, src) = SLOT_SOURCE[slot];
+        let s = src as usize;
+        t[s].0[t[s].1] = (slot as u8, f as u8);
+        t[s].1 += 1;
+        slot += 1;
+    }
+    t
+};
+
+/// The `(slot, family)` pairs of source row `src`.
+#[inline(always)]
+fn slots_of(src: Src) -> &'static [(u8, u8)] {
+    let (list, n) = &SLOTS_OF[src as usize];
+    &list[..*n]
+}
+
 /// The slots of the x-edges of rows C and E: row E of cell row j is row C of j + 1.
 const X_OF_C: usize = 2;
 const X_OF_E: usize = 3;
@@ -343,6 +366,52 @@ pub(super) struct Bcc<'a> {
     pub(super) walk: u64,
 }
 
+/// How the vertex loop names a vertex, for the walks that record keys: its key, or its segment
+/// from the centre of its cell (whose lattice index is given with it).
+#[derive(Clone, Copy)]
+enum Named<'a> {
+    Key(&'a VertexKey),
+    /// Centre → corner c.
+    Corner(u8),
+    /// Centre of the lower neighbour on axis a → centre.
+    Lower(usize),
+}
+
+impl Named<'_> {
+    /// The key, for cell `g` when it names a segment from the cell's centre.
+    #[inline]
+    fn key(self, g: [u32; 3]) -> VertexKey {
+        let cd = g.map(|x| 2 * x + 1);
+        VertexKey::Segment(match self {
+            Named::Key(k) => return *k,
+            Named::Corner(c) => {
+                let kd = [0, 1, 2].map(|a| 2 * g[a] + 2 * (c as u32 >> a & 1));
+                let (a, b) = if cd <= kd { (cd, kd) } else { (kd, cd) };
+                SegmentKey { a, b }
+            }
+            Named::Lower(axis) => {
+                let mut nd = cd;
+                nd[axis] -= 2;
+                SegmentKey { a: nd, b: cd }
+            }
+        })
+    }
+}
+
+/// The centre value of cell i of the cell row starting at slab index `at` of slabs `s0`, `s1`
+/// (`stride` apart on y), through `memo` (NaN: not yet computed).
+#[inline(always)]
+fn memo_centre<S: Sample>(memo: &mut [f32], [s0, s1]: [&[S]; 2], [at, stride]: [usize; 2], i: usize, iso: Iso) -> f32 {
+    let v = memo[i];
+    if v.is_nan() {
+        let v = centre_in(s0, s1, at + i, at + stride + i, iso);
+        memo[i] = v;
+        v
+    } else {
+        v
+    }
+}
+
 impl<V: SampleSlabs, X: Extractor> Passes<'_, V, X> {
     /// PASS 1b for cell layer `k` (box-local): the centre bits of its cell rows into `out` and
     /// their active cells into `active` (`ny` rows of `bits.words` each); returns its all-outside
@@ -381,6 +450,17 @@ impl<V: SampleSlabs, X: Extractor> Passes<'_, V, X> {
             mask_tail(o, nx - 1);
         }
         cs
+    }
+
+    /// The crossing on the segment from index-space point `p0` (offset value `d0`) to `p1` (`d1`),
+    /// `p0` the end its `SegmentKey` names first: the world point, and the normal when the walk
+    /// writes normals. Always inlined: the ends passed to a call went through memory, and their
+    /// reload stalled on store forwarding.
+    #[inline(always)]
+    fn bcc_segment_vertex(&self, p0: [f64; 3], p1: [f64; 3], d0: f32, d1: f32) -> ([f32; 3], Option<[f32; 3]>) {
+        let q = segment::point_between(self.vol, [p0, p1], d0, d1, self.iso);
+        let n = self.normals.then(|| segment::normal_between(self.vol, [p0, p1], q, d0, self.iso));
+        (segment::world_point(self.vol, q), n)
     }
 
     /// Word by word, the crossings of families X … CCL + 2 (all but the boundary-face diagonals)
@@ -651,21 +731,9 @@ impl<V: SampleSlabs, X: Extractor> Passes<'_, V, X> {
         let mut cur_j = None;
         // The slab below (for the centres of cell layer k − 1).
         let sm = if k > 0 { self.vol.slab(z - 1) } else { s0 };
-        // The centre of cell i of the cell row starting at slab index `at` of `lo` (and `hi`).
-        let centre_at = |lo: &[V::Sample], hi: &[V::Sample], at: usize, i: usize| {
-            centre_in(lo, hi, at + i, at + stride + i, self.iso)
-        };
-        // The centre of cell i of the cell row starting at `at` in slabs k, k + 1, through `memo`.
-        let cached = |memo: &mut [f32], at: usize, i: usize| {
-            let v = memo[i];
-            if v.is_nan() {
-                let v = centre_at(s0, s1, at, i);
-                memo[i] = v;
-                v
-            } else {
-                v
-            }
-        };
+        // The centre of cell i of the cell row starting at slab index `at` in slabs k, k + 1,
+        // through `memo` (NaN: not yet).
+        let cached = |memo: &mut [f32], at: usize, i: usize| memo_centre(memo, [s0, s1], [at, stride], i, self.iso);
         for j in 0..ny {
             let r = k * ny + j;
             let c = table.count(r);
@@ -681,18 +749,18 @@ impl<V: SampleSlabs, X: Extractor> Passes<'_, V, X> {
             cur.fill(f32::NAN);
             cur_j = Some(j);
             let at = bx.in_slab(0, j);
-            // Keys by reference, read only when recorded: moving them by value through these
-            // closures stalled on store forwarding (about 15 % of the fill's wall time).
-            let mut push = |(p, n): ([f32; 3], Option<[f32; 3]>), key: &VertexKey| {
-                self.put_vertex(out, out_v, plane[0], p, n, key);
+            // Keys are built only when recorded (most walks record none), from what names them:
+            // moving keys by value through these closures stalled on store forwarding (about 15 %
+            // of the fill's wall time), and so did taking the address of the segment's ends.
+            let mut push = |(p, n): ([f32; 3], Option<[f32; 3]>), i: usize, named: Named<'_>| {
+                self.put_vertex(out, out_v, plane[0], p, n, || named.key(bx.global([i, j, k])));
                 out_v += 1;
             };
-            // A crossing on segment `key` with offset values `d0` at its end a, `d1` at b.
-            let on_segment = |key: &SegmentKey, d0: f32, d1: f32| {
-                let q = segment::segment_point(self.vol, *key, d0, d1, self.iso);
-                let n = self.normals.then(|| segment::segment_normal(self.vol, *key, q, d0, self.iso));
-                (segment::world_point(self.vol, q), n)
-            };
+            // Index-space points of the row: the centre of cell i, and its corner o (the values
+            // `SegmentKey::ends` gives, exactly).
+            let [gx, gy, gz] = bx.global([0, j, k]).map(|x| x as f64);
+            let centre = |i: usize| [gx + i as f64 + 0.5, gy + 0.5, gz + 0.5];
+            let corner = |i: usize, o: [usize; 3]| [gx + (i + o[0]) as f64, gy + o[1] as f64, gz + o[2] as f64];
             // The masks of all families but the boundary diagonals at once (rows starting a cell
             // row), the others one by one.
             let cell_row = j + 1 < ny && k + 1 < nz;
@@ -703,6 +771,19 @@ impl<V: SampleSlabs, X: Extractor> Passes<'_, V, X> {
                         row[f * words + w] = m;
                     }
                 });
+            }
+            if cell_row {
+                // The centres the centre → corner segments read, all at once (a memo's
+                // hit-or-miss branch per vertex was mispredicted about a quarter of the time):
+                // every cell with one of them crossed.
+                let row = &store[j * row_words..(j + 1) * row_words];
+                for w in 0..words {
+                    let crossed = (0..8).fold(0, |u, q| u | row[(CC + q) * words + w]);
+                    for_each_bit(&[crossed], |b| {
+                        let i = 64 * w + b;
+                        cur[i] = centre_in(s0, s1, at + i, at + stride + i, self.iso);
+                    });
+                }
             }
             for f in 0..BCC_FAMILIES {
                 let at_f = (j * BCC_FAMILIES + f) * words..(j * BCC_FAMILIES + f + 1) * words;
@@ -716,48 +797,50 @@ impl<V: SampleSlabs, X: Extractor> Passes<'_, V, X> {
                     let s = if o[2] == 0 { s0 } else { s1 };
                     offset(s[at + o[1] * stride + i + o[0]])
                 };
-                // Doubled index coordinates of the centre of cell (i, j, k).
-                let centre_doubled = |i: usize| bx.global([i, j, k]).map(|x| 2 * x + 1);
                 match f {
                     _ if f <= Z => for_each_bit(mask, |i| {
                         let (ends, key) = self.walked.segment(f, bx.global([i, j, k]));
                         let VertexKey::Edge(e) = key else { unreachable!("edge families name edges") };
                         let (d0, d1) = (sample(i, ends[0]), sample(i, ends[1]));
                         let (p, t) = edge_crossing(self.vol, e, d0, d1, self.iso);
-                        push((p, self.normals.then(|| edge_normal(self.vol, e, t, d0, self.iso))), &key);
+                        push((p, self.normals.then(|| edge_normal(self.vol, e, t, d0, self.iso))), i, Named::Key(&key));
                     }),
-                    // Centre → corner c (`SegmentKey::of_cell`'s order: the end with the lower
-                    // doubled coordinates first, here decided on x).
+                    // Centre → corner c (`SegmentKey`'s order: the end with the lower doubled
+                    // coordinates first, here decided on x).
                     _ if f < CCL => {
-                        let corner = f - CC;
-                        let o = [corner & 1, corner >> 1 & 1, corner >> 2];
-                        for_each_bit(mask, |i| {
-                            let cd = centre_doubled(i);
-                            let kd = [0, 1, 2].map(|a| cd[a] - 1 + 2 * o[a] as u32);
-                            let (vc, vk) = (cached(&mut cur, at, i), sample(i, o));
-                            let (key, d0, d1) = if o[0] == 1 {
-                                (SegmentKey { a: cd, b: kd }, vc, vk)
-                            } else {
-                                (SegmentKey { a: kd, b: cd }, vk, vc)
-                            };
-                            push(on_segment(&key, d0, d1), &VertexKey::Segment(key));
-                        });
+                        let corner_c = f - CC;
+                        let o = [corner_c & 1, corner_c >> 1 & 1, corner_c >> 2];
+                        let named = Named::Corner(corner_c as u8);
+                        // One loop per order (a branch on it inside was mispredicted at every
+                        // change of family); the centres are in `cur` (above).
+                        if o[0] == 1 {
+                            for_each_bit(mask, |i| {
+                                let v = self.bcc_segment_vertex(centre(i), corner(i, o), cur[i], sample(i, o));
+                                push(v, i, named);
+                            });
+                        } else {
+                            for_each_bit(mask, |i| {
+                                let v = self.bcc_segment_vertex(corner(i, o), centre(i), sample(i, o), cur[i]);
+                                push(v, i, named);
+                            });
+                        }
                     }
                     // Centre of the lower neighbour on axis a → centre (the neighbour's end first).
                     _ if f < BD => {
                         let axis = f - CCL;
+                        // The step to the lower centre, subtracted on every axis (x − 0 = x): an
+                        // index into the point went through memory and stalled on its reload.
+                        let step = [0, 1, 2].map(|a| if a == axis { 1.0 } else { 0.0 });
                         for_each_bit(mask, |i| {
-                            let cd = centre_doubled(i);
-                            let mut nd = cd;
-                            nd[axis] -= 2;
                             let vn = match axis {
                                 0 => cached(&mut cur, at, i - 1),
                                 1 => cached(&mut prev, at - stride, i),
-                                _ => centre_at(sm, s0, at, i),
+                                _ => centre_in(sm, s0, at + i, at + stride + i, self.iso),
                             };
                             let vc = cached(&mut cur, at, i);
-                            let key = SegmentKey { a: nd, b: cd };
-                            push(on_segment(&key, vn, vc), &VertexKey::Segment(key));
+                            let pc = centre(i);
+                            let pn = [0, 1, 2].map(|a| pc[a] - step[a]);
+                            push(self.bcc_segment_vertex(pn, pc, vn, vc), i, Named::Lower(axis));
                         });
                     }
                     // Diagonal of a boundary face (rare: the generic route).
@@ -776,7 +859,8 @@ impl<V: SampleSlabs, X: Extractor> Passes<'_, V, X> {
                                 CellPoint::Corner(fc[2]),
                                 value,
                             );
-                            push(on_segment(&key, d0, d1), &VertexKey::Segment(key));
+                            let (p0, p1) = key.ends();
+                            push(self.bcc_segment_vertex(p0, p1, d0, d1), i, Named::Key(&VertexKey::Segment(key)));
                         });
                     }
                 }
@@ -809,18 +893,20 @@ impl<V: SampleSlabs, X: Extractor> Passes<'_, V, X> {
                 own.swap(X_OF_C, X_OF_E);
             }
             last_row = Some(j);
-            for (slot, &(f, src)) in SLOT_SOURCE.iter().enumerate() {
-                let (row, jk) = match src {
-                    Src::C if !(carried && slot == X_OF_C) => (r + ny, [j, k + 1]),
-                    Src::E => (r + ny + 1, [j + 1, k + 1]),
-                    Src::Under if k > 0 && !under_kept => (r - ny, [j, k - 1]),
-                    _ => continue,
-                };
-                if table.count(row).v[f] != 0 {
-                    let m = &mut own[slot];
-                    self.bcc_mask(f, bits, b.centres, row, jk, &mut m.mask);
-                    m.rank_prefix();
+            let mut own_slots = |src: Src, row: usize, jk: [usize; 2]| {
+                for &(slot, f) in slots_of(src) {
+                    let (slot, f) = (slot as usize, f as usize);
+                    if !(carried && slot == X_OF_C) && table.count(row).v[f] != 0 {
+                        let m = &mut own[slot];
+                        self.bcc_mask(f, bits, b.centres, row, jk, &mut m.mask);
+                        m.rank_prefix();
+                    }
                 }
+            };
+            own_slots(Src::C, r + ny, [j, k + 1]);
+            own_slots(Src::E, r + ny + 1, [j + 1, k + 1]);
+            if k > 0 && !under_kept {
+                own_slots(Src::Under, r - ny, [j, k - 1]);
             }
             let mut masks = [RankedRef::new(&[], &[]); SLOTS];
             // Each source row's family bases, once per cell row (rows A, C and `Below` are the
@@ -842,27 +928,31 @@ impl<V: SampleSlabs, X: Extractor> Passes<'_, V, X> {
             {
                 bases[src as usize] = table.count(row).family_bases(table.first_vertex(row));
             }
-            for (slot, &(f, src)) in SLOT_SOURCE.iter().enumerate() {
-                let (row, j_row) = match src {
-                    Src::A => (r, j),
-                    Src::B => (r + 1, j + 1),
-                    Src::C => (r + ny, j),
-                    Src::E => (r + ny + 1, j + 1),
-                    Src::Below if j > 0 => (r - 1, j - 1),
-                    Src::Under if k > 0 => (r - ny, j),
-                    _ => continue,
-                };
-                let rc = table.count(row);
-                if rc.v[f] == 0 {
-                    continue;
+            // Every slot of a source row that exists, crossed in its row or not: a family not
+            // crossed in its row names no segment of these cells, so its stale mask is never read.
+            // (`None`: the row's masks are in `own`.)
+            let here = Some((&store[..], &store_before[..]));
+            let from = [
+                (Src::A, here, j),
+                (Src::B, here, j + 1),
+                (Src::C, None, j),
+                (Src::E, None, j),
+                (Src::Below, here, j.wrapping_sub(1)),
+                (Src::Under, if under_kept { Some((&under.0[..], &under.1[..])) } else { None }, j),
+            ];
+            let exists = [true, true, true, true, j > 0, k > 0];
+            for ((src, masks_of, j_row), _) in from.into_iter().zip(exists).filter(|&(_, e)| e) {
+                for &(slot, f) in slots_of(src) {
+                    let (slot, f) = (slot as usize, f as usize);
+                    base[slot] = bases[src as usize][f];
+                    masks[slot] = match masks_of {
+                        Some((m, before)) => {
+                            let at = (j_row * BCC_FAMILIES + f) * words..(j_row * BCC_FAMILIES + f + 1) * words;
+                            RankedRef::new(&m[at.clone()], &before[at])
+                        }
+                        None => own[slot].as_ref(),
+                    };
                 }
-                base[slot] = bases[src as usize][f];
-                let at = (j_row * BCC_FAMILIES + f) * words..(j_row * BCC_FAMILIES + f + 1) * words;
-                masks[slot] = match src {
-                    Src::Under if under_kept => RankedRef::new(&under.0[at.clone()], &under.1[at]),
-                    Src::C | Src::E | Src::Under => own[slot].as_ref(),
-                    _ => RankedRef::new(&store[at.clone()], &store_before[at]),
-                };
             }
             self.bcc_visit(b.active, r, [j, k], &mut visit);
             let rows = cell_rows(bits, r, ny);
@@ -878,8 +968,9 @@ impl<V: SampleSlabs, X: Extractor> Passes<'_, V, X> {
                 if triangles.is_empty() {
                     return;
                 }
-                // 64 ids so that `& 63` proves every index in bounds (programs name fewer).
-                let mut ids = [0u32; 64];
+                // 64 ids so that `& 63` proves every index in bounds (programs name fewer), left
+                // uninitialised: a program's triangles name only its segments, set first.
+                let mut ids = [MaybeUninit::<u32>::uninit(); 64];
                 for (id, &s) in ids.iter_mut().zip(segments) {
                     let slot = (s >> 2) as usize;
                     let at = (i + (s & 3) as usize).wrapping_sub(1);
@@ -888,10 +979,12 @@ impl<V: SampleSlabs, X: Extractor> Passes<'_, V, X> {
                     // upper x; i − 1, taken only when i > 0, for the x-lower octahedron's centre
                     // segments), so below nx ≤ 64 · words; the slot of a crossed segment was set
                     // above, its family being crossed in its row.
-                    *id = base[slot] + unsafe { masks[slot].rank_unchecked(at) };
+                    id.write(base[slot] + unsafe { masks[slot].rank_unchecked(at) });
                 }
                 for tri in triangles {
-                    let [a, b2, c] = tri.map(|s| ids[(s & 63) as usize]);
+                    // SAFETY: a program's triangles name positions in its segment list
+                    // (`SolidPrograms::push`), each written above.
+                    let [a, b2, c] = tri.map(|s| unsafe { ids[(s & 63) as usize].assume_init() });
                     out.set_triangle(t_out, if self.reverse { [a, c, b2] } else { [a, b2, c] });
                     t_out += 1;
                 }

@@ -339,7 +339,7 @@ impl<V: SampleSlabs, X: Extractor> Passes<'_, V, X> {
                         }
                         VertexKey::Cell { .. } => unreachable!("families name edges and segments"),
                     };
-                    self.put_vertex(out, out_v, plane[0], p, n, &key);
+                    self.put_vertex(out, out_v, plane[0], p, n, || key);
                     out_v += 1;
                 });
             }

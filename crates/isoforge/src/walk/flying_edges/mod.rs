@@ -352,7 +352,8 @@ impl<V, X> Passes<'_, V, X> {
     }
 
     /// Writes vertex `at` of a slab's output (`first`: the slab's first vertex id) with its
-    /// normal when there is one, and records its key when this walk records it.
+    /// normal when there is one, and records its key (`key()`, built only then) when this walk
+    /// records it.
     #[inline(always)]
     fn put_vertex(
         &self,
@@ -361,14 +362,17 @@ impl<V, X> Passes<'_, V, X> {
         first: u64,
         p: [f32; 3],
         n: Option<[f32; 3]>,
-        key: &VertexKey,
+        key: impl FnOnce() -> VertexKey,
     ) {
         out.set_position(at, p);
         if let Some(n) = n {
             out.set_normal(at, n);
         }
-        if self.record != KeyRecord::None && self.records(key) {
-            out.keys().push(((first + at as u64) as u32, *key));
+        if self.record != KeyRecord::None {
+            let key = key();
+            if self.records(&key) {
+                out.keys().push(((first + at as u64) as u32, key));
+            }
         }
     }
 }
