@@ -41,7 +41,7 @@ use super::fill::{fill_planes, Counted, FillOut, RowTable};
 use super::keyed::centre_in;
 use super::stream::{fill_batch, Ctx, SlabRing, StreamStats};
 use super::{for_each_chunk, for_each_chunk_with, reuse_words, reuse_zeroed, Passes, PointBox, Scratch};
-use crate::cube::{CellPoint, SegmentKey, VertexKey, FACE_CORNERS};
+use crate::cube::{Axis, CellPoint, EdgeKey, SegmentKey, VertexKey, FACE_CORNERS};
 use crate::error::{Error, Result};
 use crate::extract::tetrahedra::BccSolid;
 use crate::extract::{BodyCentredTables, Extractor};
@@ -366,11 +366,13 @@ pub(super) struct Bcc<'a> {
     pub(super) walk: u64,
 }
 
-/// How the vertex loop names a vertex, for the walks that record keys: its key, or its segment
-/// from the centre of its cell (whose lattice index is given with it).
+/// How the vertex loop names a vertex, for the walks that record keys: its key, or its edge or
+/// segment relative to its cell (whose lattice index is given with it).
 #[derive(Clone, Copy)]
 enum Named<'a> {
     Key(&'a VertexKey),
+    /// The cell's lattice edge on this axis.
+    Edge(Axis),
     /// Centre → corner c.
     Corner(u8),
     /// Centre of the lower neighbour on axis a → centre.
@@ -384,6 +386,7 @@ impl Named<'_> {
         let cd = g.map(|x| 2 * x + 1);
         VertexKey::Segment(match self {
             Named::Key(k) => return *k,
+            Named::Edge(axis) => return VertexKey::Edge(EdgeKey { origin: g, axis }),
             Named::Corner(c) => {
                 let kd = [0, 1, 2].map(|a| 2 * g[a] + 2 * (c as u32 >> a & 1));
                 let (a, b) = if cd <= kd { (cd, kd) } else { (kd, cd) };
@@ -798,13 +801,25 @@ impl<V: SampleSlabs, X: Extractor> Passes<'_, V, X> {
                     offset(s[at + o[1] * stride + i + o[0]])
                 };
                 match f {
-                    _ if f <= Z => for_each_bit(mask, |i| {
-                        let (ends, key) = self.walked.segment(f, bx.global([i, j, k]));
-                        let VertexKey::Edge(e) = key else { unreachable!("edge families name edges") };
-                        let (d0, d1) = (sample(i, ends[0]), sample(i, ends[1]));
-                        let (p, t) = edge_crossing(self.vol, e, d0, d1, self.iso);
-                        push((p, self.normals.then(|| edge_normal(self.vol, e, t, d0, self.iso))), i, Named::Key(&key));
-                    }),
+                    // Lattice edges (as `Walked::segment` names them, without its match per vertex).
+                    _ if f <= Z => {
+                        let axis = match f {
+                            X => Axis::X,
+                            Y => Axis::Y,
+                            _ => Axis::Z,
+                        };
+                        let u = axis.unit().map(|x| x as usize);
+                        for_each_bit(mask, |i| {
+                            let e = EdgeKey { origin: bx.global([i, j, k]), axis };
+                            let (d0, d1) = (sample(i, [0; 3]), sample(i, u));
+                            let (p, t) = edge_crossing(self.vol, e, d0, d1, self.iso);
+                            push(
+                                (p, self.normals.then(|| edge_normal(self.vol, e, t, d0, self.iso))),
+                                i,
+                                Named::Edge(axis),
+                            );
+                        });
+                    }
                     // Centre → corner c (`SegmentKey`'s order: the end with the lower doubled
                     // coordinates first, here decided on x).
                     _ if f < CCL => {
