@@ -103,7 +103,7 @@ fn push_head(out: &mut Vec<u8>, head: &Value) {
 }
 
 fn pad(out: &mut Vec<u8>, byte: u8) {
-    while out.len() % 4 != 0 {
+    while !out.len().is_multiple_of(4) {
         out.push(byte);
     }
 }

@@ -270,7 +270,7 @@ fn json_name(s: &str) -> String {
 /// The start of a `.glb` up to its buffer's bytes: file header, JSON chunk, buffer chunk header.
 fn glb_head(json: &str, bin_len: usize) -> io::Result<Vec<u8>> {
     let mut json = json.as_bytes().to_vec();
-    while json.len() % 4 != 0 {
+    while !json.len().is_multiple_of(4) {
         json.push(b' ');
     }
     let total = 12 + 8 + json.len() + 8 + bin_len;

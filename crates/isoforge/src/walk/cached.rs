@@ -352,7 +352,7 @@ impl LayerCaches {
         let across = |f: u8| -> Option<[u32; 3]> {
             let mut n = ijk;
             let x = (f / 2) as usize;
-            n[x] = if f % 2 == 0 { n[x].checked_sub(1)? } else { n[x].checked_add(1)? };
+            n[x] = if f.is_multiple_of(2) { n[x].checked_sub(1)? } else { n[x].checked_add(1)? };
             Some(n)
         };
         let centre_corner = |cell: [u32; 3], corner: u8| -> Option<SegmentSlot> {

@@ -156,7 +156,7 @@ pub(crate) fn cell_segment<V: Volume + ?Sized>(
 #[inline]
 pub(crate) fn has_neighbour(dims: [u32; 3], ijk: [u32; 3], face: u8) -> bool {
     let a = (face / 2) as usize;
-    if face % 2 == 0 {
+    if face.is_multiple_of(2) {
         ijk[a] > 0
     } else {
         ijk[a] + 2 < dims[a]

@@ -152,7 +152,7 @@ pub fn integer_lattice(seed: u64, inner: u32) -> IntLattice {
             0 => (0..n).map(|i| i.min(n - 1 - i)).collect(),
             1 => {
                 let p = 1 + rng.below(2) as u32;
-                (0..n).map(|i| if (i / p) % 2 == 0 { i % p } else { p - i % p }).collect()
+                (0..n).map(|i| if (i / p).is_multiple_of(2) { i % p } else { p - i % p }).collect()
             }
             2 => {
                 let p = 1 + rng.below(2) as u32;

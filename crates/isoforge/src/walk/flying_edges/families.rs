@@ -85,7 +85,7 @@ impl Walked {
     /// The bits of the row (j, k) whose point has an odd coordinate sum.
     #[inline]
     fn odd_bits(&self, j: usize, k: usize) -> u64 {
-        if (self.parity0 + j + k) % 2 == 0 {
+        if (self.parity0 + j + k).is_multiple_of(2) {
             0xAAAA_AAAA_AAAA_AAAA
         } else {
             0x5555_5555_5555_5555
