@@ -394,6 +394,37 @@ fn issue_11_hermite_data_and_placed_vertices_reach_extractors_on_every_walker() 
     }
 }
 
+/// mt-bcc's counted fill builds vertex keys only when a walk records them, from what names each
+/// vertex (its lattice edge, its centre → corner or centre → centre segment, a boundary face's
+/// diagonal): recording every key, each vertex has the key the reference walker gives the vertex
+/// at the same position, and every vertex of that walk is there.
+#[test]
+fn issue_11_counted_mt_bcc_records_the_reference_keys() {
+    use isoforge::extract::{Decomposition, MarchingTetrahedra};
+    let bcc = MarchingTetrahedra { decomposition: Decomposition::BodyCentred };
+    let g = noise(13);
+    let vol = GridVolume::new(&g);
+    let iso = Iso::below(0.0);
+    let keyed = |counted: bool| {
+        let mut out = MeshBuilder::new(Normals::None).with_keys(KeyRecord::All);
+        if counted {
+            FlyingEdgesWalker::new().walk(&vol, iso, &bcc, &mut out).unwrap();
+        } else {
+            ReferenceWalker.walk(&vol, iso, &bcc, &mut out).unwrap();
+        }
+        let (m, keys) = out.finish_keyed().unwrap();
+        assert_eq!(keys.len(), m.num_vertices(), "every vertex has its key");
+        let mut by_key: Vec<(VertexKey, [u32; 3])> =
+            keys.into_iter().map(|(id, k)| (k, m.positions[id as usize].map(f32::to_bits))).collect();
+        by_key.sort();
+        by_key
+    };
+    let (counted, reference) = (keyed(true), keyed(false));
+    assert!(counted.iter().any(|(k, _)| matches!(k, VertexKey::Segment(_))), "centre segments are crossed");
+    assert!(counted.iter().any(|(k, _)| matches!(k, VertexKey::Edge(_))), "lattice edges are crossed");
+    assert_eq!(counted, reference);
+}
+
 /// Surface nets uses placed vertices, neighbours' vertices and quads: on a closed shape the quads
 /// form a closed, oriented surface with one quad per crossed lattice edge.
 #[test]
