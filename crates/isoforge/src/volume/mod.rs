@@ -256,12 +256,39 @@ fn scaled_offsets(d: [f64; 8]) -> [f32; 8] {
 /// An offset rounded to `f32`, a negative one kept negative (at least `f32::MIN_POSITIVE` in
 /// magnitude): inside stays inside.
 ///
-/// A select, not a branch: the fills narrow the values at both ends of every crossing, where the
-/// sign changes, so a branch on it was mispredicted about every other time.
+/// Branch-free, on the bits: the fills narrow the values at both ends of every crossing, where
+/// the sign changes, so a branch on the sign was mispredicted about every other time. LLVM turns
+/// any select here back into an `f32` select (even `select_unpredictable`'s, and a mask of the
+/// bits), and x86 has no conditional move for floats, so it branched; the mask goes through
+/// [`opaque`].
 #[inline(always)]
 fn narrow(d: f64) -> f32 {
     let f = d as f32;
-    std::hint::select_unpredictable(d < 0.0, f.min(-f32::MIN_POSITIVE), f)
+    let b = f.to_bits();
+    // A negative offset (sign set, not −0) that rounds to zero or a subnormal (NaN is neither).
+    let lift = ((b & 0x7fff_ffff) < f32::MIN_POSITIVE.to_bits()) & (d.to_bits() > 1 << 63);
+    let mask = opaque(0u32.wrapping_sub(lift as u32));
+    f32::from_bits(b ^ ((b ^ (-f32::MIN_POSITIVE).to_bits()) & mask))
+}
+
+/// `x`, hidden from the optimiser (an empty `asm!` on a register: no memory access, no cost), so
+/// that bit arithmetic on it stays arithmetic and is not rewritten into a branch. Elsewhere than
+/// x86-64 (whose lowering was measured) it is `x`.
+#[cfg(target_arch = "x86_64")]
+#[inline(always)]
+fn opaque(mut x: u32) -> u32 {
+    // SAFETY: the template is empty: it reads and writes nothing but the register holding `x`.
+    unsafe {
+        std::arch::asm!("/* {0:e} */", inout(reg) x, options(pure, nomem, nostack, preserves_flags));
+    }
+    x
+}
+
+/// See the x86-64 one.
+#[cfg(not(target_arch = "x86_64"))]
+#[inline(always)]
+fn opaque(x: u32) -> u32 {
+    x
 }
 
 /// Linear interpolation parameter between two offset values of opposite class, clamped to [0, 1].

@@ -280,16 +280,19 @@ impl SolidPrograms {
     /// Appends the program of `solids`' triangles, in order.
     fn push(&mut self, solids: &[&BccSolid]) {
         let (seg, tri) = (self.segments.len(), self.triangles.len());
+        // Each numbered segment's position in the program (`u8::MAX`: not yet named).
         let mut named: Vec<u8> = Vec::new();
+        let mut position = [u8::MAX; SEGMENT_SLOT.len()];
         for s in solids {
             for t in &s.triangles[..s.triangle_count as usize] {
                 let tri = t.map(|q| {
                     let n = s.segments[q as usize];
-                    let at = named.iter().position(|&m| m == n).unwrap_or_else(|| {
+                    let at = &mut position[n as usize];
+                    if *at == u8::MAX {
+                        *at = named.len() as u8;
                         named.push(n);
-                        named.len() - 1
-                    });
-                    at as u8
+                    }
+                    *at
                 });
                 self.triangles.push(tri);
             }
@@ -309,6 +312,48 @@ impl SolidPrograms {
         let (seg, tri, ns, nt) = self.spans[p];
         let (seg, tri) = (seg as usize, tri as usize);
         (&self.segments[seg..seg + ns as usize], &self.triangles[tri..tri + nt as usize])
+    }
+}
+
+/// What a cell row's triangles are written from: the programs, and each mask slot's first
+/// vertex id and ranked crossings.
+struct Emit<'a, 'm> {
+    programs: &'a SolidPrograms,
+    base: &'a [u32; SLOTS],
+    masks: &'a [RankedRef<'m>; SLOTS],
+    reverse: bool,
+}
+
+impl Emit<'_, '_> {
+    /// The triangles of program `p` for cell i of the row into `tris` from slot `t`; returns the
+    /// next slot. Inlined, with the slot in a register: through a closure's captured counter it
+    /// was reloaded and stored for every triangle (the stores into `tris` could alias it).
+    #[inline(always)]
+    fn program(&self, p: usize, i: usize, tris: &mut [MaybeUninit<[u32; 3]>], mut t: usize) -> usize {
+        let (segments, triangles) = self.programs.program(p);
+        if triangles.is_empty() {
+            return t;
+        }
+        // 64 ids so that `& 63` proves every index in bounds (programs name fewer), left
+        // uninitialised: a program's triangles name only its segments, set first.
+        let mut ids = [MaybeUninit::<u32>::uninit(); 64];
+        for (id, &s) in ids.iter_mut().zip(segments) {
+            let slot = (s >> 2) as usize;
+            let at = (i + (s & 3) as usize).wrapping_sub(1);
+            // SAFETY: `at` is a point of the row (i; i + 1 for the edges on the cell's upper x;
+            // i − 1, taken only when i > 0, for the x-lower octahedron's centre segments), so
+            // below nx ≤ 64 · words; the slot of a crossed segment was set, its family being
+            // crossed in its row.
+            id.write(self.base[slot] + unsafe { self.masks[slot].rank_unchecked(at) });
+        }
+        for tri in triangles {
+            // SAFETY: a program's triangles name positions in its segment list
+            // (`SolidPrograms::push`), each written above.
+            let [a, b, c] = tri.map(|s| unsafe { ids[(s & 63) as usize].assume_init() });
+            tris[t].write(if self.reverse { [a, c, b] } else { [a, b, c] });
+            t += 1;
+        }
+        t
     }
 }
 
@@ -898,6 +943,7 @@ impl<V: SampleSlabs, X: Extractor> Passes<'_, V, X> {
         let last = [nx - 2, ny - 2, nz - 2];
         let mut last_row = None;
         let mut bases = [[0u32; BCC_FAMILIES]; 6];
+        let reverse = self.reverse;
         for j in 0..ny - 1 {
             let r = k * ny + j;
             if table.count(r).tris == 0 {
@@ -978,35 +1024,11 @@ impl<V: SampleSlabs, X: Extractor> Passes<'_, V, X> {
             // Cell rows away from the lattice's y and z faces: cells away from all faces have just
             // the octahedra of their lower faces.
             let inner_row = j > 0 && k > 0 && j + 2 < ny && k + 2 < nz;
-            let mut emit = |p: usize, i: usize| {
-                let (segments, triangles) = programs.program(p);
-                if triangles.is_empty() {
-                    return;
-                }
-                // 64 ids so that `& 63` proves every index in bounds (programs name fewer), left
-                // uninitialised: a program's triangles name only its segments, set first.
-                let mut ids = [MaybeUninit::<u32>::uninit(); 64];
-                for (id, &s) in ids.iter_mut().zip(segments) {
-                    let slot = (s >> 2) as usize;
-                    let at = (i + (s & 3) as usize).wrapping_sub(1);
-                    debug_assert!(at < nx);
-                    // SAFETY: `at` is a point of the row (i; i + 1 for the edges on the cell's
-                    // upper x; i − 1, taken only when i > 0, for the x-lower octahedron's centre
-                    // segments), so below nx ≤ 64 · words; the slot of a crossed segment was set
-                    // above, its family being crossed in its row.
-                    id.write(base[slot] + unsafe { masks[slot].rank_unchecked(at) });
-                }
-                for tri in triangles {
-                    // SAFETY: a program's triangles name positions in its segment list
-                    // (`SolidPrograms::push`), each written above.
-                    let [a, b2, c] = tri.map(|s| unsafe { ids[(s & 63) as usize].assume_init() });
-                    out.set_triangle(t_out, if self.reverse { [a, c, b2] } else { [a, b2, c] });
-                    t_out += 1;
-                }
-            };
+            let cell = Emit { programs, base: &base, masks: &masks, reverse };
+            let tris = out.triangles();
             for_each_bcc_cell(&rows, [cr, cy, cz], &visit, |i, x| {
                 if inner_row && i > 0 && i + 2 < nx {
-                    emit(SolidPrograms::interior(x & (INTERIOR - 1)), i);
+                    t_out = cell.program(SolidPrograms::interior(x & (INTERIOR - 1)), i, tris, t_out);
                     return;
                 }
                 let (case, centre) = (x & 255, x >> 8 & 1);
@@ -1016,9 +1038,10 @@ impl<V: SampleSlabs, X: Extractor> Passes<'_, V, X> {
                     let corners = b.t.face_case[f][case] as usize;
                     let boundary = if f % 2 == 0 { l[a] == 0 } else { l[a] == last[a] };
                     if boundary {
-                        emit(SolidPrograms::pyramid(f, centre | corners << 1), i);
+                        t_out = cell.program(SolidPrograms::pyramid(f, centre | corners << 1), i, tris, t_out);
                     } else if f % 2 == 0 {
-                        emit(SolidPrograms::octahedron(a, BodyCentredTables::octahedron_pattern(x, a)), i);
+                        let p = SolidPrograms::octahedron(a, BodyCentredTables::octahedron_pattern(x, a));
+                        t_out = cell.program(p, i, tris, t_out);
                     }
                 }
             });

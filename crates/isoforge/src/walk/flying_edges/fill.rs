@@ -152,6 +152,8 @@ pub(super) trait FillOut {
     fn set_normal(&mut self, at: usize, n: [f32; 3]);
     fn set_triangle(&mut self, at: usize, t: [u32; 3]);
     fn set_quad(&mut self, at: usize, q: [u32; 4]);
+    /// The slab's triangle slots, for fills that write runs of them.
+    fn triangles(&mut self) -> &mut [MaybeUninit<[u32; 3]>];
     /// Vertices, triangles and quads of the slab.
     fn sizes(&self) -> [usize; 3];
     fn keys(&mut self) -> &mut Vec<(u32, VertexKey)>;
@@ -184,6 +186,10 @@ impl FillOut for SlabSlots<'_> {
     #[inline(always)]
     fn set_quad(&mut self, at: usize, q: [u32; 4]) {
         self.quads[at].write(q);
+    }
+    #[inline(always)]
+    fn triangles(&mut self) -> &mut [MaybeUninit<[u32; 3]>] {
+        self.triangles
     }
     fn sizes(&self) -> [usize; 3] {
         [self.positions.len(), self.triangles.len(), self.quads.len()]
