@@ -256,39 +256,44 @@ fn scaled_offsets(d: [f64; 8]) -> [f32; 8] {
 /// An offset rounded to `f32`, a negative one kept negative (at least `f32::MIN_POSITIVE` in
 /// magnitude): inside stays inside.
 ///
-/// Branch-free, on the bits: the fills narrow the values at both ends of every crossing, where
-/// the sign changes, so a branch on the sign was mispredicted about every other time. LLVM turns
-/// any select here back into an `f32` select (even `select_unpredictable`'s, and a mask of the
-/// bits), and x86 has no conditional move for floats, so it branched; the mask goes through
-/// [`opaque`].
-#[inline(always)]
-fn narrow(d: f64) -> f32 {
-    let f = d as f32;
-    let b = f.to_bits();
-    // A negative offset (sign set, not −0) that rounds to zero or a subnormal (NaN is neither).
-    let lift = ((b & 0x7fff_ffff) < f32::MIN_POSITIVE.to_bits()) & (d.to_bits() > 1 << 63);
-    let mask = opaque(0u32.wrapping_sub(lift as u32));
-    f32::from_bits(b ^ ((b ^ (-f32::MIN_POSITIVE).to_bits()) & mask))
-}
-
-/// `x`, hidden from the optimiser (an empty `asm!` on a register: no memory access, no cost), so
-/// that bit arithmetic on it stays arithmetic and is not rewritten into a branch. Elsewhere than
-/// x86-64 (whose lowering was measured) it is `x`.
+/// Branch-free: the fills narrow the values at both ends of every crossing, where the sign
+/// changes, so a branch on the sign was mispredicted about every other time. x86 has no
+/// conditional move for floats, and LLVM lowered every scalar form of this select (even
+/// `select_unpredictable`'s, and masks of the bits) to a branch; on x86-64 it is an SSE2
+/// compare mask and `minss` instead.
 #[cfg(target_arch = "x86_64")]
 #[inline(always)]
-fn opaque(mut x: u32) -> u32 {
-    // SAFETY: the template is empty: it reads and writes nothing but the register holding `x`.
+fn narrow(d: f64) -> f32 {
+    use std::arch::x86_64::{
+        _mm_and_ps, _mm_andnot_ps, _mm_castpd_ps, _mm_cmplt_sd, _mm_cvtsd_ss, _mm_cvtss_f32, _mm_min_ss, _mm_or_ps,
+        _mm_set_sd, _mm_set_ss, _mm_setzero_pd, _mm_setzero_ps,
+    };
+    // SAFETY: SSE2 is part of x86-64.
     unsafe {
-        std::arch::asm!("/* {0:e} */", inout(reg) x, options(pure, nomem, nostack, preserves_flags));
+        let d = _mm_set_sd(d);
+        // `d as f32` (both round to nearest).
+        let f = _mm_cvtsd_ss(_mm_setzero_ps(), d);
+        // The bound: −MIN_POSITIVE where d < 0 (false for −0 and NaN), else +∞.
+        let negative = _mm_castpd_ps(_mm_cmplt_sd(d, _mm_setzero_pd()));
+        let bound = _mm_or_ps(
+            _mm_and_ps(negative, _mm_set_ss(-f32::MIN_POSITIVE)),
+            _mm_andnot_ps(negative, _mm_set_ss(f32::INFINITY)),
+        );
+        // `minss bound, f`: bound where bound < f, else f (NaN included).
+        _mm_cvtss_f32(_mm_min_ss(bound, f))
     }
-    x
 }
 
 /// See the x86-64 one.
 #[cfg(not(target_arch = "x86_64"))]
 #[inline(always)]
-fn opaque(x: u32) -> u32 {
-    x
+fn narrow(d: f64) -> f32 {
+    let f = d as f32;
+    if d < 0.0 {
+        f.min(-f32::MIN_POSITIVE)
+    } else {
+        f
+    }
 }
 
 /// Linear interpolation parameter between two offset values of opposite class, clamped to [0, 1].
