@@ -281,26 +281,24 @@ impl SolidPrograms {
     fn push(&mut self, solids: &[&BccSolid]) {
         let (seg, tri) = (self.segments.len(), self.triangles.len());
         // Each numbered segment's position in the program (`u8::MAX`: not yet named).
-        let mut named: Vec<u8> = Vec::new();
         let mut position = [u8::MAX; SEGMENT_SLOT.len()];
         for s in solids {
             for t in &s.triangles[..s.triangle_count as usize] {
-                let tri = t.map(|q| {
-                    let n = s.segments[q as usize];
-                    let at = &mut position[n as usize];
-                    if *at == u8::MAX {
-                        *at = named.len() as u8;
-                        named.push(n);
+                // A loop, not `array::map`: its closure stayed out of line (half of this setup's
+                // instructions, paid once per process).
+                let mut tri = [0u8; 3];
+                for (at, &q) in tri.iter_mut().zip(t) {
+                    let n = s.segments[q as usize] as usize;
+                    if position[n] == u8::MAX {
+                        position[n] = (self.segments.len() - seg) as u8;
+                        let (slot, off) = SEGMENT_SLOT[n];
+                        self.segments.push(slot << 2 | (off + 1) as u8);
                     }
-                    *at
-                });
+                    *at = position[n];
+                }
                 self.triangles.push(tri);
             }
         }
-        self.segments.extend(named.iter().map(|&n| {
-            let (slot, off) = SEGMENT_SLOT[n as usize];
-            slot << 2 | (off + 1) as u8
-        }));
         let (ns, nt) = (self.segments.len() - seg, self.triangles.len() - tri);
         assert!(ns < 64 && nt < 256, "a body-centred program has {ns} segments, {nt} triangles");
         self.spans.push((seg as u32, tri as u32, ns as u8, nt as u8));
