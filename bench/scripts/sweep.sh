@@ -1,22 +1,24 @@
 #!/usr/bin/env bash
-# Real volumes from $ISOFORGE_DATA/volumes (default ../shared/data next to the checkout); see docs/BENCHMARKS.md §6.12–6.15.
+# Real volumes from $ISOFORGE_DATA/volumes (default ../shared/data next to the checkout); see docs/BENCHMARKS.md §6.12–6.16.
 # sweep.sh BIN ROUNDS: every method ÷ mc at 2 threads on 6 real CTs, interleaved rounds; appends to /tmp/sweep.tsv
+# (round, volume, method, median seconds, triangles); prints the time ratios, then the same per output triangle
 BIN=$1; ROUNDS=${2:-3}; D=${ISOFORGE_DATA:-$(cd "$(dirname "$0")/../../.." && pwd)/shared/data}/volumes
 declare -A ISO=([stanford_bunny_ct_512x512x361]=988.37 [vhp_shoulder_ct_512x512x450]=46.3184 [cthead_8bit_256x256x99]=52.3 [volvis_engine_256x256x128]=71.2 [lidc2_chest_ct_u8]=59.3 [vtk_headsq_quarter]=500)
 for r in $(seq 1 $ROUNDS); do
  for v in "${!ISO[@]}"; do
   for m in mc mc33 mt5 mt6 mt-bcc; do
    $BIN extract -i $D/$v.nrrd --iso ${ISO[$v]} --method $m --threads 2 --repeat 7 --time-json /tmp/sw.json -o /tmp/sw.ply >/dev/null 2>&1 || echo FAIL $v $m
-   med=$(python3 -c "import json,statistics;d=json.load(open('/tmp/sw.json'));print(statistics.median(d['runs'][1:]))")
-   printf "%s\t%s\t%s\t%s\n" $r $v $m $med >> /tmp/sweep.tsv
+   med=$(python3 -c "import json,statistics;d=json.load(open('/tmp/sw.json'));print(statistics.median(d['runs'][1:]), d['triangles'])")
+   printf "%s\t%s\t%s\t%s\t%s\n" $r $v $m $med >> /tmp/sweep.tsv
   done
  done
 done
 python3 - <<'PY'
 import collections,statistics
 d=collections.defaultdict(dict)
+tris={}
 for l in open('/tmp/sweep.tsv'):
-    r,v,m,t=l.split('\t'); d[(v,m)][r]=float(t)
+    r,v,m,t,n=l.split(); d[(v,m)][r]=float(t); tris[(v,m)]=int(n)
 vs=sorted({v for v,_ in d})
 ms=["mc33","mt5","mt6","mt-bcc"]
 print("volume\t"+"\t".join(ms)+"\t(ratio of medians; median of per-round ratios in brackets)")
@@ -27,4 +29,9 @@ for v in vs:
         x=d[(v,m)]; per=[x[r]/mc[r] for r in x if r in mc]
         cells.append(f"{statistics.median(x.values())/mcm:.2f} [{statistics.median(per):.2f}]")
     print(v[:22]+"\t"+"\t".join(cells)+f"\t(mc {mcm*1e3:.2f} ms, n={len(mc)})")
+print("\nper output triangle: (time ÷ triangles) ÷ mc's; triangles ÷ mc's in brackets")
+for v in vs:
+    mcm=statistics.median(d[(v,'mc')].values())/tris[(v,'mc')]
+    cells=[f"{statistics.median(d[(v,m)].values())/tris[(v,m)]/mcm:.2f} [{tris[(v,m)]/tris[(v,'mc')]:.2f}]" for m in ms]
+    print(v[:22]+"\t"+"\t".join(cells))
 PY
