@@ -313,11 +313,10 @@ impl SolidPrograms {
     }
 }
 
-/// What a cell row's triangles are written from: the programs, and each mask slot's first
-/// vertex id and ranked crossings.
+/// What a cell row's triangles are written from: the programs, and each mask slot's ranked
+/// crossings (a rank is the vertex id: the prefix counts start at the family's first id).
 struct Emit<'a, 'm> {
     programs: &'a SolidPrograms,
-    base: &'a [u32; SLOTS],
     masks: &'a [RankedRef<'m>; SLOTS],
     reverse: bool,
 }
@@ -342,7 +341,7 @@ impl Emit<'_, '_> {
             // i − 1, taken only when i > 0, for the x-lower octahedron's centre segments), so
             // below nx ≤ 64 · words; the slot of a crossed segment was set, its family being
             // crossed in its row.
-            id.write(self.base[slot] + unsafe { self.masks[slot].rank_unchecked(at) });
+            id.write(unsafe { self.masks[slot].rank_unchecked(at) });
         }
         for tri in triangles {
             // SAFETY: a program's triangles name positions in its segment list
@@ -831,13 +830,14 @@ impl<V: SampleSlabs, X: Extractor> Passes<'_, V, X> {
                     });
                 }
             }
+            let first = c.family_bases(table.first_vertex(r));
             for f in 0..BCC_FAMILIES {
                 let at_f = (j * BCC_FAMILIES + f) * words..(j * BCC_FAMILIES + f + 1) * words;
                 let mask = &mut store[at_f.clone()];
                 if c.v[f] == 0 || !((cell_row && f < BD) || self.bcc_mask(f, bits, b.centres, r, [j, k], mask)) {
                     continue;
                 }
-                rank_prefix(mask, &mut store_before[at_f]);
+                rank_prefix(mask, &mut store_before[at_f], first[f]);
                 let mask = &*mask;
                 let sample = |i: usize, o: [usize; 3]| {
                     let s = if o[2] == 0 { s0 } else { s1 };
@@ -934,14 +934,11 @@ impl<V: SampleSlabs, X: Extractor> Passes<'_, V, X> {
         // `Under` from the last plane's when kept, the others into `own`; row C's x-edges are the
         // last cell row's row E's when it was j − 1.
         let mut own: [RankedMask; SLOTS] = std::array::from_fn(|_| RankedMask::new(words));
-        let mut base = [0u32; SLOTS];
         let mut visit = vec![0u64; words];
         let mut t_out = 0usize;
         let programs = SolidPrograms::get();
         let last = [nx - 2, ny - 2, nz - 2];
         let mut last_row = None;
-        let mut bases = [[0u32; BCC_FAMILIES]; 6];
-        let reverse = self.reverse;
         for j in 0..ny - 1 {
             let r = k * ny + j;
             if table.count(r).tris == 0 {
@@ -953,12 +950,14 @@ impl<V: SampleSlabs, X: Extractor> Passes<'_, V, X> {
             }
             last_row = Some(j);
             let mut own_slots = |src: Src, row: usize, jk: [usize; 2]| {
+                let count = table.count(row);
+                let first = count.family_bases(table.first_vertex(row));
                 for &(slot, f) in slots_of(src) {
                     let (slot, f) = (slot as usize, f as usize);
-                    if !(carried && slot == X_OF_C) && table.count(row).v[f] != 0 {
+                    if !(carried && slot == X_OF_C) && count.v[f] != 0 {
                         let m = &mut own[slot];
                         self.bcc_mask(f, bits, b.centres, row, jk, &mut m.mask);
-                        m.rank_prefix();
+                        m.rank_prefix(first[f]);
                     }
                 }
             };
@@ -968,25 +967,6 @@ impl<V: SampleSlabs, X: Extractor> Passes<'_, V, X> {
                 own_slots(Src::Under, r - ny, [j, k - 1]);
             }
             let mut masks = [RankedRef::new(&[], &[]); SLOTS];
-            // Each source row's family bases, once per cell row (rows A, C and `Below` are the
-            // last cell row's B, E and A when it was j − 1).
-            let sources = [(Src::A, r), (Src::C, r + ny), (Src::B, r + 1), (Src::E, r + ny + 1)];
-            let fresh = if carried {
-                bases[Src::Below as usize] = bases[Src::A as usize];
-                bases[Src::A as usize] = bases[Src::B as usize];
-                bases[Src::C as usize] = bases[Src::E as usize];
-                &sources[2..]
-            } else {
-                &sources[..]
-            };
-            for (src, row) in fresh
-                .iter()
-                .copied()
-                .chain((j > 0 && !carried).then(|| (Src::Below, r - 1)))
-                .chain((k > 0).then(|| (Src::Under, r - ny)))
-            {
-                bases[src as usize] = table.count(row).family_bases(table.first_vertex(row));
-            }
             // Every slot of a source row that exists, crossed in its row or not: a family not
             // crossed in its row names no segment of these cells, so its stale mask is never read.
             // (`None`: the row's masks are in `own`.)
@@ -1003,7 +983,6 @@ impl<V: SampleSlabs, X: Extractor> Passes<'_, V, X> {
             for ((src, masks_of, j_row), _) in from.into_iter().zip(exists).filter(|&(_, e)| e) {
                 for &(slot, f) in slots_of(src) {
                     let (slot, f) = (slot as usize, f as usize);
-                    base[slot] = bases[src as usize][f];
                     masks[slot] = match masks_of {
                         Some((m, before)) => {
                             let at = (j_row * BCC_FAMILIES + f) * words..(j_row * BCC_FAMILIES + f + 1) * words;
@@ -1022,7 +1001,7 @@ impl<V: SampleSlabs, X: Extractor> Passes<'_, V, X> {
             // Cell rows away from the lattice's y and z faces: cells away from all faces have just
             // the octahedra of their lower faces.
             let inner_row = j > 0 && k > 0 && j + 2 < ny && k + 2 < nz;
-            let cell = Emit { programs, base: &base, masks: &masks, reverse };
+            let cell = Emit { programs, masks: &masks, reverse: self.reverse };
             let tris = out.triangles();
             for_each_bcc_cell(&rows, [cr, cy, cz], &visit, |i, x| {
                 if inner_row && i > 0 && i + 2 < nx {

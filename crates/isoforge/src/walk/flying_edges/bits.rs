@@ -119,9 +119,9 @@ impl RankedMask {
     pub(super) fn new(words: usize) -> Self {
         RankedMask { mask: vec![0; words], before: vec![0; words] }
     }
-    /// Recomputes the prefix popcounts after `mask` changed.
-    pub(super) fn rank_prefix(&mut self) {
-        rank_prefix(&self.mask, &mut self.before);
+    /// Recomputes the prefix popcounts after `mask` changed, from `first` (see [`rank_prefix`]).
+    pub(super) fn rank_prefix(&mut self, first: u32) {
+        rank_prefix(&self.mask, &mut self.before, first);
     }
     /// The mask and its prefix popcounts, as [`RankedRef`].
     #[inline]
@@ -130,10 +130,11 @@ impl RankedMask {
     }
 }
 
-/// The prefix popcounts of `mask` into `before` (the set bits in the words before each).
+/// The prefix popcounts of `mask` into `before` (the set bits in the words before each), from
+/// `first`: with the id of the mask's first vertex there, a bit's rank is its vertex's id.
 #[inline]
-pub(super) fn rank_prefix(mask: &[u64], before: &mut [u32]) {
-    let mut acc = 0;
+pub(super) fn rank_prefix(mask: &[u64], before: &mut [u32], first: u32) {
+    let mut acc = first;
     for (b, m) in before.iter_mut().zip(mask) {
         *b = acc;
         acc += m.count_ones();
@@ -155,8 +156,8 @@ impl<'a> RankedRef<'a> {
         assert_eq!(mask.len(), before.len(), "a ranked mask has one prefix per word");
         RankedRef { mask, before }
     }
-    /// Number of set bits below bit `i`, without bounds checks (the inner loop of the counted
-    /// fills; checked in debug builds).
+    /// Number of set bits below bit `i`, plus the `first` of [`rank_prefix`], without bounds
+    /// checks (the inner loop of the counted fills; checked in debug builds).
     ///
     /// # Safety
     /// `i` must lie in the mask: `i < 64 · words`.
