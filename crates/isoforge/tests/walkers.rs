@@ -22,9 +22,10 @@ fn config(cases: u32) -> Config {
 }
 
 /// Random lattices with integer values 0..=4 (ties, plateaus, symmetric faces) and iso x.5 or an
-/// integer (values exactly at iso), or smooth noise.
+/// integer (values exactly at iso), or smooth noise; one in four mirrored (i along −x: every walker
+/// reverses its polygons to keep them counter-clockwise from outside).
 fn lattices() -> impl Strategy<Value = (DenseGrid<f32>, Iso)> {
-    ([2u32..=9, 2u32..=9, 2u32..=9], any::<u64>(), 0u8..4).prop_map(|(dims, seed, iso_kind)| {
+    ([2u32..=9, 2u32..=9, 2u32..=9], any::<u64>(), 0u8..4, 0u8..4).prop_map(|(dims, seed, iso_kind, mirror)| {
         let mut s = seed | 1;
         let mut next = move || {
             s ^= s << 13;
@@ -32,7 +33,11 @@ fn lattices() -> impl Strategy<Value = (DenseGrid<f32>, Iso)> {
             s ^= s << 17;
             s
         };
-        let g = DenseGrid::from_fn(Lattice::new(dims).unwrap(), |_| (next() % 5) as f32);
+        let mut lattice = Lattice::new(dims).unwrap();
+        if mirror == 0 {
+            lattice = lattice.with_direction([[-1.0, 0.0, 0.0], [0.0, 1.0, 0.0], [0.0, 0.0, 1.0]]).unwrap();
+        }
+        let g = DenseGrid::from_fn(lattice, |_| (next() % 5) as f32);
         let iso = match iso_kind {
             0 => Iso::below(1.5),
             1 => Iso::below(2.0),

@@ -237,7 +237,9 @@ struct SolidPrograms {
     /// Per program: its first segment, its first triangle, their counts.
     spans: Vec<(u32, u32, u8, u8)>,
     segments: Vec<u8>,
-    triangles: Vec<[u8; 3]>,
+    /// The triangles in each orientation: as the solids wind them, and reversed (`[a, c, b]`),
+    /// so the fill picks one table per walk instead of a select per triangle.
+    triangles: [Vec<[u8; 3]>; 2],
 }
 
 /// Cell indices of [`BodyCentredTables::interior`].
@@ -262,7 +264,7 @@ impl SolidPrograms {
         static PROGRAMS: std::sync::OnceLock<SolidPrograms> = std::sync::OnceLock::new();
         PROGRAMS.get_or_init(|| {
             let t = BodyCentredTables::get();
-            let mut p = SolidPrograms { spans: Vec::new(), segments: Vec::new(), triangles: Vec::new() };
+            let mut p = SolidPrograms { spans: Vec::new(), segments: Vec::new(), triangles: [Vec::new(), Vec::new()] };
             let octahedron = |a: usize, x: usize| &t.octahedra[a][BodyCentredTables::octahedron_pattern(x, a)];
             for x in 0..INTERIOR {
                 p.push(&[0, 1, 2].map(|a| octahedron(a, x)));
@@ -273,13 +275,14 @@ impl SolidPrograms {
             for solids in &t.pyramids {
                 solids.iter().for_each(|s| p.push(&[s]));
             }
+            p.triangles[1] = p.triangles[0].iter().map(|&[a, b, c]| [a, c, b]).collect();
             p
         })
     }
 
     /// Appends the program of `solids`' triangles, in order.
     fn push(&mut self, solids: &[&BccSolid]) {
-        let (seg, tri) = (self.segments.len(), self.triangles.len());
+        let (seg, tri) = (self.segments.len(), self.triangles[0].len());
         // Each numbered segment's position in the program (`u8::MAX`: not yet named).
         let mut position = [u8::MAX; SEGMENT_SLOT.len()];
         for s in solids {
@@ -296,20 +299,20 @@ impl SolidPrograms {
                     }
                     *at = position[n];
                 }
-                self.triangles.push(tri);
+                self.triangles[0].push(tri);
             }
         }
-        let (ns, nt) = (self.segments.len() - seg, self.triangles.len() - tri);
+        let (ns, nt) = (self.segments.len() - seg, self.triangles[0].len() - tri);
         assert!(ns < 64 && nt < 256, "a body-centred program has {ns} segments, {nt} triangles");
         self.spans.push((seg as u32, tri as u32, ns as u8, nt as u8));
     }
 
-    /// Program `p`: its segments and triangles.
+    /// Program `p`: its segments and triangles, reversed when `reverse`.
     #[inline(always)]
-    fn program(&self, p: usize) -> (&[u8], &[[u8; 3]]) {
+    fn program(&self, p: usize, reverse: bool) -> (&[u8], &[[u8; 3]]) {
         let (seg, tri, ns, nt) = self.spans[p];
         let (seg, tri) = (seg as usize, tri as usize);
-        (&self.segments[seg..seg + ns as usize], &self.triangles[tri..tri + nt as usize])
+        (&self.segments[seg..seg + ns as usize], &self.triangles[reverse as usize][tri..tri + nt as usize])
     }
 }
 
@@ -327,7 +330,7 @@ impl Emit<'_, '_> {
     /// was reloaded and stored for every triangle (the stores into `tris` could alias it).
     #[inline(always)]
     fn program(&self, p: usize, i: usize, tris: &mut [MaybeUninit<[u32; 3]>], mut t: usize) -> usize {
-        let (segments, triangles) = self.programs.program(p);
+        let (segments, triangles) = self.programs.program(p, self.reverse);
         if triangles.is_empty() {
             return t;
         }
@@ -346,8 +349,7 @@ impl Emit<'_, '_> {
         for tri in triangles {
             // SAFETY: a program's triangles name positions in its segment list
             // (`SolidPrograms::push`), each written above.
-            let [a, b, c] = tri.map(|s| unsafe { ids[(s & 63) as usize].assume_init() });
-            tris[t].write(if self.reverse { [a, c, b] } else { [a, b, c] });
+            tris[t].write(tri.map(|s| unsafe { ids[(s & 63) as usize].assume_init() }));
             t += 1;
         }
         t
@@ -1178,7 +1180,7 @@ mod tests {
 
     /// Program `at`'s triangles, each as its three segments' codes.
     fn expanded(p: &SolidPrograms, at: usize) -> Vec<[u8; 3]> {
-        let (segments, triangles) = p.program(at);
+        let (segments, triangles) = p.program(at, false);
         triangles.iter().map(|t| t.map(|q| segments[q as usize])).collect()
     }
 
@@ -1210,7 +1212,7 @@ mod tests {
                 .collect();
             assert_eq!(expanded(p, SolidPrograms::interior(x)), three, "cell index {x}");
             assert_eq!(three.len(), t.interior[x] as usize, "cell index {x}");
-            let (segments, _) = p.program(SolidPrograms::interior(x));
+            let (segments, _) = p.program(SolidPrograms::interior(x), false);
             let mut distinct = segments.to_vec();
             distinct.sort_unstable();
             distinct.dedup();
