@@ -224,6 +224,12 @@ const SEGMENT_SLOT: [(u8, i8); 41] = {
         t[35 + f] = (27 + f as u8, 0);
         f += 1;
     }
+    // Every slot is a mask slot (`Emit::program` indexes the masks with it unchecked).
+    let mut n = 0;
+    while n < t.len() {
+        assert!((t[n].0 as usize) < SLOTS);
+        n += 1;
+    }
     t
 };
 
@@ -329,30 +335,31 @@ impl Emit<'_, '_> {
     /// next slot. Inlined, with the slot in a register: through a closure's captured counter it
     /// was reloaded and stored for every triangle (the stores into `tris` could alias it).
     #[inline(always)]
-    fn program(&self, p: usize, i: usize, tris: &mut [MaybeUninit<[u32; 3]>], mut t: usize) -> usize {
+    fn program(&self, p: usize, i: usize, tris: &mut [MaybeUninit<[u32; 3]>], t: usize) -> usize {
         let (segments, triangles) = self.programs.program(p, self.reverse);
         if triangles.is_empty() {
             return t;
         }
-        // 64 ids so that `& 63` proves every index in bounds (programs name fewer), left
+        // One id per segment of the program (at most 63, `SolidPrograms::push`), left
         // uninitialised: a program's triangles name only its segments, set first.
         let mut ids = [MaybeUninit::<u32>::uninit(); 64];
         for (id, &s) in ids.iter_mut().zip(segments) {
             let slot = (s >> 2) as usize;
             let at = (i + (s & 3) as usize).wrapping_sub(1);
-            // SAFETY: `at` is a point of the row (i; i + 1 for the edges on the cell's upper x;
-            // i − 1, taken only when i > 0, for the x-lower octahedron's centre segments), so
-            // below nx ≤ 64 · words; the slot of a crossed segment was set, its family being
-            // crossed in its row.
-            id.write(unsafe { self.masks[slot].rank_unchecked(at) });
+            // SAFETY: `slot` is a `SEGMENT_SLOT` slot, below SLOTS; `at` is a point of the row (i;
+            // i + 1 for the edges on the cell's upper x; i − 1, taken only when i > 0, for the
+            // x-lower octahedron's centre segments), so below nx ≤ 64 · words; the slot of a
+            // crossed segment was set, its family being crossed in its row.
+            id.write(unsafe { self.masks.get_unchecked(slot).rank_unchecked(at) });
         }
-        for tri in triangles {
-            // SAFETY: a program's triangles name positions in its segment list
-            // (`SolidPrograms::push`), each written above.
-            tris[t].write(tri.map(|s| unsafe { ids[(s & 63) as usize].assume_init() }));
-            t += 1;
+        // The slab's slots for these triangles, checked once per program.
+        let end = t + triangles.len();
+        for (out, tri) in tris[t..end].iter_mut().zip(triangles) {
+            // SAFETY: a program's triangles name positions in its segment list (below 64,
+            // `SolidPrograms::push`), each written above.
+            out.write(tri.map(|s| unsafe { ids.get_unchecked(s as usize).assume_init() }));
         }
-        t
+        end
     }
 }
 
