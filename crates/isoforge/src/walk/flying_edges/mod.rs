@@ -478,31 +478,31 @@ mod tests {
         }
     }
 
+    /// [`walk`] through [`FlyingEdgesWalker::stream`], slab by slab.
+    fn stream<X: Extractor + Sync>(g: &DenseGrid<f32>, x: &X) -> Result<Mesh> {
+        let mut sink = Mesh::default();
+        struct Keep<'m>(&'m mut Mesh);
+        impl crate::mesh::MeshSink for Keep<'_> {
+            fn push(&mut self, b: crate::mesh::MeshBatch<'_>) -> std::result::Result<(), crate::mesh::ExternalError> {
+                self.0.positions.extend_from_slice(b.positions);
+                self.0.normals.extend_from_slice(b.normals);
+                self.0.triangles.extend_from_slice(b.triangles);
+                Ok(())
+            }
+        }
+        let mut src = Slabs { grid: g, next: 0 };
+        FlyingEdgesWalker::new()
+            .stream(&mut src, Iso::below(0.0), x, Normals::Gradient, &mut Keep(&mut sink))
+            .map(|_| sink)
+    }
+
     /// Output slots are uninitialised until the fill writes them: counts the fill does not meet
     /// (too many or too few polygons) stop the walk with a panic, in memory and streamed,
     /// instead of handing out unwritten slots; honest counts make the mesh of `MarchingCubes`.
     #[test]
     fn a_fill_that_misses_its_counts_panics_in_memory_and_streamed() {
         let g = ball([14, 13, 12], 4.5);
-        let stream = |x: &Miscounted| {
-            let mut sink = crate::mesh::Mesh::default();
-            struct Keep<'m>(&'m mut Mesh);
-            impl crate::mesh::MeshSink for Keep<'_> {
-                fn push(
-                    &mut self,
-                    b: crate::mesh::MeshBatch<'_>,
-                ) -> std::result::Result<(), crate::mesh::ExternalError> {
-                    self.0.positions.extend_from_slice(b.positions);
-                    self.0.normals.extend_from_slice(b.normals);
-                    self.0.triangles.extend_from_slice(b.triangles);
-                    Ok(())
-                }
-            }
-            let mut src = Slabs { grid: &g, next: 0 };
-            FlyingEdgesWalker::new()
-                .stream(&mut src, Iso::below(0.0), x, Normals::Gradient, &mut Keep(&mut sink))
-                .map(|_| sink)
-        };
+        let stream = |x: &Miscounted| stream(&g, x);
         let honest = Miscounted { extra: 0 };
         assert_eq!(walk(&g, &honest), walk(&g, &MarchingCubes));
         assert_eq!(stream(&honest).unwrap(), walk(&g, &MarchingCubes));
@@ -512,6 +512,40 @@ mod tests {
             assert!(in_memory.is_err(), "in memory, {extra:+} triangles per cell");
             let streamed = std::panic::catch_unwind(std::panic::AssertUnwindSafe(|| stream(&x)));
             assert!(streamed.is_err(), "streamed, {extra:+} triangles per cell");
+        }
+    }
+
+    /// mt-bcc's passes compiled for x86-64-v3 (`bcc::v3`) and as built make the same mesh, byte
+    /// for byte: on integer samples with values at iso (ties), smooth fields, rows of more than
+    /// one word, and a mirrored lattice; in memory and streamed.
+    #[test]
+    fn mt_bcc_is_the_same_on_the_baseline_copy() {
+        use std::sync::atomic::Ordering::Relaxed;
+        let mut s = 0x2545_f491_4f6c_dd1du64;
+        let ties = DenseGrid::from_fn(Lattice::new([67, 9, 8]).unwrap(), |_| {
+            s ^= s << 13;
+            s ^= s >> 7;
+            s ^= s << 17;
+            (s % 5) as f32 - 2.0
+        });
+        let mirrored = Lattice::new([23, 17, 11])
+            .unwrap()
+            .with_direction([[-1.0, 0.0, 0.0], [0.0, 1.0, 0.0], [0.0, 0.0, 1.0]])
+            .unwrap();
+        let wavy =
+            DenseGrid::from_fn(mirrored, |p| (p[0] as f32 * 0.4).sin() + (p[1] as f32 * 0.7 + p[2] as f32).cos());
+        let bcc = MarchingTetrahedra { decomposition: Decomposition::BodyCentred };
+        let both = |g: &DenseGrid<f32>| {
+            bcc::BASELINE_ONLY.store(true, Relaxed);
+            let baseline = (walk(g, &bcc), stream(g, &bcc).unwrap());
+            bcc::BASELINE_ONLY.store(false, Relaxed);
+            (baseline, (walk(g, &bcc), stream(g, &bcc).unwrap()))
+        };
+        for g in [ties, wavy, ball([41, 38, 35], 15.0)] {
+            let (baseline, v3) = both(&g);
+            assert!(baseline.0.num_triangles() > 0);
+            assert_eq!(baseline.0, baseline.1, "streamed");
+            assert_eq!(baseline, v3);
         }
     }
 
