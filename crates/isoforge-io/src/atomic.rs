@@ -593,7 +593,7 @@ impl Batch {
         }
     }
 
-    /// Moves every output into place: first each is synced (if [`durable`]) and given a temporary name in its
+    /// Moves every output into place: first each is synced (if `durable`) and given a temporary name in its
     /// folder (nothing replaced yet; any failure here leaves every target untouched), then all
     /// are renamed over their targets.
     ///

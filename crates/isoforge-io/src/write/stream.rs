@@ -137,7 +137,7 @@ pub enum MeshStream<'a> {
     /// STL, binary or ASCII ([`super::stl::StlStream`]).
     #[cfg(feature = "stl")]
     Stl(super::stl::StlStream<'a>),
-    /// OBJ, OFF or ASCII PLY ([`super::text::TextStream`]).
+    /// OBJ, OFF or ASCII PLY (`TextStream`).
     #[cfg(any(feature = "obj", feature = "off", feature = "ply"))]
     Text(super::text::TextStream<'a>),
     /// glTF, a `.glb` or a `.gltf` and its `.bin` ([`super::gltf::GltfStream`]).

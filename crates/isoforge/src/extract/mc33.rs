@@ -3,7 +3,7 @@
 //!
 //! Per active cell:
 //! 1. **Faces.** On each face the crossings pair up into segments; a face with four crossings is
-//!    ambiguous and its bilinear saddle decides (asymptotic decider [Nielson91]): the two inside
+//!    ambiguous and its bilinear saddle decides (asymptotic decider \[Nielson91\]): the two inside
 //!    corners are joined iff the saddle value is below iso, computed as the sign of
 //!    `a·c − b·d` with exact f64 products so both cells sharing the face decide the same way.
 //! 2. **Loops.** Segments chain into closed loops on the cube's surface (each crossed edge lies on

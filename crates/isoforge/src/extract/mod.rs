@@ -5,10 +5,10 @@
 //!
 //! | extractor | output | manifold | closed when the surface stays inside the lattice | topology of the trilinear interpolant | sharp features |
 //! |---|---|---|---|---|---|
-//! | [`MarchingCubes`] [Lorensen87] | triangles | yes (edge and vertex) | yes | no (fixed choice on ambiguous faces) | no |
-//! | [`MarchingCubes33`] [Chernyaev95] | triangles | yes | yes | yes | no |
-//! | [`MarchingTetrahedra`] [Doi91] | triangles | yes | yes | of the tetrahedral split | no |
-//! | [`SurfaceNets`] [Gibson98] | quads | no (dual: non-manifold where a cell holds two sheets) | yes | no | no |
+//! | [`MarchingCubes`] \[Lorensen87\] | triangles | yes (edge and vertex) | yes | no (fixed choice on ambiguous faces) | no |
+//! | [`MarchingCubes33`] \[Chernyaev95\] | triangles | yes | yes | yes | no |
+//! | [`MarchingTetrahedra`] \[Doi91\] | triangles | yes | yes | of the tetrahedral split | no |
+//! | [`SurfaceNets`] \[Gibson98\] | quads | no (dual: non-manifold where a cell holds two sheets) | yes | no | no |
 //! | [`Masked`] | as the inner extractor, open at the mask's edge | | | | |
 //!
 //! How walkers run extractors: [`place`](Extractor::place) (dual methods' own vertices) for every
@@ -69,7 +69,7 @@ pub enum Counting {
 
 /// The segments off the lattice edges an extractor names, for walkers that number vertices by
 /// segment family (the Flying Edges walker's fast path): the split diagonal of every face, and
-/// the main diagonal 0–7 of every cell ([`cell_segment`](crate::cube::cell_segment) numbers them).
+/// the main diagonal 0–7 of every cell ([`crate::cube::cell_segment`] numbers them).
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
 pub struct Segments {
     /// How faces are split (`None`: no face diagonal).
@@ -108,7 +108,7 @@ pub trait Extractor {
     /// The triangles `process` emits for every cell of `case` and parity (`odd`: the cell's
     /// corner 0 has an odd coordinate sum), as triples of cell segments (its 12 edges, then the
     /// [`segments`](Extractor::segments) it names, numbered by
-    /// [`cell_segment`](crate::cube::cell_segment)) wound outward, when the case alone decides
+    /// [`crate::cube::cell_segment`]) wound outward, when the case alone decides
     /// them and the cell places no vertex: a table walkers may apply themselves (the Flying Edges
     /// walker's bit-row fast path). `None`: the cell goes through [`process`](Extractor::process).
     #[inline]

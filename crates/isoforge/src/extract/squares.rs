@@ -3,7 +3,7 @@
 //! The 2D member of the extractor family, with the same conventions as the 3D ones: inside ⇔
 //! value below iso (ties outside, or above with [`Inside::Above`](crate::volume::Inside)), one
 //! vertex per crossed pixel edge shared by the two cells beside it, and saddle cells resolved by
-//! the asymptotic decider ([Nielson91]; the same exact test as MC33's faces) unless a fixed rule is
+//! the asymptotic decider (\[Nielson91\]; the same exact test as MC33's faces) unless a fixed rule is
 //! asked for.
 //!
 //! ```text

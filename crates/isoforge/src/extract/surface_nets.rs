@@ -1,4 +1,4 @@
-//! Naive surface nets [Gibson98]: the simplest dual method, and the reference user of the dual
+//! Naive surface nets \[Gibson98\]: the simplest dual method, and the reference user of the dual
 //! contracts (placed vertices, neighbours' vertices, quads) that dual contouring and extended
 //! marching cubes build on.
 

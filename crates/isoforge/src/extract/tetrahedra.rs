@@ -293,7 +293,7 @@ fn bcc_segment_of(p: CellPoint, q: CellPoint) -> u8 {
         .expect("a body-centred solid names only numbered segments")
 }
 
-/// One solid (octahedron or boundary pyramid) for one sign pattern, in [`BCC_SEGMENTS`] numbers:
+/// One solid (octahedron or boundary pyramid) for one sign pattern, in `BCC_SEGMENTS` numbers:
 /// its crossed segments in the order the split first names them, and its triangles on them.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 pub struct BccSolid {
@@ -304,7 +304,7 @@ pub struct BccSolid {
 }
 
 /// The body-centred split tabulated for walkers that count (the Flying Edges walker's counted
-/// path): per solid and sign pattern the triangles on numbered segments ([`BCC_SEGMENTS`]), and
+/// path): per solid and sign pattern the triangles on numbered segments (`BCC_SEGMENTS`), and
 /// the triangle count of every cell away from the lattice's boundary.
 #[derive(Debug)]
 pub struct BodyCentredTables {

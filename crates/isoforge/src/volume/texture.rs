@@ -38,7 +38,7 @@ impl SolidTexture {
     }
 }
 
-/// Sum of |noise| over octaves: the turbulence of [Perlin85].
+/// Sum of |noise| over octaves: the turbulence of \[Perlin85\].
 pub fn turbulence(p: Vec3) -> f32 {
     (0..5).map(|o| noise(p * (1u32 << o) as f32).abs() / (1u32 << o) as f32).sum()
 }

@@ -1,4 +1,4 @@
-//! Classic marching cubes [Lorensen87] with the 256-case table of the Bourke article.
+//! Classic marching cubes \[Lorensen87\] with the 256-case table of the Bourke article.
 
 mod table;
 

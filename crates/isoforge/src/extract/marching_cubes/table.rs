@@ -1,7 +1,7 @@
 //! The classic 256-case triangle table, converted once (at compile time) to our numbering.
 //!
 //! The source is the `triTable` of the Bourke article as printed in the Bloyd demo (design document
-//! `004` of `shared/seeds`), itself the Lorensen & Cline table [Lorensen87]. It uses another
+//! `004` of `shared/seeds`), itself the Lorensen & Cline table \[Lorensen87\]. It uses another
 //! numbering (corners counter-clockwise around the bottom face, then the top face; edges around the
 //! bottom, around the top, then the verticals) and sets case bits for corners *below* iso.
 //!

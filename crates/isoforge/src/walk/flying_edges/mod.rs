@@ -1,4 +1,4 @@
-//! The Flying Edges walker [Schroeder15]: any extractor on sampled grids, in passes over x-rows,
+//! The Flying Edges walker \[Schroeder15\]: any extractor on sampled grids, in passes over x-rows,
 //! parallel over z-slabs, with output identical for every thread count.
 //!
 //! ```text
