@@ -516,7 +516,7 @@ mod tests {
     }
 
     /// mt-bcc's passes compiled for x86-64-v3 (`bcc::v3`) and as built make the same mesh, byte
-    /// for byte: on integer samples with values at iso (ties), smooth fields, rows of more than
+    /// for byte: on integer values, some at iso (ties), on smooth fields, rows of more than
     /// one word, and a mirrored lattice; in memory and streamed.
     #[test]
     fn mt_bcc_is_the_same_on_the_baseline_copy() {
