@@ -3,7 +3,7 @@
 # sweep.sh BIN ROUNDS [PEERS_DATA]: every method ÷ mc at 2 threads on 6 real CTs, interleaved rounds, and on the
 # peer harness's synthetic volumes when PEERS_DATA (the --out of bench/peers/volumes.py) is given; appends to
 # /tmp/sweep.tsv (round, volume, method, median seconds, triangles); prints the time ratios, then the same per
-# output triangle
+# output triangle. METHODS (default "mc33 mt5 mt6 mt-bcc") picks the methods timed beside mc.
 BIN=$1; ROUNDS=${2:-3}; PEERS=${3:-}; D=${ISOFORGE_DATA:-$(cd "$(dirname "$0")/../../.." && pwd)/shared/data}/volumes
 declare -A ISO=([stanford_bunny_ct_512x512x361]=988.37 [vhp_shoulder_ct_512x512x450]=46.3184 [cthead_8bit_256x256x99]=52.3 [volvis_engine_256x256x128]=71.2 [lidc2_chest_ct_u8]=59.3 [vtk_headsq_quarter]=500)
 declare -A ARGS
@@ -18,7 +18,7 @@ print(f\"--input {sys.argv[2]}/{m['file']} --dims {','.join(map(str,m['dims']))}
 fi
 for r in $(seq 1 $ROUNDS); do
  for v in "${!ARGS[@]}"; do
-  for m in mc mc33 mt5 mt6 mt-bcc; do
+  for m in mc ${METHODS:-mc33 mt5 mt6 mt-bcc}; do
    $BIN extract ${ARGS[$v]} --method $m --threads 2 --repeat 7 --time-json /tmp/sw.json -o /tmp/sw.ply >/dev/null 2>&1 || echo FAIL $v $m
    med=$(python3 -c "import json,statistics;d=json.load(open('/tmp/sw.json'));print(statistics.median(d['runs'][1:]), d['triangles'])")
    printf "%s\t%s\t%s\t%s\t%s\n" $r $v $m $med >> /tmp/sweep.tsv
@@ -32,7 +32,7 @@ tris={}
 for l in open('/tmp/sweep.tsv'):
     r,v,m,t,n=l.split(); d[(v,m)][r]=float(t); tris[(v,m)]=int(n)
 vs=sorted({v for v,_ in d})
-ms=["mc33","mt5","mt6","mt-bcc"]
+ms=[m for m in ["mc33","mt5","mt6","mt-bcc"] if all((v,m) in d for v in vs)]
 print("volume\t"+"\t".join(ms)+"\t(ratio of medians; median of per-round ratios in brackets)")
 for v in vs:
     mc=d[(v,'mc')]; mcm=statistics.median(mc.values())

@@ -213,7 +213,8 @@ pub struct ExtractArgs {
     #[arg(long, value_name = "FILE")]
     pub time_json: Option<PathBuf>,
     /// Benchmarking: extract N times in this process (the volume read once), report every run in
-    /// --time-json as "runs" and keep the last mesh. Like a warm loop in VTK or scikit-image.
+    /// --time-json as "runs" and keep the last mesh. Like a warm loop in VTK or scikit-image; each
+    /// run's mesh is freed before the next, and the process keeps freed memory for reuse.
     #[arg(long, value_name = "N", default_value_t = 1, value_parser = clap::value_parser!(u32).range(1..=1000), allow_hyphen_values = true)]
     pub repeat: u32,
     /// Memory budget (suffixes K, M, G): unless the volume and the largest mesh the method can

@@ -19,6 +19,24 @@ use clap::Parser;
 use args::{Args, Command};
 use run::Outcome;
 
+/// Keeps the memory this process frees for its own next allocations instead of handing it back
+/// to the kernel, so a command that meshes again (`extract --repeat`, the viewer's requests)
+/// writes each new mesh into pages already mapped. With glibc's defaults every block of 32 MiB or
+/// more (a large mesh's arrays) is its own `mmap`, unmapped on `free`, and a mesh made again
+/// faults all of it in afresh: on a VM whose kernel reports freed memory to the host, that made
+/// warm runs of MC on gyroid 256³ twice as slow, in phases (docs/BENCHMARKS.md §6.19). One arena,
+/// no `mmap` for large blocks and no trimming of the heap's top: freed blocks stay in the heap,
+/// and the process's footprint stays at its peak until it exits.
+fn keep_freed_memory() {
+    #[cfg(all(target_os = "linux", target_env = "gnu"))]
+    // SAFETY: `mallopt` only sets glibc's allocation policy; called before any thread starts.
+    unsafe {
+        libc::mallopt(libc::M_ARENA_MAX, 1);
+        libc::mallopt(libc::M_MMAP_MAX, 0);
+        libc::mallopt(libc::M_TRIM_THRESHOLD, libc::c_int::MAX);
+    }
+}
+
 fn main() -> ExitCode {
     // Like other command-line tools, stop quietly when the reader of stdout goes away
     // (`isoforge info x.nrrd | head`) instead of panicking on a broken pipe.
@@ -54,6 +72,17 @@ fn main() -> ExitCode {
             return ExitCode::from(2);
         }
     };
+    // Commands that mesh the same input again and again keep what they free (one-shot commands
+    // keep glibc's defaults: for them nothing freed is reused, and these settings slowed the
+    // streamed file-to-file path, 0.58 → 0.89 s on the shoulder CT at one thread).
+    let again = match &args.command {
+        Command::Extract(a) => a.repeat > 1,
+        Command::View(_) => true,
+        _ => false,
+    };
+    if again {
+        keep_freed_memory();
+    }
     let result = match &args.command {
         Command::Extract(a) => config::ExtractConfig::from_args(a, threads).and_then(|c| run::extract(&c)),
         Command::Info(a) => config::InputConfig::from_args(&a.input_args()).and_then(|c| run::info(&c, a.json)),
