@@ -1,1 +1,2 @@
-//! Benchmarks live in `benches/`; this crate has no library code.
+//! Benchmarks live in `benches/` (criterion) and `src/bin/` (timing tools: `method_pairs`); this
+//! crate has no library code.

@@ -19,25 +19,6 @@ use clap::Parser;
 use args::{Args, Command};
 use run::Outcome;
 
-/// Keeps the memory this process frees for its own next allocations instead of handing it back
-/// to the kernel, so a command that meshes again (`extract --repeat`, the viewer's requests)
-/// writes each new mesh into pages already mapped. With glibc's defaults every block of 32 MiB or
-/// more (a large mesh's arrays) is its own `mmap`, unmapped on `free`, and a mesh made again
-/// faults all of it in afresh: on a VM whose kernel reports freed memory to the host, that made
-/// warm runs of MC on gyroid 256³ twice as slow, in phases (docs/BENCHMARKS.md §6.19). One arena,
-/// no `mmap` for large blocks and no trimming of the heap's top: freed blocks stay in the heap,
-/// and the process's footprint stays at its peak until it exits.
-fn keep_freed_memory() {
-    #[cfg(all(target_os = "linux", target_env = "gnu"))]
-    // SAFETY: `mallopt` only sets glibc's allocation policy (under glibc's own locks); it is
-    // called before this process starts any thread.
-    unsafe {
-        libc::mallopt(libc::M_ARENA_MAX, 1);
-        libc::mallopt(libc::M_MMAP_MAX, 0);
-        libc::mallopt(libc::M_TRIM_THRESHOLD, libc::c_int::MAX);
-    }
-}
-
 fn main() -> ExitCode {
     // Like other command-line tools, stop quietly when the reader of stdout goes away
     // (`isoforge info x.nrrd | head`) instead of panicking on a broken pipe.
@@ -81,7 +62,7 @@ fn main() -> ExitCode {
         _ => false,
     };
     if again {
-        keep_freed_memory();
+        isoforge_io::keep_freed_memory();
     }
     let result = match &args.command {
         Command::Extract(a) => config::ExtractConfig::from_args(a, threads).and_then(|c| run::extract(&c)),

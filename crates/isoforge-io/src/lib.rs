@@ -30,6 +30,7 @@ pub mod error;
 mod file;
 pub mod format;
 pub mod limits;
+mod memory;
 pub mod read;
 #[cfg(feature = "png")]
 pub mod render;
@@ -42,6 +43,7 @@ pub use attributes::{MeshData, NamedMesh};
 pub use error::{Error, Result};
 pub use format::{MeshFormat, VolumeFormat};
 pub use limits::Limits;
+pub use memory::keep_freed_memory;
 #[cfg(feature = "raw")]
 pub use read::raw::RawSpec;
 pub use read::stream::VolumeReader;
