@@ -10,7 +10,8 @@
 //! target/release/method_pairs CT.nrrd --iso 52.3 --methods mc,mt-bcc --threads 2 --rounds 21
 //! target/release/method_pairs noise.raw --dims 256,256,256 --dtype f32 --iso 0 --methods mc,mt5,mt6
 //! ```
-//! The first round is a warm-up and is left out. The process keeps the memory it frees
+//! The first round is a warm-up and is left out. Bad arguments or input: one line on stderr, exit
+//! code 2. The process keeps the memory it frees
 //! ([`isoforge_io::keep_freed_memory`]), as the CLI's `extract --repeat` does.
 
 use std::path::PathBuf;
@@ -56,7 +57,7 @@ fn main() -> ExitCode {
         Ok(()) => ExitCode::SUCCESS,
         Err(e) => {
             eprintln!("method_pairs: error: {e:#}");
-            ExitCode::FAILURE
+            ExitCode::from(2)
         }
     }
 }
