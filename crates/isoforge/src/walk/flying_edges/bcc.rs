@@ -5,7 +5,10 @@
 //!   PASS 1b centres  every cell row → one bit per cell (centre inside): the corners' class where
 //!                    they agree (a grid's centre lies between its corners), else the centre's
 //!                    value from the samples (the trilinear interpolant's bits, `centre_in`);
-//!                    and its active cells, which passes 2 and 4 visit (with their neighbours)
+//!                    its active cells, which passes 2 and 4 visit (with their neighbours); and
+//!                    the active cells' centre values, which the fill reads (`LayerCentres`).
+//!                    In memory, run with PASS 1 in groups of planes (layer k right after plane
+//!                    k + 1 is classified, its samples still in cache)
 //!   PASS 2 count     every row (j, k) → crossings of its families, popcounts of XORed bit rows:
 //!                      X Y Z        lattice edges from the row's points (as for MC)
 //!                      CC0 … CC7    centre of cell (i, j, k) → its corner c
@@ -15,7 +18,8 @@
 //!                    centres + the face's corners: 6 sign bits) and the pyramids on its faces on
 //!                    the lattice boundary (centre + corners: 5 bits), by table (`BodyCentredTables`)
 //!   PASS 3 prefix    running sums per row; PASS 4 fill: vertices by rank, triangles from the
-//!                    tables with each crossed segment's id = its row's base + its rank
+//!                    tables with each crossed segment's id = its row's base + its rank; the
+//!                    samples of the active cells prefetched PREFETCH_ROWS cell rows ahead
 //! ```
 //! Every segment of every solid is owned by exactly one row, so each crossing is one vertex, and
 //! the numbering depends on the lattice alone: the same mesh for every thread count, and a
@@ -33,14 +37,14 @@ use std::mem::MaybeUninit;
 use std::sync::atomic::{AtomicU64, Ordering};
 
 use super::bits::{
-    cell_mask, cell_rows, for_each_bcc_cell, for_each_bit, mark_active, mask_tail, popcount, rank_prefix,
-    uniform_block, Bits, RankedMask, RankedRef,
+    cell_mask, cell_rows, for_each_bcc_cell, for_each_bit, mark_active, mask_tail, plane_cell_rows, popcount,
+    rank_prefix, uniform_block, Bits, RankedMask, RankedRef,
 };
 use super::families::{X, Y, Z};
-use super::fill::{fill_planes, Counted, FillOut, RowTable};
+use super::fill::{fill_planes, prefetch_cells, Counted, FillOut, RowTable, PREFETCH_ROWS};
 use super::keyed::centre_in;
 use super::stream::{fill_batch, Ctx, SlabRing, StreamStats};
-use super::{for_each_chunk, for_each_chunk_with, reuse_words, reuse_zeroed, Passes, PointBox, Scratch};
+use super::{for_each_chunk, reuse_words, reuse_zeroed, Passes, PointBox, Scratch};
 use crate::cube::{Axis, CellPoint, EdgeKey, SegmentKey, VertexKey, FACE_CORNERS};
 use crate::error::{Error, Result};
 use crate::extract::tetrahedra::BccSolid;
@@ -406,6 +410,52 @@ pub(super) fn walk_id() -> u64 {
     NEXT.fetch_add(1, Ordering::Relaxed)
 }
 
+/// The centre values of a cell layer's active cells, row by row, as PASS 1b computed them: the
+/// fill takes its centres from here instead of from the samples again (a float centre is eight
+/// loads and a chain of eight dependent additions). Inactive cells' centres, which only a
+/// centre → centre segment next to an active cell needs, are computed when needed. At most
+/// 4 bytes per active cell, a fraction of what the cell's triangles take.
+#[derive(Default)]
+pub(super) struct LayerCentres {
+    values: Vec<f32>,
+    /// Where each cell row's values start (one entry more than the layer's rows).
+    starts: Vec<usize>,
+}
+
+impl LayerCentres {
+    /// The bytes it holds.
+    pub(super) fn capacity_bytes(&self) -> usize {
+        self.values.capacity() * 4 + self.starts.capacity() * std::mem::size_of::<usize>()
+    }
+
+    /// The values of the active cells of cell row `j`, in cell order.
+    #[inline]
+    fn row(&self, j: usize) -> &[f32] {
+        &self.values[self.starts[j]..self.starts[j + 1]]
+    }
+}
+
+/// Bit planes k and k + 1 of `bits` (k again for the last plane, which has no cells).
+fn layer_planes(bits: &Bits, k: usize, [ny, nz]: [usize; 2]) -> [&[u64]; 2] {
+    let plane = |k: usize| {
+        let at = (k * ny - bits.row0) * bits.words;
+        &bits.data[at..at + ny * bits.words]
+    };
+    [plane(k), plane((k + 1).min(nz - 1))]
+}
+
+/// Sets `memo[i]` to the stored centre of every active cell i of a cell row (`active`, whose
+/// values `values` are in cell order), and the other cells' to NaN (not yet computed).
+#[inline(always)]
+fn scatter_centres(memo: &mut [f32], active: &[u64], values: &[f32]) {
+    memo.fill(f32::NAN);
+    let mut at = 0;
+    for_each_bit(active, |i| {
+        memo[i] = values[at];
+        at += 1;
+    });
+}
+
 /// What a counted body-centred walk shares besides [`Passes`].
 pub(super) struct Bcc<'a> {
     pub(super) t: &'a BodyCentredTables,
@@ -413,8 +463,19 @@ pub(super) struct Bcc<'a> {
     pub(super) centres: &'a Bits,
     /// Active cells ([`mark_active`]), laid out as `centres`.
     pub(super) active: &'a Bits,
+    /// The active cells' centre values, per cell layer from `layer0` (as `centres.row0 / ny`).
+    pub(super) values: &'a [LayerCentres],
+    pub(super) layer0: usize,
     /// The walk's [`walk_id`].
     pub(super) walk: u64,
+}
+
+impl Bcc<'_> {
+    /// The centre values of cell layer `k`.
+    #[inline]
+    fn layer(&self, k: usize) -> &LayerCentres {
+        &self.values[k - self.layer0]
+    }
 }
 
 /// How the vertex loop names a vertex, for the walks that record keys: its key, or its edge or
@@ -467,14 +528,24 @@ fn memo_centre<S: Sample>(memo: &mut [f32], [s0, s1]: [&[S]; 2], [at, stride]: [
 }
 
 impl<V: SampleSlabs, X: Extractor> Passes<'_, V, X> {
-    /// PASS 1b for cell layer `k` (box-local): the centre bits of its cell rows into `out` and
-    /// their active cells into `active` (`ny` rows of `bits.words` each); returns its all-outside
-    /// and all-inside cell counts.
+    /// PASS 1b for cell layer `k` (box-local): the centre bits of its cell rows into `out`, their
+    /// active cells into `active` (`ny` rows of `bits.words` each) and the active cells' centre
+    /// values into `values`; returns its all-outside and all-inside cell counts.
     #[inline(always)]
-    fn centres_in<const V3: bool>(&self, bits: &Bits, k: usize, out: &mut [u64], active: &mut [u64]) -> [u64; 2] {
+    fn centres_in<const V3: bool>(
+        &self,
+        planes: [&[u64]; 2],
+        k: usize,
+        out: &mut [u64],
+        active: &mut [u64],
+        values: &mut LayerCentres,
+    ) -> [u64; 2] {
         let [nx, ny, nz] = self.bx.dims;
-        let words = bits.words;
+        let words = planes[0].len() / ny;
         let mut cs = [0u64; 2];
+        values.values.clear();
+        values.starts.clear();
+        values.starts.resize(ny + 1, 0);
         // The rows below write every word of theirs: the last row (and the last plane) has no cells.
         let cells_end = if k + 1 >= nz { 0 } else { (ny - 1) * words };
         out[cells_end..].fill(0);
@@ -486,24 +557,28 @@ impl<V: SampleSlabs, X: Extractor> Passes<'_, V, X> {
         let (s0, s1) = (self.vol.slab(z), self.vol.slab(z + 1));
         let stride = self.bx.row_stride();
         for j in 0..ny - 1 {
-            let r = k * ny + j;
-            let rows = cell_rows(bits, r, ny);
+            let rows = plane_cell_rows(planes, j, words);
             let active = &mut active[j * words..(j + 1) * words];
             let (outside, inside) = mark_active(rows, nx - 1, active);
-            let at = self.bx.in_slab(0, j);
             cs[0] += outside;
             cs[1] += inside;
+            let at = self.bx.in_slab(0, j);
             let o = &mut out[j * words..(j + 1) * words];
             for w in 0..words {
                 o[w] = rows[0][w] & !active[w];
             }
+            values.starts[j] = values.values.len();
             for_each_bit(active, |i| {
-                if centre_in(s0, s1, at + i, at + stride + i, self.iso) < 0.0 {
+                let v = centre_in(s0, s1, at + i, at + stride + i, self.iso);
+                values.values.push(v);
+                if v < 0.0 {
                     o[i / 64] |= 1 << (i % 64);
                 }
             });
             mask_tail(o, nx - 1);
         }
+        let end = values.values.len();
+        values.starts[ny - 1..].fill(end);
         cs
     }
 
@@ -793,24 +868,45 @@ impl<V: SampleSlabs, X: Extractor> Passes<'_, V, X> {
         let mut cur = vec![f32::NAN; nx];
         let mut prev = vec![f32::NAN; nx];
         let mut cur_j = None;
+        // The centres of cell row (j, k − 1), for the centre → centre segments on z (NaN: not
+        // yet); `below_j` is the row it belongs to.
+        let mut below = vec![f32::NAN; nx];
+        let mut below_j = None;
         // The slab below (for the centres of cell layer k − 1).
         let sm = if k > 0 { self.vol.slab(z - 1) } else { s0 };
         // The centre of cell i of the cell row starting at slab index `at` in slabs k, k + 1,
         // through `memo` (NaN: not yet).
         let cached = |memo: &mut [f32], at: usize, i: usize| memo_centre(memo, [s0, s1], [at, stride], i, self.iso);
+        // The samples of the active cells of cell row j: rows j + 1 of slabs k and k + 1 are
+        // new to it (row j's were read by the row before), prefetched PREFETCH_ROWS rows ahead.
+        let fetch = |j: usize| {
+            if j + 1 < ny && k + 1 < nz {
+                let at = bx.in_slab(0, j + 1);
+                prefetch_cells(b.active.row(k * ny + j), [&s0[at..at + nx], &s1[at..at + nx]]);
+            }
+        };
+        (0..PREFETCH_ROWS.min(ny)).for_each(fetch);
         for j in 0..ny {
+            fetch(j + PREFETCH_ROWS);
             let r = k * ny + j;
             let c = table.count(r);
             assert_eq!(plane[0] + out_v as u64, table.first_vertex(r) as u64, "internal: row {r} starts off its count");
             if c.vertices() == 0 {
                 continue;
             }
+            let cell_row = j + 1 < ny && k + 1 < nz;
             if j > 0 && cur_j == Some(j - 1) {
                 std::mem::swap(&mut cur, &mut prev);
+            } else if j > 0 && k + 1 < nz {
+                scatter_centres(&mut prev, b.active.row(r - 1), b.layer(k).row(j - 1));
             } else {
                 prev.fill(f32::NAN);
             }
-            cur.fill(f32::NAN);
+            if cell_row {
+                scatter_centres(&mut cur, b.active.row(r), b.layer(k).row(j));
+            } else {
+                cur.fill(f32::NAN);
+            }
             cur_j = Some(j);
             let at = bx.in_slab(0, j);
             // Keys are built only when recorded (most walks record none), from what names them:
@@ -827,7 +923,6 @@ impl<V: SampleSlabs, X: Extractor> Passes<'_, V, X> {
             let corner = |i: usize, o: [usize; 3]| [gx + (i + o[0]) as f64, gy + o[1] as f64, gz + o[2] as f64];
             // The masks of all families but the boundary diagonals at once (rows starting a cell
             // row), the others one by one.
-            let cell_row = j + 1 < ny && k + 1 < nz;
             if cell_row {
                 let row = &mut store[j * row_words..(j + 1) * row_words];
                 self.bcc_row_words(bits, b.centres, r, [j, k], |w, m| {
@@ -835,19 +930,6 @@ impl<V: SampleSlabs, X: Extractor> Passes<'_, V, X> {
                         row[f * words + w] = m;
                     }
                 });
-            }
-            if cell_row {
-                // The centres the centre → corner segments read, all at once (a memo's
-                // hit-or-miss branch per vertex was mispredicted about a quarter of the time):
-                // every cell with one of them crossed.
-                let row = &store[j * row_words..(j + 1) * row_words];
-                for w in 0..words {
-                    let crossed = (0..8).fold(0, |u, q| u | row[(CC + q) * words + w]);
-                    for_each_bit(&[crossed], |b| {
-                        let i = 64 * w + b;
-                        cur[i] = centre_in(s0, s1, at + i, at + stride + i, self.iso);
-                    });
-                }
             }
             let first = c.family_bases(table.first_vertex(r));
             for f in 0..BCC_FAMILIES {
@@ -905,6 +987,10 @@ impl<V: SampleSlabs, X: Extractor> Passes<'_, V, X> {
                     // Centre of the lower neighbour on axis a → centre (the neighbour's end first).
                     _ if f < BD => {
                         let axis = f - CCL;
+                        if axis == 2 && below_j != Some(j) {
+                            scatter_centres(&mut below, b.active.row(r - ny), b.layer(k - 1).row(j));
+                            below_j = Some(j);
+                        }
                         // The step to the lower centre, subtracted on every axis (x − 0 = x): an
                         // index into the point went through memory and stalled on its reload.
                         let step = [0, 1, 2].map(|a| if a == axis { 1.0 } else { 0.0 });
@@ -912,7 +998,7 @@ impl<V: SampleSlabs, X: Extractor> Passes<'_, V, X> {
                             let vn = match axis {
                                 0 => cached(&mut cur, at, i - 1),
                                 1 => cached(&mut prev, at - stride, i),
-                                _ => centre_in(sm, s0, at + i, at + stride + i, self.iso),
+                                _ => memo_centre(&mut below, [sm, s0], [at, stride], i, self.iso),
                             };
                             let vc = cached(&mut cur, at, i);
                             let pc = centre(i);
@@ -1077,13 +1163,20 @@ pub(super) static BASELINE_ONLY: std::sync::atomic::AtomicBool = std::sync::atom
 /// 1.03–1.31× slower).
 impl<V: SampleSlabs, X: Extractor> Passes<'_, V, X> {
     /// PASS 1b ([`centres_in`](Self::centres_in)).
-    pub(super) fn bcc_centres(&self, bits: &Bits, k: usize, out: &mut [u64], active: &mut [u64]) -> [u64; 2] {
+    pub(super) fn bcc_centres(
+        &self,
+        planes: [&[u64]; 2],
+        k: usize,
+        out: &mut [u64],
+        active: &mut [u64],
+        values: &mut LayerCentres,
+    ) -> [u64; 2] {
         #[cfg(target_arch = "x86_64")]
         if v3() {
             // SAFETY: the CPU has the copy's features (`v3`).
-            return unsafe { self.centres_v3(bits, k, out, active) };
+            return unsafe { self.centres_v3(planes, k, out, active, values) };
         }
-        self.centres_in::<false>(bits, k, out, active)
+        self.centres_in::<false>(planes, k, out, active, values)
     }
 
     /// PASS 2 ([`count_plane_in`](Self::count_plane_in)).
@@ -1108,8 +1201,15 @@ impl<V: SampleSlabs, X: Extractor> Passes<'_, V, X> {
 
     #[cfg(target_arch = "x86_64")]
     #[target_feature(enable = "avx2,bmi1,bmi2,lzcnt")]
-    fn centres_v3(&self, bits: &Bits, k: usize, out: &mut [u64], active: &mut [u64]) -> [u64; 2] {
-        self.centres_in::<true>(bits, k, out, active)
+    fn centres_v3(
+        &self,
+        planes: [&[u64]; 2],
+        k: usize,
+        out: &mut [u64],
+        active: &mut [u64],
+        values: &mut LayerCentres,
+    ) -> [u64; 2] {
+        self.centres_in::<true>(planes, k, out, active, values)
     }
 
     #[cfg(target_arch = "x86_64")]
@@ -1136,27 +1236,69 @@ impl<V: SampleSlabs + Sync, X: Extractor + Sync> Passes<'_, V, X> {
     pub(super) fn bcc_counted(
         &self,
         t: &BodyCentredTables,
-        bits: &Bits,
+        bits: &mut Bits,
         out: &mut MeshBuilder,
         progress: Option<&dyn Progress>,
         scratch: &mut Scratch,
     ) -> Result<WalkStats> {
         let [_, ny, nz] = self.bx.dims;
         let words = bits.words;
-        // PASS 1b: centre bits, and the uniform cells of each layer.
+        let plane = ny * words;
         let mut centres = Bits { words, row0: 0, data: reuse_words(&mut scratch.centres, ny * nz * words) };
         let mut active = Bits { words, row0: 0, data: reuse_words(&mut scratch.active, ny * nz * words) };
-        let mut per_layer: Vec<_> = active.data.chunks_mut(ny * words).map(|a| (a, [0u64; 2])).collect();
-        for_each_chunk_with(&mut centres.data, ny * words, &mut per_layer, |k, plane, (active, cs)| {
-            *cs = self.bcc_centres(bits, k, plane, active);
+        let mut values = std::mem::take(&mut scratch.bcc_values);
+        values.resize_with(nz, LayerCentres::default);
+        // PASS 1 and 1b together, in groups of GROUP planes: each group classifies its planes (and
+        // the next group's first again, into a buffer of its own) and takes each layer's centres
+        // right after classifying the plane above it, while both slabs of samples are in cache.
+        // As two passes, the centres read most of slab k + 1 from memory a second time, on lines
+        // the hardware could not guess (5 % of mt-bcc's time on noise 512³, BENCHMARKS §6.21).
+        const GROUP: usize = 8;
+        let tasks: Vec<_> = bits
+            .data
+            .chunks_mut(GROUP * plane)
+            .zip(centres.data.chunks_mut(GROUP * plane))
+            .zip(active.data.chunks_mut(GROUP * plane))
+            .zip(values.chunks_mut(GROUP))
+            .enumerate()
+            .map(|(g, (((b, c), a), v))| (g * GROUP, b, c, a, v))
+            .collect();
+        let per_group = super::map_tasks(tasks, |(k0, b, c, a, v)| {
+            let classify = |k: usize, out: &mut [u64]| {
+                super::classify::classify_plane(self.vol, &self.bx, self.bx.lo[2] + k as u32, self.iso, out)
+            };
+            let mut next = Vec::new();
+            classify(k0, &mut b[..plane]);
+            let mut cs = Vec::with_capacity(v.len());
+            for (n, v) in v.iter_mut().enumerate() {
+                let (k, at) = (k0 + n, n * plane);
+                let (here, above) = b.split_at_mut(at + plane);
+                let here = &here[at..];
+                // The last plane has no cells above it (its layer has none).
+                let above: &[u64] = match above.get_mut(..plane) {
+                    _ if k + 1 >= nz => here,
+                    Some(above) => {
+                        classify(k + 1, above);
+                        above
+                    }
+                    None => {
+                        next.resize(plane, 0);
+                        classify(k + 1, &mut next);
+                        &next
+                    }
+                };
+                cs.push(self.bcc_centres([here, above], k, &mut c[at..at + plane], &mut a[at..at + plane], v));
+            }
+            cs
         });
-        let cell_stats: Vec<[u64; 2]> = per_layer.into_iter().map(|(_, cs)| cs).collect();
+        let cell_stats = per_group.concat();
+        let bits = &*bits;
         let stats = WalkStats {
             cells: self.range.num_cells(),
             cells_outside: cell_stats.iter().map(|c| c[0]).sum(),
             cells_inside: cell_stats.iter().map(|c| c[1]).sum(),
         };
-        let b = Bcc { t, centres: &centres, active: &active, walk: walk_id() };
+        let b = Bcc { t, centres: &centres, active: &active, values: &values, layer0: 0, walk: walk_id() };
         // PASS 2: count (every row's count is set: written from zero, or left zero when fresh).
         let (mut counts, zeroed) = reuse_zeroed(&mut scratch.bcc_counts, ny * nz);
         for_each_chunk(&mut counts, ny, |k, plane| self.bcc_count_plane(&b, bits, k, plane, zeroed));
@@ -1170,7 +1312,7 @@ impl<V: SampleSlabs + Sync, X: Extractor + Sync> Passes<'_, V, X> {
         };
         out.set_assembled(mesh, keys);
         (scratch.bcc_counts, scratch.first) = table.into_parts();
-        (scratch.centres, scratch.active) = (centres.data, active.data);
+        (scratch.centres, scratch.active, scratch.bcc_values) = (centres.data, active.data, values);
         Ok(stats)
     }
 }
@@ -1205,14 +1347,23 @@ impl<X: Extractor + Sync> Ctx<'_, X> {
         let mut centres = Bits { words, row0: 0, data: vec![0u64; 3 * plane] };
         let mut active = Bits { words, row0: 0, data: vec![0u64; 3 * plane] };
         let mut table = BccTable::window(3, ny);
+        let mut values: [LayerCentres; 3] = Default::default();
+        let mut layer0 = 0;
         let walk = walk_id();
         let add = |cs: [u64; 2], out: &mut StreamStats| {
             out.walk.cells_outside += cs[0];
             out.walk.cells_inside += cs[1];
         };
-        add(self.on(ring).bcc_centres(bits, 0, &mut centres.data[..plane], &mut active.data[..plane]), out);
+        let cs = self.on(ring).bcc_centres(
+            layer_planes(bits, 0, [ny, nz]),
+            0,
+            &mut centres.data[..plane],
+            &mut active.data[..plane],
+            &mut values[0],
+        );
+        add(cs, out);
         {
-            let b = Bcc { t, centres: &centres, active: &active, walk };
+            let b = Bcc { t, centres: &centres, active: &active, values: &values, layer0, walk };
             self.on(ring).bcc_count_plane(&b, bits, 0, &mut table.counts[..ny], false);
         }
         let mut start = [0u64; 3];
@@ -1224,13 +1375,14 @@ impl<X: Extractor + Sync> Ctx<'_, X> {
             if k + 1 < nz {
                 let at = next * words;
                 let cs = self.on(ring).bcc_centres(
-                    bits,
+                    layer_planes(bits, k + 1, [ny, nz]),
                     k + 1,
                     &mut centres.data[at..at + plane],
                     &mut active.data[at..at + plane],
+                    &mut values[next / ny],
                 );
                 add(cs, out);
-                let b = Bcc { t, centres: &centres, active: &active, walk };
+                let b = Bcc { t, centres: &centres, active: &active, values: &values, layer0, walk };
                 self.on(ring).bcc_count_plane(&b, bits, k + 1, &mut table.counts[next..next + ny], false);
             } else {
                 table.counts[next..next + ny].fill(BccRow::default());
@@ -1238,7 +1390,7 @@ impl<X: Extractor + Sync> Ctx<'_, X> {
             table.restart(p0 * ny, start)?;
             let [dv, dt, _] = table.plane_sizes(k, ny);
             let nv = if self.normals { dv } else { 0 };
-            let b = Bcc { t, centres: &centres, active: &active, walk };
+            let b = Bcc { t, centres: &centres, active: &active, values: &values, layer0, walk };
             // SAFETY: `bcc_fill_plane` returns only after writing every slot of its slab
             // (asserted row by row and per slab).
             unsafe {
@@ -1257,6 +1409,8 @@ impl<X: Extractor + Sync> Ctx<'_, X> {
                 centres.row0 += ny;
                 active.data.copy_within(plane.., 0);
                 active.row0 += ny;
+                values.rotate_left(1);
+                layer0 += 1;
             }
             if k + 3 < nz {
                 load(k + 3, ring, bits)?;

@@ -85,6 +85,13 @@ pub(super) fn cell_rows(bits: &Bits, r: usize, ny: usize) -> [&[u64]; 4] {
     [bits.row(r), bits.row(r + 1), bits.row(r + ny), bits.row(r + ny + 1)]
 }
 
+/// The four bit rows of cell row j between bit planes `planes` (k and k + 1): A, B, C, E.
+#[inline(always)]
+pub(super) fn plane_cell_rows<'a>([p, q]: [&'a [u64]; 2], j: usize, words: usize) -> [&'a [u64]; 4] {
+    let row = |p: &'a [u64], j: usize| &p[j * words..(j + 1) * words];
+    [row(p, j), row(p, j + 1), row(q, j), row(q, j + 1)]
+}
+
 /// When row `r` = (j, k) and its neighbours (j+1, k), (j, k+1), (j+1, k+1) (those that exist in
 /// a box of `dims` points) are all entirely outside (0) or all entirely inside (1), that class:
 /// the row starts no crossed edge and its cell row has no active cell.

@@ -266,7 +266,7 @@ pub(super) unsafe fn fill_planes<C: Counted>(
 }
 
 /// Rows of look-ahead for the sample prefetch (enough to cover memory latency on sparse rows).
-const PREFETCH_ROWS: usize = 2;
+pub(super) const PREFETCH_ROWS: usize = 2;
 
 impl<V: SampleSlabs, X: Extractor> Passes<'_, V, X> {
     /// PASS 4 for box plane `k`: the vertices of its rows, then the polygons of its cell rows;
@@ -461,26 +461,51 @@ impl<V: SampleSlabs, X: Extractor> Passes<'_, V, X> {
                 return;
             }
             last_line = line;
-            prefetch(&s0[at + i]);
+            prefetch((&s0[at + i] as *const V::Sample).cast());
             if j + 1 < ny {
-                prefetch(&s0[at + i + stride]);
+                prefetch((&s0[at + i + stride] as *const V::Sample).cast());
             }
             if k + 1 < nz {
-                prefetch(&s1[at + i]);
+                prefetch((&s1[at + i] as *const V::Sample).cast());
             }
         });
     }
 }
 
+/// Prefetches the lines of `rows` (sample rows, point i at index i) that hold the corners i and
+/// i + 1 of the cells set in `cells`: per word of cells, every line from its first set cell's to
+/// its last's upper corner (a surface's cells cluster along a row).
 #[inline(always)]
-fn prefetch<S>(x: &S) {
+pub(super) fn prefetch_cells<S, const N: usize>(cells: &[u64], rows: [&[S]; N]) {
+    for (w, &word) in cells.iter().enumerate() {
+        if word == 0 {
+            continue;
+        }
+        let lo = 64 * w + word.trailing_zeros() as usize;
+        let hi = 64 * w + 64 - word.leading_zeros() as usize;
+        for row in rows {
+            let Some(span) = row.get(lo..(hi + 1).min(row.len())) else { continue };
+            let start = span.as_ptr().cast::<i8>();
+            let end = span.as_ptr_range().end as usize;
+            let mut line = start as usize & !63;
+            while line < end {
+                prefetch(start.wrapping_sub(start as usize - line));
+                line += 64;
+            }
+        }
+    }
+}
+
+/// A hint to fetch the line holding `at` (never faults; `at` is not read).
+#[inline(always)]
+pub(super) fn prefetch(at: *const i8) {
     #[cfg(target_arch = "x86_64")]
     // SAFETY: a prefetch is a hint; it never faults and does not read the value into a register.
     unsafe {
-        std::arch::x86_64::_mm_prefetch::<{ std::arch::x86_64::_MM_HINT_T0 }>((x as *const S).cast::<i8>());
+        std::arch::x86_64::_mm_prefetch::<{ std::arch::x86_64::_MM_HINT_T0 }>(at);
     }
     #[cfg(not(target_arch = "x86_64"))]
-    let _ = x;
+    let _ = at;
 }
 
 /// Write cursors of one slab's cell pass.

@@ -211,11 +211,15 @@ fn walk_in_memory<V: SampleSlabs + Sync, X: Extractor + Sync>(
     let words = bx.words();
     let mut scratch = Scratch::take();
     let mut bits = Bits { words, row0: 0, data: reuse_words(&mut scratch.bits, ny * nz * words) };
-    for_each_chunk(&mut bits.data, ny * words, |k, plane| {
-        classify::classify_plane(vol, &bx, bx.lo[2] + k as u32, iso, plane);
-    });
-    let walked = match (x.counting(), x.body_centred()) {
-        (_, Some(t)) if bcc::applies(vol, &bx, &range) => p.bcc_counted(t, &bits, out, w.progress, &mut scratch),
+    // The counted body-centred walk classifies as it takes the cells' centres (`bcc_counted`).
+    let bcc = x.body_centred().filter(|_| bcc::applies(vol, &bx, &range));
+    if bcc.is_none() {
+        for_each_chunk(&mut bits.data, ny * words, |k, plane| {
+            classify::classify_plane(vol, &bx, bx.lo[2] + k as u32, iso, plane);
+        });
+    }
+    let walked = match (x.counting(), bcc) {
+        (_, Some(t)) => p.bcc_counted(t, &mut bits, out, w.progress, &mut scratch),
         (Counting::Known, _) => p.counted(&bits, out, w.progress, &mut scratch),
         (Counting::Unknown, _) => p.keyed(&bits, out, w.progress),
     };
@@ -240,6 +244,8 @@ struct Scratch {
     centres: Vec<u64>,
     active: Vec<u64>,
     bcc_counts: Vec<bcc::BccRow>,
+    /// mt-bcc's centre values of active cells, per cell layer.
+    bcc_values: Vec<bcc::LayerCentres>,
 }
 
 thread_local! {
@@ -266,7 +272,8 @@ impl Scratch {
             + bytes(&self.first)
             + bytes(&self.centres)
             + bytes(&self.active)
-            + bytes(&self.bcc_counts);
+            + bytes(&self.bcc_counts)
+            + self.bcc_values.iter().map(bcc::LayerCentres::capacity_bytes).sum::<usize>();
         if bytes <= Self::KEEP_BYTES {
             SCRATCH.with(|s| s.set(self));
         }
@@ -546,6 +553,23 @@ mod tests {
             assert!(baseline.0.num_triangles() > 0);
             assert_eq!(baseline.0, baseline.1, "streamed");
             assert_eq!(baseline, v3);
+        }
+    }
+
+    /// mt-bcc's in-memory walk classifies and takes the cells' centres in groups of planes
+    /// (`bcc_counted`), each group classifying the next one's first plane again; the stream
+    /// goes plane by plane. Lattices one plane deep, shallower than a group, ending a group or
+    /// one plane past one make the same mesh both ways.
+    #[test]
+    fn mt_bcc_in_groups_of_planes_makes_the_streamed_mesh() {
+        let bcc = MarchingTetrahedra { decomposition: Decomposition::BodyCentred };
+        for nz in [1, 2, 3, 8, 9, 16, 17, 26] {
+            let g = DenseGrid::from_fn(Lattice::new([19, 7, nz]).unwrap(), |p| {
+                (p[0] as f32 * 0.5).sin() + (p[1] as f32 * 0.8 + p[2] as f32 * 0.6).cos() - 0.3
+            });
+            let m = walk(&g, &bcc);
+            assert_eq!(m.num_triangles() > 0, nz > 1, "depth {nz}");
+            assert_eq!(m, stream(&g, &bcc).unwrap(), "depth {nz}");
         }
     }
 
