@@ -486,11 +486,12 @@ pub(super) fn prefetch_cells<S, const N: usize>(cells: &[u64], rows: [&[S]; N]) 
         for row in rows {
             let Some(span) = row.get(lo..(hi + 1).min(row.len())) else { continue };
             let start = span.as_ptr().cast::<i8>();
-            let end = span.as_ptr_range().end as usize;
-            let mut line = start as usize & !63;
-            while line < end {
-                prefetch(start.wrapping_sub(start as usize - line));
-                line += 64;
+            let bytes = std::mem::size_of_val(span) as isize;
+            // Offsets from `start`, from the start of its line.
+            let mut at = -((start as usize % 64) as isize);
+            while at < bytes {
+                prefetch(start.wrapping_offset(at));
+                at += 64;
             }
         }
     }
