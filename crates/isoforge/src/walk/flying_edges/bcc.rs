@@ -463,18 +463,17 @@ pub(super) struct Bcc<'a> {
     pub(super) centres: &'a Bits,
     /// Active cells ([`mark_active`]), laid out as `centres`.
     pub(super) active: &'a Bits,
-    /// The active cells' centre values, per cell layer from `layer0` (as `centres.row0 / ny`).
+    /// The active cells' centre values, per cell layer from the first layer `centres` holds.
     pub(super) values: &'a [LayerCentres],
-    pub(super) layer0: usize,
     /// The walk's [`walk_id`].
     pub(super) walk: u64,
 }
 
 impl Bcc<'_> {
-    /// The centre values of cell layer `k`.
+    /// The centre values of cell layer `k` of a lattice `ny` cell rows deep.
     #[inline]
-    fn layer(&self, k: usize) -> &LayerCentres {
-        &self.values[k - self.layer0]
+    fn layer(&self, k: usize, ny: usize) -> &LayerCentres {
+        &self.values[k - self.centres.row0 / ny]
     }
 }
 
@@ -898,12 +897,12 @@ impl<V: SampleSlabs, X: Extractor> Passes<'_, V, X> {
             if j > 0 && cur_j == Some(j - 1) {
                 std::mem::swap(&mut cur, &mut prev);
             } else if j > 0 && k + 1 < nz {
-                scatter_centres(&mut prev, b.active.row(r - 1), b.layer(k).row(j - 1));
+                scatter_centres(&mut prev, b.active.row(r - 1), b.layer(k, ny).row(j - 1));
             } else {
                 prev.fill(f32::NAN);
             }
             if cell_row {
-                scatter_centres(&mut cur, b.active.row(r), b.layer(k).row(j));
+                scatter_centres(&mut cur, b.active.row(r), b.layer(k, ny).row(j));
             } else {
                 cur.fill(f32::NAN);
             }
@@ -988,7 +987,7 @@ impl<V: SampleSlabs, X: Extractor> Passes<'_, V, X> {
                     _ if f < BD => {
                         let axis = f - CCL;
                         if axis == 2 && below_j != Some(j) {
-                            scatter_centres(&mut below, b.active.row(r - ny), b.layer(k - 1).row(j));
+                            scatter_centres(&mut below, b.active.row(r - ny), b.layer(k - 1, ny).row(j));
                             below_j = Some(j);
                         }
                         // The step to the lower centre, subtracted on every axis (x − 0 = x): an
@@ -1298,7 +1297,7 @@ impl<V: SampleSlabs + Sync, X: Extractor + Sync> Passes<'_, V, X> {
             cells_outside: cell_stats.iter().map(|c| c[0]).sum(),
             cells_inside: cell_stats.iter().map(|c| c[1]).sum(),
         };
-        let b = Bcc { t, centres: &centres, active: &active, values: &values, layer0: 0, walk: walk_id() };
+        let b = Bcc { t, centres: &centres, active: &active, values: &values, walk: walk_id() };
         // PASS 2: count (every row's count is set: written from zero, or left zero when fresh).
         let (mut counts, zeroed) = reuse_zeroed(&mut scratch.bcc_counts, ny * nz);
         for_each_chunk(&mut counts, ny, |k, plane| self.bcc_count_plane(&b, bits, k, plane, zeroed));
@@ -1348,7 +1347,6 @@ impl<X: Extractor + Sync> Ctx<'_, X> {
         let mut active = Bits { words, row0: 0, data: vec![0u64; 3 * plane] };
         let mut table = BccTable::window(3, ny);
         let mut values: [LayerCentres; 3] = Default::default();
-        let mut layer0 = 0;
         let walk = walk_id();
         let add = |cs: [u64; 2], out: &mut StreamStats| {
             out.walk.cells_outside += cs[0];
@@ -1363,7 +1361,7 @@ impl<X: Extractor + Sync> Ctx<'_, X> {
         );
         add(cs, out);
         {
-            let b = Bcc { t, centres: &centres, active: &active, values: &values, layer0, walk };
+            let b = Bcc { t, centres: &centres, active: &active, values: &values, walk };
             self.on(ring).bcc_count_plane(&b, bits, 0, &mut table.counts[..ny], false);
         }
         let mut start = [0u64; 3];
@@ -1382,7 +1380,7 @@ impl<X: Extractor + Sync> Ctx<'_, X> {
                     &mut values[next / ny],
                 );
                 add(cs, out);
-                let b = Bcc { t, centres: &centres, active: &active, values: &values, layer0, walk };
+                let b = Bcc { t, centres: &centres, active: &active, values: &values, walk };
                 self.on(ring).bcc_count_plane(&b, bits, k + 1, &mut table.counts[next..next + ny], false);
             } else {
                 table.counts[next..next + ny].fill(BccRow::default());
@@ -1390,7 +1388,7 @@ impl<X: Extractor + Sync> Ctx<'_, X> {
             table.restart(p0 * ny, start)?;
             let [dv, dt, _] = table.plane_sizes(k, ny);
             let nv = if self.normals { dv } else { 0 };
-            let b = Bcc { t, centres: &centres, active: &active, values: &values, layer0, walk };
+            let b = Bcc { t, centres: &centres, active: &active, values: &values, walk };
             // SAFETY: `bcc_fill_plane` returns only after writing every slot of its slab
             // (asserted row by row and per slab).
             unsafe {
@@ -1410,7 +1408,6 @@ impl<X: Extractor + Sync> Ctx<'_, X> {
                 active.data.copy_within(plane.., 0);
                 active.row0 += ny;
                 values.rotate_left(1);
-                layer0 += 1;
             }
             if k + 3 < nz {
                 load(k + 3, ring, bits)?;
