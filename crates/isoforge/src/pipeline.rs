@@ -19,8 +19,8 @@ pub use request::{NoSurface, ParseError, Region, Request, Roi};
 use crate::cube::{CellRange, VertexKey};
 use crate::error::{Error, Result};
 use crate::extract::{
-    Counting, Decomposition, Extractor, MarchingCubes, MarchingCubes33, MarchingTetrahedra, Masked, PointMask,
-    SurfaceNets,
+    BodyCentredTetrahedra, Counting, Decomposition, Extractor, MarchingCubes, MarchingCubes33, MarchingTetrahedra,
+    Masked, PointMask, SurfaceNets,
 };
 use crate::grid::{AnyGrid, DType, DenseGrid, Sample};
 use crate::mesh::{KeyRecord, Mesh, MeshBuilder, MeshSink, WriteBehind};
@@ -44,7 +44,7 @@ pub enum Method {
     Tetrahedra5,
     /// Marching tetrahedra, six per cell around the main diagonal.
     Tetrahedra6,
-    /// Marching tetrahedra on the body-centred lattice (cell centres added).
+    /// Marching tetrahedra on the body-centred lattice (cell centres added: [`BodyCentredTetrahedra`]).
     TetrahedraBcc,
     /// Surface nets ([`SurfaceNets`]): dual, one vertex per cell, quads.
     SurfaceNets,
@@ -92,8 +92,8 @@ impl Method {
         struct Ask;
         impl ExtractorVisitor for Ask {
             type Output = Counting;
-            fn visit<X: Extractor + Sync>(self, x: X) -> Counting {
-                x.counting()
+            fn visit<X: Extractor + Sync>(self, _: X) -> Counting {
+                X::COUNTING
             }
         }
         with_extractor(self, Ask)
@@ -153,7 +153,7 @@ pub fn with_extractor<Vis: ExtractorVisitor>(method: Method, v: Vis) -> Vis::Out
         Method::MarchingCubes33 => v.visit(MarchingCubes33),
         Method::Tetrahedra5 => v.visit(tetrahedra(Decomposition::Five)),
         Method::Tetrahedra6 => v.visit(tetrahedra(Decomposition::Six)),
-        Method::TetrahedraBcc => v.visit(tetrahedra(Decomposition::BodyCentred)),
+        Method::TetrahedraBcc => v.visit(BodyCentredTetrahedra),
         Method::SurfaceNets => v.visit(SurfaceNets),
     }
 }
@@ -230,10 +230,21 @@ pub fn extract_with_progress<V: Volume + Sync>(
     opts: &Options,
     progress: Option<&dyn Progress>,
 ) -> Result<Extraction> {
+    extract_volume(vol, iso, opts, progress)
+}
+
+/// [`extract_with_progress`] on a trait object: the walks are compiled once for every volume
+/// type (the table is walked as samples; only slabs and crossings ask the volume).
+fn extract_volume(
+    vol: &(dyn Volume + Sync),
+    iso: Iso,
+    opts: &Options,
+    progress: Option<&dyn Progress>,
+) -> Result<Extraction> {
     check(iso, opts, vol.lattice().dims())?;
     in_pool(opts.threads, || {
         let mut out = builder(opts);
-        let stats = if vol.lattice().num_points() <= Tabulated::<V>::MAX_POINTS {
+        let stats = if vol.lattice().num_points() <= Tabulated::MAX_POINTS {
             let table = Tabulated::new(vol, iso)?;
             run(&mut walker(opts, progress), &table, Iso::below(0.0), opts, &mut out)?
         } else {
@@ -313,30 +324,30 @@ pub const WRITE_BEHIND_BATCHES: usize = 4;
 ///
 /// # Errors
 /// As [`extract`]; [`Error::External`] from the source or the sink.
-pub fn extract_streamed<R: AnySlabSource + Send>(
-    src: &mut R,
+pub fn extract_streamed(
+    src: &mut (dyn AnySlabSource + Send),
     iso: Iso,
     opts: &Options,
     sink: &mut (dyn MeshSink + Send),
     progress: Option<&dyn Progress>,
 ) -> Result<StreamStats> {
-    let dims = <R as SlabSource<u8>>::lattice(src).dims();
+    let dims = SlabSource::<u8>::lattice(src).dims();
     check(iso, opts, dims)?;
     if opts.mask.is_some() || opts.range.is_some() {
         return Err(Error::InvalidInput("streamed extraction walks the whole volume: no mask or range".into()));
     }
-    /// Adapts a streamed walk to [`run`]'s walker shape.
+    /// A streamed walk with the method's extractor (no mask: never a masked copy of the walk).
     struct Streamed<'a, 'p, S> {
         src: &'a mut dyn SlabSource<S>,
         sink: &'a mut dyn MeshSink,
         walker: FlyingEdgesWalker<'p>,
-        stats: StreamStats,
+        iso: Iso,
         normals: Normals,
     }
-    impl<S: Sample> Walker<()> for Streamed<'_, '_, S> {
-        fn walk<X: Extractor + Sync>(&mut self, _: &(), iso: Iso, x: &X, _: &mut MeshBuilder) -> Result<WalkStats> {
-            self.stats = self.walker.stream(self.src, iso, x, self.normals, self.sink)?;
-            Ok(self.stats.walk)
+    impl<S: Sample> ExtractorVisitor for Streamed<'_, '_, S> {
+        type Output = Result<StreamStats>;
+        fn visit<X: Extractor + Sync>(self, x: X) -> Result<StreamStats> {
+            self.walker.stream(self.src, self.iso, &x, self.normals, self.sink)
         }
     }
     fn go<S: Sample + Send>(
@@ -347,15 +358,8 @@ pub fn extract_streamed<R: AnySlabSource + Send>(
         progress: Option<&dyn Progress>,
     ) -> Result<StreamStats> {
         let walk = |src: &mut dyn SlabSource<S>, sink: &mut dyn MeshSink| {
-            let mut w = Streamed {
-                src,
-                sink,
-                walker: walker(opts, progress),
-                stats: StreamStats::default(),
-                normals: opts.normals,
-            };
-            run(&mut w, &(), iso, opts, &mut MeshBuilder::default())?;
-            Ok(w.stats)
+            let w = Streamed { src, sink, walker: walker(opts, progress), iso, normals: opts.normals };
+            with_extractor(opts.method, w)
         };
         let cores = || std::thread::available_parallelism().map_or(1, |n| n.get());
         if opts.threads.unwrap_or_else(cores) >= 2 {
@@ -533,7 +537,7 @@ mod tests {
     fn counting_is_that_of_the_methods_extractor() {
         let counted: Vec<Method> = Method::ALL.into_iter().filter(|m| m.counting() == Counting::Known).collect();
         assert_eq!(counted, [Method::MarchingCubes, Method::MarchingCubes33, Method::Tetrahedra5, Method::Tetrahedra6]);
-        assert_eq!(Method::SurfaceNets.counting(), SurfaceNets.counting());
+        assert_eq!(Method::SurfaceNets.counting(), SurfaceNets::COUNTING);
     }
 
     /// Two labels side by side in a 6×4×4 volume: one closed surface each, merged into one mesh

@@ -8,7 +8,9 @@ mod common;
 
 use common::{integer_lattice, Rng};
 
-use isoforge::extract::{Decomposition, Extractor, MarchingCubes, MarchingCubes33, MarchingTetrahedra};
+use isoforge::extract::{
+    BodyCentredTetrahedra, Decomposition, Extractor, MarchingCubes, MarchingCubes33, MarchingTetrahedra,
+};
 use isoforge::grid::{upsample_trilinear, DenseGrid, Lattice};
 use isoforge::mesh::{Mesh, MeshBuilder, Normals};
 use isoforge::topo::{self, MeshReport};
@@ -273,17 +275,25 @@ fn issue_10_a_slice_saddle_touching_iso_joins_the_outside() {
     }
 }
 
+/// The meshes of the three tetrahedral splits of `g`, with their CLI names.
+fn tetrahedra(g: &DenseGrid<f32>) -> [(&'static str, Mesh); 3] {
+    [
+        ("mt5", extract(g, &MarchingTetrahedra { decomposition: Decomposition::Five })),
+        ("mt6", extract(g, &MarchingTetrahedra { decomposition: Decomposition::Six })),
+        ("mt-bcc", extract(g, &BodyCentredTetrahedra)),
+    ]
+}
+
 #[test]
 fn tetrahedra_give_watertight_meshes_on_random_lattices() {
     let mut rng = Rng(0x7e7a);
     for _ in 0..cases() {
         let g = random_lattice(&mut rng);
-        for d in [Decomposition::Five, Decomposition::Six, Decomposition::BodyCentred] {
-            let m = extract(&g, &MarchingTetrahedra { decomposition: d });
+        for (d, m) in tetrahedra(&g) {
             let r = topo::check(&m);
-            assert_watertight(&r, &format!("{d:?}"), &g);
+            assert_watertight(&r, d, &g);
             if r.triangles > 0 {
-                assert!(r.volume > 0.0, "{d:?}: inside-out mesh (volume {})", r.volume);
+                assert!(r.volume > 0.0, "{d}: inside-out mesh (volume {})", r.volume);
             }
         }
     }
@@ -307,8 +317,8 @@ fn ties_at_iso_never_crack_a_mesh() {
             }
         });
         assert_watertight(&topo::check(&extract(&g, &MarchingCubes33)), "mc33", &g);
-        for d in [Decomposition::Five, Decomposition::Six, Decomposition::BodyCentred] {
-            assert_watertight(&topo::check(&extract(&g, &MarchingTetrahedra { decomposition: d })), "mt", &g);
+        for (d, m) in tetrahedra(&g) {
+            assert_watertight(&topo::check(&m), d, &g);
         }
     }
 }
@@ -332,15 +342,18 @@ fn mc33_and_tetrahedra_agree_between_walkers() {
                     run(&mut |o| SlabWalker::new().walk(&vol, iso, &MarchingCubes33, o).map(|_| ())),
                     run(&mut |o| ReferenceWalker.walk(&vol, iso, &MarchingCubes33, o).map(|_| ())),
                 ),
-                m => {
-                    let d = [Decomposition::Five, Decomposition::Six, Decomposition::BodyCentred][m - 1];
+                m @ (1 | 2) => {
+                    let d = [Decomposition::Five, Decomposition::Six][m - 1];
                     let x = MarchingTetrahedra { decomposition: d };
-                    let y = x;
                     (
                         run(&mut |o| SlabWalker::new().walk(&vol, iso, &x, o).map(|_| ())),
-                        run(&mut |o| ReferenceWalker.walk(&vol, iso, &y, o).map(|_| ())),
+                        run(&mut |o| ReferenceWalker.walk(&vol, iso, &x, o).map(|_| ())),
                     )
                 }
+                _ => (
+                    run(&mut |o| SlabWalker::new().walk(&vol, iso, &BodyCentredTetrahedra, o).map(|_| ())),
+                    run(&mut |o| ReferenceWalker.walk(&vol, iso, &BodyCentredTetrahedra, o).map(|_| ())),
+                ),
             };
             assert_eq!(a.positions, b.positions, "method {method}");
             assert_eq!(a.triangles, b.triangles, "method {method}");

@@ -405,8 +405,8 @@ fn issue_11_hermite_data_and_placed_vertices_reach_extractors_on_every_walker() 
 /// at the same position, and every vertex of that walk is there.
 #[test]
 fn issue_11_counted_mt_bcc_records_the_reference_keys() {
-    use isoforge::extract::{Decomposition, MarchingTetrahedra};
-    let bcc = MarchingTetrahedra { decomposition: Decomposition::BodyCentred };
+    use isoforge::extract::BodyCentredTetrahedra;
+    let bcc = BodyCentredTetrahedra;
     let g = noise(13);
     let vol = GridVolume::new(&g);
     let iso = Iso::below(0.0);

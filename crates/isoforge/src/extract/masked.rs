@@ -62,9 +62,7 @@ impl<X: Extractor> Extractor for Masked<'_, X> {
 
     // Not counted: a counted walk makes every crossed edge's vertex up front, and masked-out
     // cells would leave theirs unused (walkers that create vertices on request make none).
-    fn counting(&self) -> Counting {
-        Counting::Unknown
-    }
+    const COUNTING: Counting = Counting::Unknown;
 
     #[inline]
     fn place<C: Cell>(&self, cell: &mut C) {

@@ -56,9 +56,7 @@ use crate::mesh::VertexId;
 pub struct MarchingCubes33;
 
 impl Extractor for MarchingCubes33 {
-    fn counting(&self) -> Counting {
-        Counting::Known
-    }
+    const COUNTING: Counting = Counting::Known;
 
     #[inline]
     fn case_triangles(&self, case: u8, _odd: bool) -> Option<&[[u8; 3]]> {

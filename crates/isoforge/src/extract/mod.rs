@@ -33,7 +33,7 @@ pub use masked::{Masked, PointMask};
 pub use mc33::MarchingCubes33;
 pub use squares::{marching_squares, Polyline, Saddle};
 pub use surface_nets::SurfaceNets;
-pub use tetrahedra::{BodyCentredTables, Decomposition, MarchingTetrahedra};
+pub use tetrahedra::{BodyCentredTables, BodyCentredTetrahedra, Decomposition, MarchingTetrahedra};
 
 use crate::cube::{cell_segment, CellPoint, CubeEdge, Diagonals};
 use crate::mesh::VertexId;
@@ -95,9 +95,9 @@ pub trait Extractor {
     fn process<C: Cell>(&self, cell: &mut C);
 
     /// Whether and how the output of a cell is known in advance (see [`counts`](Extractor::counts)).
-    fn counting(&self) -> Counting {
-        Counting::Unknown
-    }
+    /// A property of the type, not of a value: a walker compiles only the path its extractor
+    /// takes (the counted passes, or the keyed ones), not both for every extractor.
+    const COUNTING: Counting = Counting::Unknown;
 
     /// The segments besides lattice edges that [`case_triangles`](Extractor::case_triangles)
     /// and counted cells name (none by default).

@@ -8,7 +8,7 @@
 //! |---|---|---|---|
 //! | [`Five`](Decomposition::Five) | 5: four corner tetrahedra and a central one, mirrored on odd cells (i + j + k) so face diagonals match | none | one per face, alternating |
 //! | [`Six`](Decomposition::Six) | 6 around the main diagonal 0–7 | none | one per face (low–low to high–high) and the body diagonal |
-//! | [`BodyCentred`](Decomposition::BodyCentred) | 4 per face octahedron (two cell centres and the face's four corners), 2 per lattice-boundary face pyramid | one per cell centre | centre–corner and centre–centre segments |
+//! | [`BodyCentredTetrahedra`] | 4 per face octahedron (two cell centres and the face's four corners), 2 per lattice-boundary face pyramid | one per cell centre | centre–corner and centre–centre segments |
 //!
 //! Every crossing, on an axis edge, a diagonal or a centre segment, is a walker-cached vertex
 //! ([`Cell::segment_vertex`]), so each is created once and the mesh is closed and manifold.
@@ -21,18 +21,17 @@ use crate::cube::FACE_CORNERS;
 use crate::extract::{Cell, Hermite};
 use crate::mesh::VertexId;
 
-/// How a cell is split into tetrahedra.
+/// How a cell is split into tetrahedra on its own corners (the body-centred split, which adds
+/// cell centres, is its own extractor: [`BodyCentredTetrahedra`]).
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 pub enum Decomposition {
     /// Five tetrahedra, alternating with cell parity (`mt5`).
     Five,
     /// Six tetrahedra around the main diagonal (`mt6`).
     Six,
-    /// Body-centred: a sample at each cell centre, four tetrahedra per face octahedron (`mt-bcc`).
-    BodyCentred,
 }
 
-/// Marching tetrahedra with a chosen [`Decomposition`].
+/// Marching tetrahedra with a chosen [`Decomposition`] of each cell on its corners.
 ///
 /// **Guarantees**: closed (when the surface stays inside the lattice), edge- and vertex-manifold,
 /// consistently oriented (normals from inside to outside). Topology is that of the piecewise
@@ -44,6 +43,17 @@ pub struct MarchingTetrahedra {
     /// The split.
     pub decomposition: Decomposition,
 }
+
+/// Marching tetrahedra on the body-centred lattice (`mt-bcc`): a sample at each cell centre, four
+/// tetrahedra per face octahedron (the two centres beside a face and its four corners), two per
+/// pyramid on a face on the lattice's boundary.
+///
+/// **Guarantees**: as [`MarchingTetrahedra`]'s. Its output is not counted from the case (the
+/// centres decide), so walkers either walk it cell by cell on keyed meshes, or, where the volume
+/// gives its centres from its samples, count and fill its solids themselves from
+/// [`BodyCentredTables`] ([`Extractor::body_centred`]).
+#[derive(Debug, Clone, Copy, Default)]
+pub struct BodyCentredTetrahedra;
 
 use CellPoint::{Beyond, Centre, Corner};
 
@@ -62,7 +72,6 @@ impl MarchingTetrahedra {
         match self.decomposition {
             Decomposition::Five => Segments { diagonals: Some(Diagonals::OddCorners), main_diagonal: false },
             Decomposition::Six => Segments { diagonals: Some(Diagonals::MinToMax), main_diagonal: true },
-            Decomposition::BodyCentred => Segments::default(),
         }
     }
 }
@@ -88,17 +97,12 @@ fn corner_tables(d: Decomposition) -> &'static [[Vec<[u8; 3]>; 2]; 256] {
     };
     match d {
         Decomposition::Five => FIVE_TABLE.get_or_init(build),
-        _ => SIX_TABLE.get_or_init(build),
+        Decomposition::Six => SIX_TABLE.get_or_init(build),
     }
 }
 
 impl Extractor for MarchingTetrahedra {
-    fn counting(&self) -> Counting {
-        match self.decomposition {
-            Decomposition::BodyCentred => Counting::Unknown,
-            Decomposition::Five | Decomposition::Six => Counting::Known,
-        }
-    }
+    const COUNTING: Counting = Counting::Known;
 
     fn segments(&self) -> Segments {
         self.named()
@@ -106,10 +110,7 @@ impl Extractor for MarchingTetrahedra {
 
     #[inline]
     fn case_triangles(&self, case: u8, odd: bool) -> Option<&[[u8; 3]]> {
-        match self.decomposition {
-            Decomposition::BodyCentred => None,
-            d => Some(&corner_tables(d)[case as usize][odd as usize]),
-        }
+        Some(&corner_tables(self.decomposition)[case as usize][odd as usize])
     }
 
     fn process<C: Cell>(&self, cell: &mut C) {
@@ -125,18 +126,23 @@ impl Extractor for MarchingTetrahedra {
                     tetrahedron(cell, t.map(Corner));
                 }
             }
-            Decomposition::BodyCentred => body_centred(cell),
         }
+    }
+}
+
+impl Extractor for BodyCentredTetrahedra {
+    fn process<C: Cell>(&self, cell: &mut C) {
+        body_centred(cell)
     }
 
     fn body_centred(&self) -> Option<&'static BodyCentredTables> {
-        (self.decomposition == Decomposition::BodyCentred).then(BodyCentredTables::get)
+        Some(BodyCentredTables::get())
     }
 
     fn visits_uniform_cells(&self) -> bool {
         // A cell whose corners agree can still hold a crossing on its centre segments (a field
         // centre of the other class, or the neighbour's centre in an octahedron it owns).
-        self.decomposition == Decomposition::BodyCentred
+        true
     }
 }
 

@@ -13,13 +13,16 @@ use crate::math::Vec3;
 ///
 /// Walk it at [`Iso::below(0.0)`](Iso::below): its samples already are `iso.offset(value)` of the
 /// tabulation iso (inside ⇔ < 0, exactly), and gradients are turned to point outward for that iso.
-pub struct Tabulated<'v, V> {
-    inner: &'v V,
+///
+/// The volume is held as a trait object: one call per slab and per crossing goes through it, so
+/// every field shares one compiled walk of its table instead of one per field type.
+pub struct Tabulated<'v> {
+    inner: &'v (dyn Volume + Sync),
     iso: Iso,
     samples: Vec<f32>,
 }
 
-impl<'v, V: Volume + Sync> Tabulated<'v, V> {
+impl<'v> Tabulated<'v> {
     /// Points up to which [`new`](Tabulated::new) tabulates (4 bytes each: 1 GiB).
     pub const MAX_POINTS: u64 = 1 << 28;
 
@@ -27,7 +30,7 @@ impl<'v, V: Volume + Sync> Tabulated<'v, V> {
     ///
     /// # Errors
     /// [`Error::Limit`] above [`MAX_POINTS`](Tabulated::MAX_POINTS).
-    pub fn new(inner: &'v V, iso: Iso) -> Result<Self> {
+    pub fn new(inner: &'v (dyn Volume + Sync), iso: Iso) -> Result<Self> {
         let lattice = inner.lattice();
         let points = lattice.num_points();
         if points > Self::MAX_POINTS {
@@ -47,7 +50,7 @@ impl<'v, V: Volume + Sync> Tabulated<'v, V> {
     }
 }
 
-impl<V: Volume> Volume for Tabulated<'_, V> {
+impl Volume for Tabulated<'_> {
     #[inline]
     fn lattice(&self) -> &Lattice {
         self.inner.lattice()
@@ -81,7 +84,7 @@ impl<V: Volume> Volume for Tabulated<'_, V> {
     }
 }
 
-impl<V: Volume> SampleSlabs for Tabulated<'_, V> {
+impl SampleSlabs for Tabulated<'_> {
     type Sample = f32;
     fn sample_box(&self) -> ([u32; 3], [u32; 3]) {
         ([0; 3], self.inner.lattice().dims())

@@ -453,7 +453,7 @@ impl LayerCaches {
 }
 
 /// A cell of a layer walk: its values, and the caches that make every vertex unique.
-pub(crate) struct CachedCell<'a, V> {
+pub(crate) struct CachedCell<'a, V: ?Sized> {
     pub(crate) ijk: [u32; 3],
     pub(crate) d: [f32; 8],
     pub(crate) case: u8,
@@ -468,7 +468,7 @@ pub(crate) struct CachedCell<'a, V> {
     pub(crate) placed: u8,
 }
 
-impl<'a, V: Volume> CachedCell<'a, V> {
+impl<'a, V: Volume + ?Sized> CachedCell<'a, V> {
     /// A cell of the current layer.
     #[inline]
     pub(crate) fn new(
@@ -484,7 +484,7 @@ impl<'a, V: Volume> CachedCell<'a, V> {
     }
 }
 
-impl<V: Volume> Cell for CachedCell<'_, V> {
+impl<V: Volume + ?Sized> Cell for CachedCell<'_, V> {
     #[inline]
     fn ijk(&self) -> [u32; 3] {
         self.ijk

@@ -45,7 +45,7 @@ impl<'p> SlabWalker<'p> {
     }
 }
 
-impl<V: Volume> Walker<V> for SlabWalker<'_> {
+impl<V: Volume + ?Sized> Walker<V> for SlabWalker<'_> {
     fn walk<X: Extractor + Sync>(&mut self, vol: &V, iso: Iso, x: &X, out: &mut MeshBuilder) -> Result<WalkStats> {
         let lattice = vol.lattice();
         let dims = lattice.dims();

@@ -35,9 +35,7 @@ impl Extractor for MarchingCubes {
         }
     }
 
-    fn counting(&self) -> Counting {
-        Counting::Known
-    }
+    const COUNTING: Counting = Counting::Known;
 
     #[inline(always)]
     fn case_triangles(&self, case: u8, _odd: bool) -> Option<&[[u8; 3]]> {

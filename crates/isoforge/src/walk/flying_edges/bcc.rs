@@ -48,7 +48,7 @@ use super::{for_each_chunk, reuse_words, reuse_zeroed, Passes, PointBox, Scratch
 use crate::cube::{Axis, CellPoint, EdgeKey, SegmentKey, VertexKey, FACE_CORNERS};
 use crate::error::{Error, Result};
 use crate::extract::tetrahedra::BccSolid;
-use crate::extract::{BodyCentredTables, Extractor};
+use crate::extract::BodyCentredTables;
 use crate::grid::Sample;
 use crate::mesh::{MeshBuilder, MeshSink, OwnedBatch};
 use crate::volume::{Iso, SampleSlabs};
@@ -526,7 +526,7 @@ fn memo_centre<S: Sample>(memo: &mut [f32], [s0, s1]: [&[S]; 2], [at, stride]: [
     }
 }
 
-impl<V: SampleSlabs, X: Extractor> Passes<'_, V, X> {
+impl<V: SampleSlabs> Passes<'_, V, ()> {
     /// PASS 1b for cell layer `k` (box-local): the centre bits of its cell rows into `out`, their
     /// active cells into `active` (`ny` rows of `bits.words` each) and the active cells' centre
     /// values into `values`; returns its all-outside and all-inside cell counts.
@@ -1160,7 +1160,7 @@ pub(super) static BASELINE_ONLY: std::sync::atomic::AtomicBool = std::sync::atom
 /// copy is its own instance of the pass's body (`V3`), so the closures inside are too: with one
 /// call site each they are inlined (shared by both copies, the fill's stayed out of line and ran
 /// 1.03–1.31× slower).
-impl<V: SampleSlabs, X: Extractor> Passes<'_, V, X> {
+impl<V: SampleSlabs> Passes<'_, V, ()> {
     /// PASS 1b ([`centres_in`](Self::centres_in)).
     pub(super) fn bcc_centres(
         &self,
@@ -1230,7 +1230,7 @@ pub(super) fn applies<V: SampleSlabs>(vol: &V, bx: &PointBox, range: &crate::cub
     *range == all && bx.lo == [0; 3] && vol.centres_from_samples() && vol.bounded_by_corners()
 }
 
-impl<V: SampleSlabs + Sync, X: Extractor + Sync> Passes<'_, V, X> {
+impl<V: SampleSlabs + Sync> Passes<'_, V, ()> {
     /// PASS 1b–4 of the counted body-centred walk of the whole lattice (see the module doc).
     pub(super) fn bcc_counted(
         &self,
@@ -1262,7 +1262,7 @@ impl<V: SampleSlabs + Sync, X: Extractor + Sync> Passes<'_, V, X> {
             .enumerate()
             .map(|(g, (((b, c), a), v))| (g * GROUP, b, c, a, v))
             .collect();
-        let per_group = super::map_tasks(tasks, |(k0, b, c, a, v)| {
+        let per_group = super::map_tasks(tasks, &|(k0, b, c, a, v)| {
             let classify = |k: usize, out: &mut [u64]| {
                 super::classify::classify_plane(self.vol, &self.bx, self.bx.lo[2] + k as u32, self.iso, out)
             };
@@ -1300,14 +1300,14 @@ impl<V: SampleSlabs + Sync, X: Extractor + Sync> Passes<'_, V, X> {
         let b = Bcc { t, centres: &centres, active: &active, values: &values, walk: walk_id() };
         // PASS 2: count (every row's count is set: written from zero, or left zero when fresh).
         let (mut counts, zeroed) = reuse_zeroed(&mut scratch.bcc_counts, ny * nz);
-        for_each_chunk(&mut counts, ny, |k, plane| self.bcc_count_plane(&b, bits, k, plane, zeroed));
+        for_each_chunk(&mut counts, ny, &|k, plane| self.bcc_count_plane(&b, bits, k, plane, zeroed));
         // PASS 3: prefix sums.
         let table = BccTable::prefix(counts, ny, std::mem::take(&mut scratch.first))?;
         // PASS 4: fill, one task per slab, each owning its slots of the exactly allocated output.
         // SAFETY: `bcc_fill_plane` returns only after writing every slot of its slab (asserted
         // row by row and per slab).
         let (mesh, keys) = unsafe {
-            fill_planes(&table, ny, self.normals, progress, |k, slab| self.bcc_fill_plane(&b, bits, &table, k, slab))
+            fill_planes(&table, ny, self.normals, progress, &|k, slab| self.bcc_fill_plane(&b, bits, &table, k, slab))
         };
         out.set_assembled(mesh, keys);
         (scratch.bcc_counts, scratch.first) = table.into_parts();
@@ -1319,7 +1319,7 @@ impl<V: SampleSlabs + Sync, X: Extractor + Sync> Passes<'_, V, X> {
 /// Reads and classifies plane `k` of a stream into the bit window.
 type LoadPlane<'a, S> = dyn FnMut(usize, &mut SlabRing<S>, &mut Bits) -> Result<()> + 'a;
 
-impl<X: Extractor + Sync> Ctx<'_, X> {
+impl Ctx<'_, ()> {
     /// The counted body-centred walk on a window sliding up a stream: bits of planes k − 1 … k + 2,
     /// centre bits and row counts of k − 1 … k + 1 (the triangles of layer k name the centre
     /// segments of layer k − 1); `bits` holds planes 0, 1, 2 on entry, `load(k, …)` reads and

@@ -3,9 +3,8 @@
 
 use super::bits::{cell_rows, count_edges_and_mark, for_each_case, mark_active, popcount, uniform_block, Bits};
 use super::families::FAMILIES;
-use super::{cell_values, Passes};
+use super::{Cells, Passes};
 use crate::extract::{CellCounts, Decision, Extractor};
-use crate::volume::SampleSlabs;
 
 /// Counts of one row (its segments' crossings, by family) and of the cell row starting at it
 /// (its cells' output). Only `u32`s: zero bytes are its default, so fresh tables come zeroed
@@ -48,7 +47,7 @@ impl CaseCounts {
     }
 }
 
-impl<V: SampleSlabs, X: Extractor> Passes<'_, V, X> {
+impl<X: Extractor> Passes<'_, Cells<'_>, X> {
     /// PASS 2 for the rows of point plane `k` (box-local) into `out`; returns the all-outside and
     /// all-inside cell counts of cell layer `k`. The decisions of the cells counted from their
     /// values go to `decisions`, in walk order, for the fill (`Extractor::process_decided`).
@@ -112,8 +111,7 @@ impl<V: SampleSlabs, X: Extractor> Passes<'_, V, X> {
                     Some(n) => n,
                     None => {
                         let l = [i, j, k];
-                        let (n, decision) =
-                            self.x.counts(case, bx.global(l), || cell_values(self.vol, bx, self.iso, l));
+                        let (n, decision) = self.x.counts(case, bx.global(l), || self.vol.cell_values(bx, self.iso, l));
                         decisions.push(decision);
                         n
                     }

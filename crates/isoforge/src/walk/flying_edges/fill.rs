@@ -8,7 +8,7 @@ use std::sync::atomic::{AtomicU64, Ordering};
 use super::bits::{cell_rows, for_each_bit, for_each_case, mark_active, slot_bases, Bits, SegmentRun};
 use super::count::RowCount;
 use super::families::FAMILIES;
-use super::{cell_values, map_tasks, Passes};
+use super::{map_tasks, Cells, Passes};
 use crate::cube::{cell_segment, CellPoint, CubeEdge, EdgeKey, VertexKey, CELL_SEGMENTS};
 use crate::error::{Error, Result};
 use crate::extract::{Decision, Extractor};
@@ -212,7 +212,7 @@ pub(super) unsafe fn fill_planes<C: Counted>(
     ny: usize,
     normals: bool,
     progress: Option<&dyn Progress>,
-    fill: impl Fn(usize, &mut SlabSlots<'_>) + Sync + Send,
+    fill: &(dyn Fn(usize, &mut SlabSlots<'_>) + Sync),
 ) -> (Mesh, Vec<(u32, VertexKey)>) {
     let [v, t, q] = table.totals();
     let planes = table.counts.len() / ny;
@@ -245,7 +245,7 @@ pub(super) unsafe fn fill_planes<C: Counted>(
         }
     }
     let done = AtomicU64::new(0);
-    let keys = map_tasks(tasks, |(k, mut slab)| {
+    let keys = map_tasks(tasks, &|(k, mut slab)| {
         fill(k, &mut slab);
         if let Some(p) = progress {
             p.advance(done.fetch_add(1, Ordering::Relaxed) + 1, planes as u64);
@@ -268,27 +268,20 @@ pub(super) unsafe fn fill_planes<C: Counted>(
 /// Rows of look-ahead for the sample prefetch (enough to cover memory latency on sparse rows).
 pub(super) const PREFETCH_ROWS: usize = 2;
 
-impl<V: SampleSlabs, X: Extractor> Passes<'_, V, X> {
-    /// PASS 4 for box plane `k`: the vertices of its rows, then the polygons of its cell rows;
-    /// `decisions` are the count pass's for the cells it counted from their values, in walk order.
-    ///
-    /// Every slot of `out` is written exactly once: vertices in row order, each row from its
-    /// counted first vertex, polygons in walk order from the slab's first. This is asserted as it
-    /// goes (a compare per row), as [`SlabSlots`] relies on it.
-    ///
-    /// # Panics
-    /// When the counts and the fill disagree (an internal error).
-    pub(super) fn fill_plane<O: FillOut>(
-        &self,
-        bits: &Bits,
-        table: &RowTable,
-        k: usize,
-        decisions: &[Decision],
-        out: &mut O,
-    ) {
-        let [out_vertices, out_triangles, out_quads] = out.sizes();
+// PASS 4 for box plane `k` is two calls on the same slots: `fill_vertices` (the volume's side:
+// the vertices of its rows) then `fill_polygons` (the extractor's: the polygons of its cell rows).
+// Every slot of the output is written exactly once: vertices in row order, each row from its
+// counted first vertex, polygons in walk order from the slab's first. This is asserted as it goes
+// (a compare per row), as [`SlabSlots`] relies on it; a disagreement of counts and fill (an
+// internal error) panics.
+
+impl<V: SampleSlabs> Passes<'_, V, ()> {
+    /// PASS 4a for box plane `k`: the vertices of its rows, by family and rank (placed vertices'
+    /// slots are left to the cells that place them).
+    pub(super) fn fill_vertices<O: FillOut>(&self, bits: &Bits, table: &RowTable, k: usize, out: &mut O) {
+        let [out_vertices, _, _] = out.sizes();
         let bx = &self.bx;
-        let [nx, ny, nz] = bx.dims;
+        let [_, ny, nz] = bx.dims;
         let words = bits.words;
         let z = bx.lo[2] + k as u32;
         let s0 = self.vol.slab(z);
@@ -352,12 +345,69 @@ impl<V: SampleSlabs, X: Extractor> Passes<'_, V, X> {
             out_v += table.count(r).placed as usize;
         }
         assert_eq!(out_v, out_vertices, "internal: slab {k} vertices off their count");
+    }
+
+    /// Prefetches the samples that row (j, k)'s crossings will read: rows (j, k), (j + 1, k) and
+    /// (j, k + 1) around every point where an edge starting in row (j, k) crosses.
+    #[inline]
+    fn prefetch_row(&self, bits: &Bits, k: usize, j: usize, s0: &[V::Sample], s1: &[V::Sample], union: &mut [u64]) {
+        let [nx, ny, nz] = self.bx.dims;
+        let r = k * ny + j;
+        let a = bits.row(r);
+        for w in 0..union.len() {
+            let next = if w + 1 < a.len() { a[w + 1] << 63 } else { 0 };
+            let mut m = a[w] ^ ((a[w] >> 1) | next) | (a[w] << 1 ^ a[w]);
+            if j + 1 < ny {
+                m |= a[w] ^ bits.row(r + 1)[w];
+            }
+            if k + 1 < nz {
+                m |= a[w] ^ bits.row(r + ny)[w];
+            }
+            union[w] = m;
+        }
+        let at = self.bx.in_slab(0, j);
+        let stride = self.bx.row_stride();
+        let mut last_line = usize::MAX;
+        for_each_bit(union, |i| {
+            let i = i.min(nx - 1);
+            // One prefetch per 64-byte line of the row.
+            let line = i * std::mem::size_of::<V::Sample>() / 64;
+            if line == last_line {
+                return;
+            }
+            last_line = line;
+            prefetch((&s0[at + i] as *const V::Sample).cast());
+            if j + 1 < ny {
+                prefetch((&s0[at + i + stride] as *const V::Sample).cast());
+            }
+            if k + 1 < nz {
+                prefetch((&s1[at + i] as *const V::Sample).cast());
+            }
+        });
+    }
+}
+
+impl<X: Extractor> Passes<'_, Cells<'_>, X> {
+    /// PASS 4b for box plane `k`: the polygons of its cell rows (and the vertices they place);
+    /// `decisions` are the count pass's for the cells it counted from their values, in walk order.
+    pub(super) fn fill_polygons<O: FillOut>(
+        &self,
+        bits: &Bits,
+        table: &RowTable,
+        k: usize,
+        decisions: &[Decision],
+        out: &mut O,
+    ) {
+        let [_, out_triangles, out_quads] = out.sizes();
+        let bx = &self.bx;
+        let [nx, ny, nz] = bx.dims;
         if k + 1 >= nz {
             assert_eq!([out_triangles, out_quads], [0, 0], "internal: polygons counted past the last layer");
             return;
         }
+        let plane = table.plane_base(k);
         // Polygons of the cell rows of layer k.
-        let mut active = vec![0u64; words];
+        let mut active = vec![0u64; bits.words];
         let mut state = FillState { t: 0, q: 0, plane_v: plane[0], next_placed: 0 };
         // Cells without a table entry, in walk order, each with its decision from the count pass
         // (rows skipped below for having no output left theirs out there too).
@@ -431,45 +481,6 @@ impl<V: SampleSlabs, X: Extractor> Passes<'_, V, X> {
         // Placed vertices sit between their rows' edge vertices but were keyed after them.
         out.keys().sort_unstable_by_key(|&(id, _)| id);
     }
-
-    /// Prefetches the samples that row (j, k)'s crossings will read: rows (j, k), (j + 1, k) and
-    /// (j, k + 1) around every point where an edge starting in row (j, k) crosses.
-    #[inline]
-    fn prefetch_row(&self, bits: &Bits, k: usize, j: usize, s0: &[V::Sample], s1: &[V::Sample], union: &mut [u64]) {
-        let [nx, ny, nz] = self.bx.dims;
-        let r = k * ny + j;
-        let a = bits.row(r);
-        for w in 0..union.len() {
-            let next = if w + 1 < a.len() { a[w + 1] << 63 } else { 0 };
-            let mut m = a[w] ^ ((a[w] >> 1) | next) | (a[w] << 1 ^ a[w]);
-            if j + 1 < ny {
-                m |= a[w] ^ bits.row(r + 1)[w];
-            }
-            if k + 1 < nz {
-                m |= a[w] ^ bits.row(r + ny)[w];
-            }
-            union[w] = m;
-        }
-        let at = self.bx.in_slab(0, j);
-        let stride = self.bx.row_stride();
-        let mut last_line = usize::MAX;
-        for_each_bit(union, |i| {
-            let i = i.min(nx - 1);
-            // One prefetch per 64-byte line of the row.
-            let line = i * std::mem::size_of::<V::Sample>() / 64;
-            if line == last_line {
-                return;
-            }
-            last_line = line;
-            prefetch((&s0[at + i] as *const V::Sample).cast());
-            if j + 1 < ny {
-                prefetch((&s0[at + i + stride] as *const V::Sample).cast());
-            }
-            if k + 1 < nz {
-                prefetch((&s1[at + i] as *const V::Sample).cast());
-            }
-        });
-    }
 }
 
 /// Prefetches the lines of `rows` (sample rows, point i at index i) that hold the corners i and
@@ -521,8 +532,8 @@ struct FillState {
 
 /// A cell of the fill pass: edge vertex ids by rank (computed once per cell), polygons and placed
 /// vertices written at their counted offsets.
-struct FillCell<'a, V, X, O> {
-    p: &'a Passes<'a, V, X>,
+struct FillCell<'a, X, O> {
+    p: &'a Passes<'a, Cells<'a>, X>,
     l: [usize; 3],
     ijk: [u32; 3],
     case: u8,
@@ -535,14 +546,14 @@ struct FillCell<'a, V, X, O> {
     state: &'a mut FillState,
 }
 
-impl<V: SampleSlabs, X: Extractor, O: FillOut> Cell for FillCell<'_, V, X, O> {
+impl<X: Extractor, O: FillOut> Cell for FillCell<'_, X, O> {
     #[inline]
     fn ijk(&self) -> [u32; 3] {
         self.ijk
     }
     #[inline]
     fn values(&self) -> &[f32; 8] {
-        self.values.get_or_init(|| cell_values(self.p.vol, &self.p.bx, self.p.iso, self.l))
+        self.values.get_or_init(|| self.p.vol.cell_values(&self.p.bx, self.p.iso, self.l))
     }
     #[inline]
     fn case(&self) -> u8 {

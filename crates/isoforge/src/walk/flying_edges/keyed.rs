@@ -13,7 +13,7 @@ use std::sync::atomic::{AtomicU64, Ordering};
 use std::sync::Mutex;
 
 use super::bits::{case_at, cell_rows, for_each_case, mark_active, Bits};
-use super::{cell_values, map_tasks, Passes, PointBox};
+use super::{map_tasks, Cells, Passes, PointBox};
 use crate::cube::CellRange;
 use crate::error::Result;
 use crate::extract::Extractor;
@@ -30,7 +30,7 @@ const GROUPS: u32 = 32;
 /// Fewest cell layers in a group.
 const MIN_LAYERS: u32 = 8;
 
-impl<V: SampleSlabs + Sync, X: Extractor + Sync> Passes<'_, V, X> {
+impl<X: Extractor + Sync> Passes<'_, Cells<'_>, X> {
     /// Walks the range in layer groups and stitches their meshes into `out`.
     pub(super) fn keyed(
         &self,
@@ -49,7 +49,7 @@ impl<V: SampleSlabs + Sync, X: Extractor + Sync> Passes<'_, V, X> {
         // Caches go back to a pool after a group and serve the next one without reallocation
         // (their slots carry a generation; nothing a group writes is seen by another).
         let pool = Mutex::new(Vec::<LayerCaches>::new());
-        let parts = map_tasks(groups, |g| {
+        let parts = map_tasks(groups, &|g| {
             // Parts keep the keys stitching needs, or all of them when the walk asks for all.
             let record = if self.record == KeyRecord::All { KeyRecord::All } else { KeyRecord::Boundary(g) };
             let mut b = MeshBuilder::new(normals).with_keys(record);
@@ -156,7 +156,7 @@ impl<V: SampleSlabs + Sync, X: Extractor + Sync> Passes<'_, V, X> {
                 if centres {
                     self.keep_centres(l, caches);
                 }
-                let d = cell_values(self.vol, bx, self.iso, l);
+                let d = self.vol.cell_values(bx, self.iso, l);
                 let mut cell = CachedCell::new(bx.global(l), d, case, self.vol, self.iso, caches, out);
                 if places {
                     self.x.place(&mut cell);
@@ -201,12 +201,12 @@ impl<V: SampleSlabs + Sync, X: Extractor + Sync> Passes<'_, V, X> {
     #[inline]
     fn keep_centres(&self, l: [usize; 3], caches: &mut LayerCaches) {
         let bx = &self.bx;
-        caches.keep_centre(bx.global(l), || centre_value(self.vol, bx, self.iso, l));
+        caches.keep_centre(bx.global(l), || self.vol.centre_value(bx, self.iso, l));
         for a in 0..3 {
             if l[a] > 0 {
                 let mut n = l;
                 n[a] -= 1;
-                caches.keep_centre(bx.global(n), || centre_value(self.vol, bx, self.iso, n));
+                caches.keep_centre(bx.global(n), || self.vol.centre_value(bx, self.iso, n));
             }
         }
     }

@@ -52,7 +52,7 @@ use crate::error::{Error, Result};
 use crate::extract::{Counting, Extractor};
 use crate::grid::Sample;
 use crate::mesh::{huge_vec, KeyRecord, MeshBuilder};
-use crate::volume::{Iso, SampleSlabs};
+use crate::volume::{Iso, SampleSlabs, Volume};
 
 /// The parallel walker for sampled grids (and streamed slabs): see the module documentation.
 ///
@@ -152,8 +152,39 @@ fn cell_values<V: SampleSlabs>(vol: &V, bx: &PointBox, iso: Iso, [i, j, k]: [usi
     iso.cell_offsets([v(s0, a), v(s0, a + 1), v(s0, b), v(s0, b + 1), v(s1, a), v(s1, a + 1), v(s1, b), v(s1, b + 1)])
 }
 
-/// What every pass of one walk shares.
-struct Passes<'a, V, X> {
+/// The volume as the extractor's side of the passes sees it (the count pass, the cells of the
+/// fill, keyed walks): a trait object, asked once per cell those passes decide from values or
+/// hand to `process`, and per crossing a keyed walk makes (never per table cell or per sample).
+/// So those passes are compiled once per extractor, and the volume's side (classification, the
+/// fill's vertex rows, mt-bcc's tables) once per volume type: a walk compiles volumes +
+/// extractors copies, not volumes × extractors.
+trait CellSamples: Volume + Sync {
+    /// The offset values of the eight corners of box-local cell `l` ([`cell_values`]).
+    fn cell_values(&self, bx: &PointBox, iso: Iso, l: [usize; 3]) -> [f32; 8];
+    /// The offset value at the centre of box-local cell `l` (`keyed::centre_value`).
+    fn centre_value(&self, bx: &PointBox, iso: Iso, l: [usize; 3]) -> f32;
+    /// [`SampleSlabs::centres_from_samples`].
+    fn centres_from_samples(&self) -> bool;
+}
+
+impl<V: SampleSlabs + Sync> CellSamples for V {
+    fn cell_values(&self, bx: &PointBox, iso: Iso, l: [usize; 3]) -> [f32; 8] {
+        cell_values(self, bx, iso, l)
+    }
+    fn centre_value(&self, bx: &PointBox, iso: Iso, l: [usize; 3]) -> f32 {
+        keyed::centre_value(self, bx, iso, l)
+    }
+    fn centres_from_samples(&self) -> bool {
+        SampleSlabs::centres_from_samples(self)
+    }
+}
+
+/// A volume seen by the extractor's side of the passes.
+type Cells<'a> = dyn CellSamples + 'a;
+
+/// What every pass of one walk shares. The volume's side of the passes runs on `Passes<V, ()>`,
+/// the extractor's on `Passes<Cells, X>` (see [`CellSamples`]).
+struct Passes<'a, V: ?Sized, X> {
     vol: &'a V,
     x: &'a X,
     iso: Iso,
@@ -194,7 +225,7 @@ fn walk_in_memory<V: SampleSlabs + Sync, X: Extractor + Sync>(
     let walked = Walked::new(x.segments(), bx.lo);
     let crossed = walked.crossed();
     let p = Passes {
-        vol,
+        vol: vol as &Cells<'_>,
         x,
         iso,
         bx,
@@ -206,26 +237,44 @@ fn walk_in_memory<V: SampleSlabs + Sync, X: Extractor + Sync>(
         normals: out.wants_normals(),
         record: out.key_record(),
     };
-    // PASS 1: classify every row.
     let [_, ny, nz] = bx.dims;
     let words = bx.words();
     let mut scratch = Scratch::take();
     let mut bits = Bits { words, row0: 0, data: reuse_words(&mut scratch.bits, ny * nz * words) };
-    // The counted body-centred walk classifies as it takes the cells' centres (`bcc_counted`).
-    let bcc = x.body_centred().filter(|_| bcc::applies(vol, &bx, &range));
-    if bcc.is_none() {
-        for_each_chunk(&mut bits.data, ny * words, |k, plane| {
-            classify::classify_plane(vol, &bx, bx.lo[2] + k as u32, iso, plane);
-        });
-    }
-    let walked = match (x.counting(), bcc) {
-        (_, Some(t)) => p.bcc_counted(t, &mut bits, out, w.progress, &mut scratch),
-        (Counting::Known, _) => p.counted(&bits, out, w.progress, &mut scratch),
-        (Counting::Unknown, _) => p.keyed(&bits, out, w.progress),
+    let walked = match x.body_centred().filter(|_| bcc::applies(vol, &bx, &range)) {
+        // The counted body-centred walk classifies as it takes the cells' centres.
+        Some(t) => p.on(vol).bcc_counted(t, &mut bits, out, w.progress, &mut scratch),
+        None => {
+            // PASS 1: classify every row.
+            classify_planes(vol, &bx, iso, &mut bits);
+            if Paths::<X>::COUNTED {
+                p.counted(&p.on(vol), &bits, out, w.progress, &mut scratch)
+            } else {
+                p.keyed(&bits, out, w.progress)
+            }
+        }
     };
     scratch.bits = bits.data;
     scratch.keep();
     walked
+}
+
+/// The paths a walk takes for extractors of type `X`, as constants the compiler resolves per
+/// type: each walk compiles only its extractor's path (an `if` on a constant is not
+/// instantiated on its dead side; a `match` on a constant enum would be).
+pub(super) struct Paths<X>(std::marker::PhantomData<X>);
+
+impl<X: Extractor> Paths<X> {
+    /// Counted in advance ([`Counting::Known`]): count → prefix sums → fill. Otherwise keyed.
+    pub(super) const COUNTED: bool = matches!(X::COUNTING, Counting::Known);
+}
+
+/// PASS 1 of an in-memory walk: every bit row of the box (one copy per volume type).
+fn classify_planes<V: SampleSlabs + Sync>(vol: &V, bx: &PointBox, iso: Iso, bits: &mut Bits) {
+    let plane = bx.dims[1] * bits.words;
+    for_each_chunk(&mut bits.data, plane, &|k, plane| {
+        classify::classify_plane(vol, bx, bx.lo[2] + k as u32, iso, plane)
+    });
 }
 
 /// The buffers of an in-memory walk that do not outlive it (bit rows, row counts and the rows'
@@ -309,10 +358,12 @@ fn reuse_zeroed<T: bytemuck::Zeroable + Copy>(kept: &mut Vec<T>, n: usize) -> (V
     (v, fresh)
 }
 
-impl<V: SampleSlabs + Sync, X: Extractor + Sync> Passes<'_, V, X> {
-    /// PASS 2–4 for extractors whose output is counted in advance.
-    fn counted(
+impl<X: Extractor + Sync> Passes<'_, Cells<'_>, X> {
+    /// PASS 2–4 for extractors whose output is counted in advance; `vertices`: the same passes
+    /// on the volume's side (the fill's vertex rows).
+    fn counted<V: SampleSlabs + Sync>(
         &self,
+        vertices: &Passes<'_, V, ()>,
         bits: &Bits,
         out: &mut MeshBuilder,
         progress: Option<&dyn Progress>,
@@ -325,7 +376,7 @@ impl<V: SampleSlabs + Sync, X: Extractor + Sync> Passes<'_, V, X> {
         // Per plane: all-outside and all-inside cells, and the decisions of cells counted from
         // their values (handed back to the extractor in the fill).
         let mut cell_stats = vec![([0u64; 2], Vec::new()); nz];
-        for_each_chunk_with(&mut counts, ny, &mut cell_stats, |k, plane, (cs, decisions)| {
+        for_each_chunk_with(&mut counts, ny, &mut cell_stats, &|k, plane, (cs, decisions)| {
             *cs = self.count_plane(bits, k, plane, decisions, zeroed);
         });
         let mut stats = WalkStats { cells: self.range.num_cells(), ..Default::default() };
@@ -337,8 +388,9 @@ impl<V: SampleSlabs + Sync, X: Extractor + Sync> Passes<'_, V, X> {
         // SAFETY: `fill_plane` returns only after writing every slot of its slab (asserted row by
         // row).
         let (mesh, keys) = unsafe {
-            fill_planes(&table, ny, self.normals, progress, |k, slab| {
-                self.fill_plane(bits, &table, k, &cell_stats[k].1, slab)
+            fill_planes(&table, ny, self.normals, progress, &|k, slab| {
+                vertices.fill_vertices(bits, &table, k, slab);
+                self.fill_polygons(bits, &table, k, &cell_stats[k].1, slab)
             })
         };
         out.set_assembled(mesh, keys);
@@ -347,7 +399,29 @@ impl<V: SampleSlabs + Sync, X: Extractor + Sync> Passes<'_, V, X> {
     }
 }
 
-impl<V, X> Passes<'_, V, X> {
+impl<'a, V: ?Sized, X> Passes<'a, V, X> {
+    /// These passes on the volume's side (`vol`, the same volume by its own type): without the
+    /// extractor, for the passes that never call it (classification, the fill's vertex rows,
+    /// mt-bcc's tables), compiled once per volume type instead of once per extractor.
+    fn on<'v, W: Volume + ?Sized>(&self, vol: &'v W) -> Passes<'v, W, ()>
+    where
+        'a: 'v,
+    {
+        Passes {
+            vol,
+            x: &(),
+            iso: self.iso,
+            bx: self.bx,
+            table: self.table,
+            walked: self.walked,
+            crossed: self.crossed,
+            range: self.range,
+            reverse: self.reverse,
+            normals: self.normals,
+            record: self.record,
+        }
+    }
+
     /// Whether a vertex with this key is recorded.
     #[inline]
     fn records(&self, key: &VertexKey) -> bool {
@@ -384,8 +458,11 @@ impl<V, X> Passes<'_, V, X> {
     }
 }
 
+// The parallel helpers take their work as `&dyn Fn`: rayon's machinery (jobs, splitting,
+// bridges) is then compiled once per element type, not once per closure of every walk.
+
 /// Calls `f(k, chunk)` for each of the `data.len() / per` chunks, in parallel when enabled.
-fn for_each_chunk<D: Send>(data: &mut [D], per: usize, f: impl Fn(usize, &mut [D]) + Sync) {
+fn for_each_chunk<D: Send>(data: &mut [D], per: usize, f: &(dyn Fn(usize, &mut [D]) + Sync)) {
     #[cfg(feature = "parallel")]
     {
         use rayon::prelude::*;
@@ -400,7 +477,7 @@ fn for_each_chunk_with<D: Send, A: Send>(
     data: &mut [D],
     per: usize,
     acc: &mut [A],
-    f: impl Fn(usize, &mut [D], &mut A) + Sync,
+    f: &(dyn Fn(usize, &mut [D], &mut A) + Sync),
 ) {
     #[cfg(feature = "parallel")]
     {
@@ -412,7 +489,7 @@ fn for_each_chunk_with<D: Send, A: Send>(
 }
 
 /// Runs `f` on every task, in parallel when enabled; results in task order.
-fn map_tasks<T: Send, R: Send>(tasks: Vec<T>, f: impl Fn(T) -> R + Sync + Send) -> Vec<R> {
+fn map_tasks<T: Send, R: Send>(tasks: Vec<T>, f: &(dyn Fn(T) -> R + Sync)) -> Vec<R> {
     #[cfg(feature = "parallel")]
     {
         use rayon::prelude::*;
@@ -425,7 +502,7 @@ fn map_tasks<T: Send, R: Send>(tasks: Vec<T>, f: impl Fn(T) -> R + Sync + Send) 
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::extract::{Decomposition, MarchingCubes, MarchingCubes33, MarchingTetrahedra};
+    use crate::extract::{BodyCentredTetrahedra, MarchingCubes, MarchingCubes33};
     use crate::grid::{DenseGrid, Lattice};
     use crate::mesh::{Mesh, Normals};
     use crate::volume::GridVolume;
@@ -453,9 +530,7 @@ mod tests {
         fn process<C: crate::walk::Cell>(&self, cell: &mut C) {
             MarchingCubes.process(cell)
         }
-        fn counting(&self) -> Counting {
-            Counting::Known
-        }
+        const COUNTING: Counting = Counting::Known;
         fn counts(
             &self,
             case: u8,
@@ -541,7 +616,7 @@ mod tests {
             .unwrap();
         let wavy =
             DenseGrid::from_fn(mirrored, |p| (p[0] as f32 * 0.4).sin() + (p[1] as f32 * 0.7 + p[2] as f32).cos());
-        let bcc = MarchingTetrahedra { decomposition: Decomposition::BodyCentred };
+        let bcc = BodyCentredTetrahedra;
         let both = |g: &DenseGrid<f32>| {
             bcc::BASELINE_ONLY.store(true, Relaxed);
             let baseline = (walk(g, &bcc), stream(g, &bcc).unwrap());
@@ -562,7 +637,7 @@ mod tests {
     /// one plane past one make the same mesh both ways.
     #[test]
     fn mt_bcc_in_groups_of_planes_makes_the_streamed_mesh() {
-        let bcc = MarchingTetrahedra { decomposition: Decomposition::BodyCentred };
+        let bcc = BodyCentredTetrahedra;
         for nz in [1, 2, 3, 8, 9, 16, 17, 26] {
             let g = DenseGrid::from_fn(Lattice::new([19, 7, nz]).unwrap(), |p| {
                 (p[0] as f32 * 0.5).sin() + (p[1] as f32 * 0.8 + p[2] as f32 * 0.6).cos() - 0.3
@@ -586,7 +661,7 @@ mod tests {
             (p[0] as f32 * 0.3).sin() + (p[1] as f32 * 0.9).cos() * (p[2] as f32 * 0.5).sin()
         });
         let grids = [small, wavy];
-        let bcc = MarchingTetrahedra { decomposition: Decomposition::BodyCentred };
+        let bcc = BodyCentredTetrahedra;
         let fresh: Vec<(Mesh, Mesh, Mesh)> = std::thread::scope(|s| {
             grids
                 .iter()

@@ -14,10 +14,10 @@ use super::bits::Bits;
 use super::count::CaseCounts;
 use super::families::Walked;
 use super::fill::{RowTable, SlabSlots};
-use super::{classify, FlyingEdgesWalker, Passes, PointBox};
+use super::{classify, Cells, FlyingEdgesWalker, Passes, Paths, PointBox};
 use crate::cube::{CellRange, EdgeKey};
 use crate::error::{Error, Result};
-use crate::extract::{Counting, Extractor};
+use crate::extract::Extractor;
 use crate::grid::{Lattice, Sample};
 use crate::mesh::{ExternalError, KeyRecord, MeshBuilder, MeshSink, Normals, OwnedBatch};
 use crate::volume::{Iso, SampleSlabs, SlabSource, Volume};
@@ -114,9 +114,25 @@ pub(super) struct Ctx<'a, X> {
 }
 
 impl<'a, X> Ctx<'a, X> {
-    pub(super) fn on<'r, S: Sample>(&'r self, ring: &'r SlabRing<S>) -> Passes<'r, SlabRing<S>, X> {
+    /// This context without its extractor (see `Passes::erased`).
+    pub(super) fn erased(&self) -> Ctx<'a, ()> {
+        Ctx {
+            x: &(),
+            iso: self.iso,
+            bx: self.bx,
+            table: self.table,
+            walked: self.walked,
+            crossed: self.crossed,
+            range: self.range,
+            normals: self.normals,
+        }
+    }
+
+    /// The passes on the window `vol` (the ring by its type on the volume's side, as [`Cells`]
+    /// on the extractor's).
+    pub(super) fn on<'r, V: Volume + ?Sized>(&'r self, vol: &'r V) -> Passes<'r, V, X> {
         Passes {
-            vol: ring,
+            vol,
             x: self.x,
             iso: self.iso,
             bx: self.bx,
@@ -124,7 +140,7 @@ impl<'a, X> Ctx<'a, X> {
             walked: self.walked,
             crossed: self.crossed,
             range: self.range,
-            reverse: ring.lattice.is_mirrored(),
+            reverse: vol.lattice().is_mirrored(),
             normals: self.normals,
             record: KeyRecord::None,
         }
@@ -176,90 +192,92 @@ impl FlyingEdgesWalker<'_> {
         let ctx =
             Ctx { x, iso, bx, table: &table, walked, crossed: &crossed, range, normals: normals == Normals::Gradient };
         let progress = self.progress;
-        match x.counting() {
-            Counting::Known => {
-                let mut rows = RowTable::window(2, ny);
-                let mut start = [0u64; 3];
-                // The count pass's decisions for slab k and for slab k + 1.
-                let (mut decisions, mut next_decisions) = (Vec::new(), Vec::new());
-                let cs = ctx.on(&ring).count_plane(&bits, 0, &mut rows.counts[..ny], &mut decisions, false);
-                out.walk.cells_outside += cs[0];
-                out.walk.cells_inside += cs[1];
-                // The batch's buffers: handed to the sink, which may give others back (no copy).
-                let mut batch = OwnedBatch::default();
-                for k in 0..nz {
-                    if k + 1 < nz {
-                        let cs =
-                            ctx.on(&ring).count_plane(&bits, k + 1, &mut rows.counts[ny..], &mut next_decisions, false);
-                        out.walk.cells_outside += cs[0];
-                        out.walk.cells_inside += cs[1];
-                    } else {
-                        rows.counts[ny..].fill(Default::default());
-                        next_decisions.clear();
-                    }
-                    rows.restart(k * ny, start)?;
-                    // PASS 4 for slab k, into reused buffers sized from the counts, left
-                    // uninitialised: the fill writes every slot (asserted row by row).
-                    let [dv, dt, dq] = rows.plane_sizes(k, ny);
-                    let nv = if normals == Normals::Gradient { dv } else { 0 };
-                    // SAFETY: `fill_plane` returns only after writing every slot of its slab
-                    // (asserted row by row).
-                    unsafe {
-                        fill_batch(&mut batch, [dv, nv, dt, dq], |slab| {
-                            ctx.on(&ring).fill_plane(&bits, &rows, k, &decisions, slab)
-                        })
-                    };
-                    sink.push_owned(&mut batch).map_err(external)?;
-                    out.vertices += dv as u64;
-                    out.triangles += dt as u64;
-                    out.quads += dq as u64;
-                    start = rows.plane_base(k + 1);
-                    // Slide the windows up one slab.
-                    rows.counts.copy_within(ny.., 0);
-                    std::mem::swap(&mut decisions, &mut next_decisions);
-                    bits.data.copy_within(ny * words.., 0);
-                    bits.row0 += ny;
-                    if k + 3 < nz {
-                        load(k + 3, &mut ring, &mut bits, src)?;
-                    }
-                    if let Some(p) = progress {
-                        p.advance(k as u64 + 1, nz as u64);
-                    }
+        if let Some(t) = x.body_centred() {
+            // One copy per sample type, whatever the extractor (mt-bcc's tables, not its `process`).
+            let mut load = |k: usize, ring: &mut SlabRing<S>, bits: &mut Bits| load(k, ring, bits, &mut *src);
+            ctx.erased().bcc_stream(t, &mut ring, &mut bits, &mut load, sink, progress, &mut out)?;
+        } else if Paths::<X>::COUNTED {
+            let mut rows = RowTable::window(2, ny);
+            let mut start = [0u64; 3];
+            // The count pass's decisions for slab k and for slab k + 1.
+            let (mut decisions, mut next_decisions) = (Vec::new(), Vec::new());
+            let cs = ctx.on(&ring as &Cells<'_>).count_plane(&bits, 0, &mut rows.counts[..ny], &mut decisions, false);
+            out.walk.cells_outside += cs[0];
+            out.walk.cells_inside += cs[1];
+            // The batch's buffers: handed to the sink, which may give others back (no copy).
+            let mut batch = OwnedBatch::default();
+            for k in 0..nz {
+                if k + 1 < nz {
+                    let cs = ctx.on(&ring as &Cells<'_>).count_plane(
+                        &bits,
+                        k + 1,
+                        &mut rows.counts[ny..],
+                        &mut next_decisions,
+                        false,
+                    );
+                    out.walk.cells_outside += cs[0];
+                    out.walk.cells_inside += cs[1];
+                } else {
+                    rows.counts[ny..].fill(Default::default());
+                    next_decisions.clear();
+                }
+                rows.restart(k * ny, start)?;
+                // PASS 4 for slab k, into reused buffers sized from the counts, left
+                // uninitialised: the fill writes every slot (asserted row by row).
+                let [dv, dt, dq] = rows.plane_sizes(k, ny);
+                let nv = if normals == Normals::Gradient { dv } else { 0 };
+                // SAFETY: `fill_plane` returns only after writing every slot of its slab
+                // (asserted row by row).
+                unsafe {
+                    fill_batch(&mut batch, [dv, nv, dt, dq], |slab| {
+                        ctx.erased().on(&ring).fill_vertices(&bits, &rows, k, slab);
+                        ctx.on(&ring as &Cells<'_>).fill_polygons(&bits, &rows, k, &decisions, slab)
+                    })
+                };
+                sink.push_owned(&mut batch).map_err(external)?;
+                out.vertices += dv as u64;
+                out.triangles += dt as u64;
+                out.quads += dq as u64;
+                start = rows.plane_base(k + 1);
+                // Slide the windows up one slab.
+                rows.counts.copy_within(ny.., 0);
+                std::mem::swap(&mut decisions, &mut next_decisions);
+                bits.data.copy_within(ny * words.., 0);
+                bits.row0 += ny;
+                if k + 3 < nz {
+                    load(k + 3, &mut ring, &mut bits, src)?;
+                }
+                if let Some(p) = progress {
+                    p.advance(k as u64 + 1, nz as u64);
                 }
             }
-            Counting::Unknown if x.body_centred().is_some() => {
-                let t = x.body_centred().expect("checked");
-                let mut load = |k: usize, ring: &mut SlabRing<S>, bits: &mut Bits| load(k, ring, bits, &mut *src);
-                ctx.bcc_stream(t, &mut ring, &mut bits, &mut load, sink, progress, &mut out)?;
-            }
-            Counting::Unknown => {
-                let mut caches = LayerCaches::default();
-                caches.reset([0, 0], nx, ny, 0, X::PLACES_VERTICES);
-                let mut b = MeshBuilder::new(normals);
-                b.set_reverse_winding(ring.lattice.is_mirrored());
-                for k in 0..nz - 1 {
-                    let s = ctx.on(&ring).walk_layer(&bits, k as u32, true, &mut caches, &mut b);
-                    out.walk.cells_outside += s.cells_outside;
-                    out.walk.cells_inside += s.cells_inside;
-                    caches.advance(X::PLACES_VERTICES);
-                    let before = b.num_vertices();
-                    let (t, q) = b.polygon_counts();
-                    b.drain_into(sink).map_err(external)?;
-                    out.vertices = before;
-                    out.triangles += t as u64;
-                    out.quads += q as u64;
-                    // Slide: bits of plane k leave, slab k + 3 comes in.
-                    bits.data.copy_within(ny * words.., 0);
-                    bits.row0 += ny;
-                    if k + 3 < nz {
-                        load(k + 3, &mut ring, &mut bits, src)?;
-                    }
-                    if let Some(p) = progress {
-                        p.advance(k as u64 + 1, nz as u64 - 1);
-                    }
+        } else {
+            let mut caches = LayerCaches::default();
+            caches.reset([0, 0], nx, ny, 0, X::PLACES_VERTICES);
+            let mut b = MeshBuilder::new(normals);
+            b.set_reverse_winding(ring.lattice.is_mirrored());
+            for k in 0..nz - 1 {
+                let s = ctx.on(&ring as &Cells<'_>).walk_layer(&bits, k as u32, true, &mut caches, &mut b);
+                out.walk.cells_outside += s.cells_outside;
+                out.walk.cells_inside += s.cells_inside;
+                caches.advance(X::PLACES_VERTICES);
+                let before = b.num_vertices();
+                let (t, q) = b.polygon_counts();
+                b.drain_into(sink).map_err(external)?;
+                out.vertices = before;
+                out.triangles += t as u64;
+                out.quads += q as u64;
+                // Slide: bits of plane k leave, slab k + 3 comes in.
+                bits.data.copy_within(ny * words.., 0);
+                bits.row0 += ny;
+                if k + 3 < nz {
+                    load(k + 3, &mut ring, &mut bits, src)?;
                 }
-                b.finish()?;
+                if let Some(p) = progress {
+                    p.advance(k as u64 + 1, nz as u64 - 1);
+                }
             }
+            b.finish()?;
         }
         out.walk.cells = range.num_cells();
         Ok(out)
