@@ -35,7 +35,7 @@
 //! outside), identically in both cells of a face, so no crack or non-manifold edge can appear.
 //! Inside the cell the same rule makes the outside closed: where a slice saddle only touches iso
 //! (a double root) or two vertical edges reach iso at one height, the outside regions meeting
-//! there are joined. Integer scans produce all of these (issue 10; `tests/real_data.rs`).
+//! there are joined. Integer scans produce all of these (issue 10; `isoforge-io/tests/real_data.rs`).
 
 use super::{CellCounts, Counting, Decision, Extractor, ProbeCell};
 use crate::cube::{CubeEdge, CORNER_OFFSETS, EDGE_CORNERS, EDGE_FACES, FACE_CORNERS, FACE_EDGES};

@@ -2,9 +2,11 @@
 //! `../shared/data/volumes`, at every iso its JSON sidecar lists (Otsu and the suggestions),
 //! through the grid entry the CLI uses ([`pipeline::extract_grid`]), checked with [`topo::check`].
 //!
-//! Release only (`cargo test --release -p isoforge --test real_data -- --nocapture`, run by
+//! Release only (`cargo test --release -p isoforge-io --test real_data -- --nocapture`, run by
 //! `.ci/run`); skipped with a message when the data folder is absent. Integer scans are where
-//! MC33's ties live (equal corners, symmetric faces); see `tests/topology.rs` for the lattices.
+//! MC33's ties live (equal corners, symmetric faces); see `crates/isoforge/tests/topology.rs` for
+//! the lattices. It lives with the readers (it reads the scans), so the core crate's tests need no
+//! reader: its unit tests build beside the library instead of after it and the I/O crate.
 
 use std::path::{Path, PathBuf};
 use std::time::Instant;
@@ -94,7 +96,7 @@ fn defects(mesh: &Mesh, lattice: &Lattice, manifold: bool) -> (MeshReport, Vec<S
 }
 
 #[test]
-#[cfg_attr(debug_assertions, ignore = "release only: cargo test --release -p isoforge --test real_data")]
+#[cfg_attr(debug_assertions, ignore = "release only: cargo test --release -p isoforge-io --test real_data")]
 fn issue_10_every_method_is_manifold_on_every_real_scan() {
     // https://isoforge/issues/10 — mc33 was non-manifold on the CT head, chest, bunny and shoulder.
     let Some(dir) = volumes_dir() else {
