@@ -3,7 +3,7 @@
 # HEAD) in a temporary folder, each step's wall time in seconds (docs/BENCHMARKS.md §7):
 #   demo    `cargo run --release -- demo`      (the README's first command, fresh target)
 #   test    `cargo test`                       (the README's second command, same target, dev profile)
-#   edit    change one extractor file, then `cargo test -p isoforge --lib`   (the edit-test cycle)
+#   edit    change one extractor's code, then `cargo test -p isoforge --lib`   (the edit-test cycle)
 #   ci      `.ci/run` in another fresh clone    (needs npm and Chromium, as CI)
 # STEPS defaults to "demo test edit". The crates come from ~/.cargo/registry (downloads are not
 # counted). Run on an idle machine: `uptime` is printed before each step.
@@ -35,10 +35,13 @@ for s in $STEPS; do
         demo) step demo cargo run --release -- demo -o "$WORK/demo.ply" ;;
         test) step test cargo test ;;
         edit)
-            # A change the compiler must act on: a new item in the marching-cubes extractor's file.
-            echo "#[allow(dead_code)] fn build_times_edit() -> u32 { $RANDOM }" >>crates/isoforge/src/extract/marching_cubes/mod.rs
+            # A change the compiler must act on: a statement added to MC33's `process_decided`,
+            # the body of the extractor the walker instantiates most.
+            f=crates/isoforge/src/extract/mc33.rs
+            sed -i '0,/fn process_decided<C: Cell>(&self, cell: &mut C, decision: Decision) {/s//&\n        std::hint::black_box('"$RANDOM"');/' $f
+            git diff --quiet $f && { echo "edit: the edit did not apply" >&2; exit 1; }
             step edit cargo test -p isoforge --lib
-            git checkout -q crates/isoforge/src/extract/marching_cubes/mod.rs
+            git checkout -q $f
             ;;
         ci)
             git clone -q "$SRC" "$WORK/ci" && (cd "$WORK/ci" && git checkout -q "$REV")
