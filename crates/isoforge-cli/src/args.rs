@@ -202,6 +202,17 @@ pub struct ExtractArgs {
     /// mt-bcc (marching tetrahedra with 5, 6 or body-centred tetrahedra per cell), surface-nets.
     #[arg(long, default_value = "mc33", value_name = "mc33|mc|mt5|mt6|mt-bcc|surface-nets")]
     pub method: String,
+    /// Walk a sparse grid: a built-in field sampled only near its surface (blocks of 8³ points,
+    /// memory growing with the surface; skipped boxes are proven empty with --lipschitz or the
+    /// field's own bound), or a volume's blocks near the surface (the same mesh as without).
+    /// Fields above 2^28 points are sampled sparsely anyway.
+    #[arg(long)]
+    pub sparse: bool,
+    /// For fields: a bound L on how fast the value changes, |f(p) − f(q)| ≤ L·|p − q| in world
+    /// units (1 for a signed distance); replaces the field's own. Without one, a field with no
+    /// known bound is sampled at every point (memory still grows with the surface).
+    #[arg(long, value_name = "L")]
+    pub lipschitz: Option<String>,
     /// Vertex normals: none (default, as VTK in the peer benchmarks) or gradient (unit normals
     /// from the field gradient, written to PLY and OBJ).
     #[arg(long, default_value = "none", value_name = "none|gradient")]

@@ -311,6 +311,8 @@ impl ExtractConfig {
                 method: a.method.parse().map_err(flag("--method"))?,
                 normals: a.normals.parse().map_err(flag("--normals"))?,
                 threads,
+                sparse: a.sparse.then_some(true),
+                lipschitz: a.lipschitz.as_deref().map(lipschitz).transpose()?,
                 ..Default::default()
             },
             attributes: attributes(a)?,
@@ -384,6 +386,15 @@ fn color(a: &ExtractArgs) -> Result<Option<ColorBy>> {
         None => None,
     };
     Ok(Some(ColorBy { attribute: name.clone(), map, range }))
+}
+
+/// `--lipschitz L`: a finite number above 0.
+fn lipschitz(s: &str) -> Result<f64> {
+    let l = parse_number("--lipschitz", s)?;
+    if l <= 0.0 {
+        bail!("--lipschitz {s}: must be above 0");
+    }
+    Ok(l)
 }
 
 fn parse_number(flag: &str, s: &str) -> Result<f64> {

@@ -134,6 +134,7 @@ fn needs_memory(c: &ExtractConfig) -> Vec<&'static str> {
         (!r.attributes.is_empty(), "--attribute"),
         (r.color.is_some(), "--color-by"),
         (c.color_volume.is_some(), "--color-volume"),
+        (r.options.sparse == Some(true), "--sparse"),
     ]
     .into_iter()
     .filter_map(|(given, flag)| given.then_some(flag))

@@ -22,11 +22,11 @@ use crate::extract::{
     BodyCentredTetrahedra, Counting, Decomposition, Extractor, MarchingCubes, MarchingCubes33, MarchingTetrahedra,
     Masked, PointMask, SurfaceNets,
 };
-use crate::grid::{AnyGrid, DType, DenseGrid, Sample};
+use crate::grid::{AnyGrid, DType, DenseGrid, Sample, SparseGrid};
 use crate::mesh::{KeyRecord, Mesh, MeshBuilder, MeshSink, WriteBehind};
 use crate::volume::catalog::Builtin;
 use crate::volume::{Field, FieldVisitor, GridVolume, Iso, Prefetch, Sampled, SlabSource, Tabulated, Volume};
-use crate::walk::{FlyingEdgesWalker, Progress, SlabWalker, StreamStats, WalkStats, Walker};
+use crate::walk::{walk_ranges, FlyingEdgesWalker, Progress, SlabWalker, StreamStats, WalkStats, Walker};
 
 pub use crate::mesh::Normals;
 
@@ -116,6 +116,16 @@ pub struct Options {
     pub range: Option<CellRange>,
     /// Which vertices' provenance keys to keep in [`Extraction::keys`] (to stitch ranges).
     pub keys: KeyRecord,
+    /// Walk a sparse grid ([`SparseGrid`]) instead of the whole lattice: a field sampled only
+    /// where its surface may pass ([`SparseGrid::from_field`]), a grid copied by its blocks near
+    /// the surface ([`SparseGrid::from_dense`]; the same mesh). `None`: fields above
+    /// [`Tabulated::MAX_POINTS`] points (whose table would not fit) are sampled sparsely, the rest
+    /// densely.
+    pub sparse: Option<bool>,
+    /// A bound on how fast a field's values change (see [`Field::lipschitz`]), replacing the
+    /// field's own: sparse sampling skips what the surface cannot reach. A field without either is
+    /// sampled at every point (memory still grows with the surface).
+    pub lipschitz: Option<f64>,
 }
 
 /// A mesh and what the walk saw.
@@ -285,11 +295,43 @@ pub fn extract_grid(grid: &AnyGrid, iso: Iso, opts: &Options, progress: Option<&
         opts: &Options,
         progress: Option<&dyn Progress>,
     ) -> Result<Extraction> {
+        if opts.sparse == Some(true) {
+            return extract_sparse(&SparseGrid::from_dense(g, iso), iso, opts);
+        }
         let mut out = builder(opts);
         let stats = run(&mut walker(opts, progress), &GridVolume::new(g), iso, opts, &mut out)?;
         finish(out, stats)
     }
     in_pool(opts.threads, || crate::with_grid!(grid, g => go(g, iso, opts, progress)))?
+}
+
+/// Extracts from a sparse grid ([`SparseGrid`]): the cell ranges its leaves make active
+/// ([`SparseGrid::active_ranges`]) walked in parallel on windows of their samples and stitched by
+/// vertex key ([`walk_ranges`]). The mesh has the vertices and polygons of the same samples stored
+/// densely and walked by [`extract_grid`], numbered by range instead of by row; the memory is the
+/// grid's and the mesh's.
+///
+/// # Errors
+/// As [`extract`]; [`Error::InvalidInput`] with a mask or a range (not supported on sparse grids).
+pub fn extract_sparse<S: Sample>(grid: &SparseGrid<S>, iso: Iso, opts: &Options) -> Result<Extraction> {
+    check(iso, opts, grid.lattice().dims())?;
+    if opts.mask.is_some() || opts.range.is_some() {
+        return Err(Error::InvalidInput("a sparse grid is walked by its active blocks: no mask or range".into()));
+    }
+    struct Go<'a, S> {
+        grid: &'a SparseGrid<S>,
+        iso: Iso,
+        opts: &'a Options,
+    }
+    impl<S: Sample> ExtractorVisitor for Go<'_, S> {
+        type Output = Result<Extraction>;
+        fn visit<X: Extractor + Sync>(self, x: X) -> Result<Extraction> {
+            let ranges = self.grid.active_ranges(self.iso, x.visits_uniform_cells());
+            let (m, stats) = walk_ranges(self.grid, &ranges, self.iso, &x, self.opts.normals, self.opts.keys)?;
+            Ok(Extraction { mesh: m.mesh, stats, keys: m.keys })
+        }
+    }
+    in_pool(opts.threads, || with_extractor(opts.method, Go { grid, iso, opts }))?
 }
 
 /// A source of slabs in whichever sample type its file stores (a volume reader).
@@ -514,12 +556,13 @@ pub fn extract_builtin(b: &Builtin, iso: Iso, opts: &Options, progress: Option<&
     impl FieldVisitor for Go<'_> {
         type Output = Result<Extraction>;
         fn visit<F: Field + Clone + Sync>(self, field: &F) -> Self::Output {
-            extract_with_progress(
-                &Sampled::new(field.clone(), self.b.lattice.clone()),
-                self.iso,
-                self.opts,
-                self.progress,
-            )
+            let lipschitz = self.opts.lipschitz.or_else(|| field.lipschitz());
+            let sampled = Sampled::new(field.clone(), self.b.lattice.clone());
+            if self.opts.sparse.unwrap_or(self.b.lattice.num_points() > Tabulated::MAX_POINTS) {
+                let grid = in_pool(self.opts.threads, || SparseGrid::from_field(&sampled, self.iso, lipschitz))??;
+                return extract_sparse(&grid, self.iso, self.opts);
+            }
+            extract_with_progress(&sampled, self.iso, self.opts, self.progress)
         }
     }
     b.field.visit(Go { b, iso, opts, progress })

@@ -48,24 +48,6 @@ fn lattices() -> impl Strategy<Value = (DenseGrid<f32>, Iso)> {
     })
 }
 
-/// Vertex positions (bit patterns) sorted, and polygons as position tuples rotated to their
-/// smallest vertex and sorted: a mesh up to vertex numbering and polygon order.
-fn canonical(m: &Mesh) -> (Vec<[u32; 3]>, Vec<Vec<[u32; 3]>>) {
-    let key = |v: u32| m.positions[v as usize].map(f32::to_bits);
-    let mut verts: Vec<[u32; 3]> = m.positions.iter().map(|p| p.map(f32::to_bits)).collect();
-    verts.sort_unstable();
-    let mut polys: Vec<Vec<[u32; 3]>> = m
-        .polygons()
-        .map(|p| {
-            let k: Vec<[u32; 3]> = p.iter().map(|&v| key(v)).collect();
-            let at = (0..k.len()).min_by_key(|&i| k[i]).unwrap_or(0);
-            k[at..].iter().chain(&k[..at]).copied().collect()
-        })
-        .collect();
-    polys.sort_unstable();
-    (verts, polys)
-}
-
 fn walk_method<V, W: Walker<V>>(
     w: &mut W,
     vol: &V,

@@ -9,6 +9,7 @@ mod lattice;
 mod region;
 mod resample;
 mod sample;
+pub mod sparse;
 
 pub use blocks::BlockBounds;
 pub use dense::{AnyGrid, DenseGrid, NonFinite, ValueRange};
@@ -17,3 +18,4 @@ pub use lattice::{Lattice, WorldSpace, IDENTITY};
 pub(crate) use resample::blend;
 pub use resample::{downsample_mean, upsample_trilinear};
 pub use sample::{as_bytes, as_bytes_mut, first_non_finite, DType, Sample, Threshold};
+pub use sparse::{SparseGrid, SparseNode, SparseStats};

@@ -5,7 +5,7 @@
 //! | `sphere` (`r`) | [`Sphere`] SDF, r 0.7 | [-1, 1]³ | 0, inside below |
 //! | `torus` (`R`, `r`) | [`Torus`] SDF, 0.6 / 0.25 | [-1, 1]³ | 0, inside below |
 //! | `box` (`h`) | [`Cuboid`] SDF, half size 0.6 | [-1, 1]³ | 0, inside below |
-//! | `gyroid` (`periods`) | [`Gyroid`], 2 periods | [-1, 1]³ | 0, inside below |
+//! | `gyroid` (`periods`, `clip`) | [`Gyroid`], 2 periods, clipped to a ball of radius `clip` if given | [-1, 1]³ | 0, inside below |
 //! | `metaballs` (`t`) | [`ChargePoints`] at time t (0.5) | [0, 1]³ | 48, inside above |
 //! | `lines` (`t`) | [`ChargeLines`] at time t (0.5) | [0, 1]³ | 48, inside above |
 //! | `height` | [`HeightField`] | [0, 1]³ | 48, inside below |
@@ -24,7 +24,7 @@ pub const NAMES: [(&str, &str); 7] = [
     ("sphere", "signed distance to a sphere of radius r (0.7) in [-1,1]^3"),
     ("torus", "signed distance to a torus R (0.6), r (0.25) around z in [-1,1]^3"),
     ("box", "signed distance to a cube of half size h (0.6) in [-1,1]^3"),
-    ("gyroid", "gyroid with `periods` (2) periods across [-1,1]^3"),
+    ("gyroid", "gyroid with `periods` (2) periods across [-1,1]^3, clipped to a ball of radius `clip` if given"),
     ("metaballs", "classic demo: charges around three moving points at time t (0.5), iso 48"),
     ("lines", "classic demo: charges around three moving lines at time t (0.5), iso 48"),
     ("height", "classic demo: radial height field, iso 48"),
@@ -104,7 +104,7 @@ pub fn parse(spec: &str) -> Result<Builtin> {
         "sphere" => &["n", "r"],
         "torus" => &["n", "R", "r"],
         "box" => &["n", "h"],
-        "gyroid" => &["n", "periods"],
+        "gyroid" => &["n", "periods", "clip"],
         "metaballs" | "lines" => &["n", "t"],
         "height" => &["n"],
         _ => {
@@ -157,7 +157,10 @@ pub fn parse(spec: &str) -> Result<Builtin> {
         },
         "gyroid" => Builtin {
             // `periods` full periods across the 2-unit domain.
-            field: BuiltinField::Gyroid(Gyroid { frequency: std::f32::consts::PI * positive("periods", 2.0)? }),
+            field: BuiltinField::Gyroid(Gyroid {
+                frequency: std::f32::consts::PI * positive("periods", 2.0)?,
+                clip: params.iter().any(|(k, _)| *k == "clip").then(|| positive("clip", 1.0)).transpose()?,
+            }),
             lattice: centered(dims)?,
             iso: below0,
         },

@@ -9,6 +9,13 @@ pub trait Field {
     fn gradient(&self, p: Vec3) -> Vec3 {
         central_difference(self, p)
     }
+
+    /// A bound L on how fast the value changes, |f(p) − f(q)| ≤ L·|p − q| (world units), when the
+    /// field knows one (1 for a signed distance): sparse sampling then skips every box the
+    /// surface cannot reach ([`SparseGrid::from_field`](crate::grid::SparseGrid::from_field)).
+    fn lipschitz(&self) -> Option<f64> {
+        None
+    }
 }
 
 impl<F: Fn(Vec3) -> f32> Field for F {

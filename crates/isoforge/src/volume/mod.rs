@@ -17,6 +17,7 @@ mod prefetch;
 mod sampled;
 pub mod sdf;
 mod source;
+mod sparse;
 mod tabulated;
 pub mod texture;
 

@@ -14,12 +14,14 @@
 
 mod cached;
 pub mod flying_edges;
+mod ranges;
 mod reference;
 pub(crate) mod segment;
 mod slab;
 mod stitch;
 
 pub use flying_edges::{FlyingEdgesWalker, StreamStats};
+pub use ranges::{walk_ranges, BoxSamples};
 pub use reference::ReferenceWalker;
 pub use slab::SlabWalker;
 pub use stitch::{stitch, stitch_keyed, KeyedMesh};

@@ -3,7 +3,9 @@
 //! keeps (the tetrahedral extractors and MC33's interior vertices use them).
 
 use std::collections::HashMap;
-use std::hash::{BuildHasherDefault, Hasher};
+use std::hash::BuildHasherDefault;
+
+use crate::math::KeyHasher;
 
 use super::Hermite;
 use crate::cube::{CellPoint, SegmentKey, VertexKey};
@@ -188,36 +190,6 @@ impl SegmentCache {
     pub(crate) fn clear(&mut self) {
         self.older.clear();
         self.newer.clear();
-    }
-}
-
-/// A multiplicative hasher for small integer keys (the default SipHash is several times slower
-/// and DoS resistance is not needed for lattice coordinates).
-#[derive(Debug, Default, Clone, Copy)]
-pub(crate) struct KeyHasher(u64);
-
-impl Hasher for KeyHasher {
-    #[inline]
-    fn finish(&self) -> u64 {
-        self.0
-    }
-    #[inline]
-    fn write(&mut self, bytes: &[u8]) {
-        for &b in bytes {
-            self.write_u64(b as u64);
-        }
-    }
-    #[inline]
-    fn write_u32(&mut self, x: u32) {
-        self.write_u64(x as u64);
-    }
-    #[inline]
-    fn write_u64(&mut self, x: u64) {
-        self.0 = (self.0.rotate_left(5) ^ x).wrapping_mul(0x51_7c_c1_b7_27_22_0a_95);
-    }
-    #[inline]
-    fn write_usize(&mut self, x: usize) {
-        self.write_u64(x as u64);
     }
 }
 

@@ -3,7 +3,7 @@
 use std::collections::HashMap;
 use std::hash::BuildHasherDefault;
 
-use super::segment::KeyHasher;
+use crate::math::KeyHasher;
 
 use crate::cube::VertexKey;
 use crate::error::{Error, Result};
@@ -107,8 +107,9 @@ pub fn stitch_keyed(parts: &[KeyedMesh]) -> Result<KeyedMesh> {
         map.extend((0..n as u32 - from).map(|r| id + r));
         map
     });
-    let with_normals =
-        parts.iter().all(|p| p.mesh.normals.len() == p.mesh.positions.len() && !p.mesh.normals.is_empty());
+    // Normals when the parts have them (a part without vertices has none either way).
+    let with_normals = parts.iter().any(|p| !p.mesh.normals.is_empty())
+        && parts.iter().all(|p| p.mesh.normals.len() == p.mesh.positions.len());
     let mut out = Mesh::default();
     let kept_sizes: Vec<usize> = parts.iter().zip(&dropped).map(|(p, d)| p.mesh.num_vertices() - d.len()).collect();
     // The kept vertices of part `i`, in order, copied run by run into `dst`.
@@ -208,8 +209,8 @@ mod tests {
             out.triangles.extend(part.mesh.triangles.iter().map(|t| t.map(|v| map[v as usize])));
             out.quads.extend(part.mesh.quads.iter().map(|q| q.map(|v| map[v as usize])));
         }
-        if parts.iter().any(|p| p.mesh.normals.is_empty()) {
-            // Normals only when every part has them.
+        // Normals only when every part with vertices has them.
+        if parts.iter().any(|p| p.mesh.normals.len() != p.mesh.positions.len()) {
             out.normals.clear();
         }
         (out, keys_out)

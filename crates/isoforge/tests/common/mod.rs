@@ -205,3 +205,33 @@ pub fn walk_method<V, W: Walker<V>>(walker: &mut W, vol: &V, iso: Iso, method: M
     isoforge::pipeline::run(walker, vol, iso, &opts, &mut out).expect("walk");
     out.finish().expect("finish")
 }
+
+/// Vertex positions (bit patterns) sorted, and polygons as position tuples rotated to their
+/// smallest vertex and sorted: a mesh up to vertex numbering and polygon order.
+pub fn canonical(m: &Mesh) -> (Vec<[u32; 3]>, Vec<Vec<[u32; 3]>>) {
+    let key = |v: u32| m.positions[v as usize].map(f32::to_bits);
+    let mut verts: Vec<[u32; 3]> = m.positions.iter().map(|p| p.map(f32::to_bits)).collect();
+    verts.sort_unstable();
+    let mut polys: Vec<Vec<[u32; 3]>> = m
+        .polygons()
+        .map(|p| {
+            let k: Vec<[u32; 3]> = p.iter().map(|&v| key(v)).collect();
+            let at = (0..k.len()).min_by_key(|&i| k[i]).unwrap_or(0);
+            k[at..].iter().chain(&k[..at]).copied().collect()
+        })
+        .collect();
+    polys.sort_unstable();
+    (verts, polys)
+}
+
+/// [`canonical`] with each vertex's normal (bit patterns) beside its position.
+pub fn canonical_with_normals(m: &Mesh) -> (Vec<[u32; 6]>, Vec<Vec<[u32; 3]>>) {
+    let mut verts: Vec<[u32; 6]> = (0..m.positions.len())
+        .map(|v| {
+            let (p, n) = (m.positions[v].map(f32::to_bits), m.normals.get(v).copied().unwrap_or_default());
+            [p[0], p[1], p[2], n[0].to_bits(), n[1].to_bits(), n[2].to_bits()]
+        })
+        .collect();
+    verts.sort_unstable();
+    (verts, canonical(m).1)
+}

@@ -489,7 +489,7 @@ fn for_each_chunk_with<D: Send, A: Send>(
 }
 
 /// Runs `f` on every task, in parallel when enabled; results in task order.
-fn map_tasks<T: Send, R: Send>(tasks: Vec<T>, f: &(dyn Fn(T) -> R + Sync)) -> Vec<R> {
+pub(crate) fn map_tasks<T: Send, R: Send>(tasks: Vec<T>, f: &(dyn Fn(T) -> R + Sync)) -> Vec<R> {
     #[cfg(feature = "parallel")]
     {
         use rayon::prelude::*;
