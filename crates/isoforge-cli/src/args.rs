@@ -213,6 +213,14 @@ pub struct ExtractArgs {
     /// known bound is sampled at every point (memory still grows with the surface).
     #[arg(long, value_name = "L")]
     pub lipschitz: Option<String>,
+    /// Surface following (implies --sparse): flood through the cells the surface crosses from a
+    /// seed in every block that may be crossed (every component), or from --seed points only.
+    #[arg(long)]
+    pub follow: bool,
+    /// Surface following from a world point inside the object wanted (X,Y,Z; repeatable): the
+    /// first crossed cell marching +x from it seeds the flood. Implies --follow.
+    #[arg(long, value_name = "X,Y,Z", allow_hyphen_values = true)]
+    pub seed: Vec<String>,
     /// Vertex normals: none (default, as VTK in the peer benchmarks) or gradient (unit normals
     /// from the field gradient, written to PLY and OBJ).
     #[arg(long, default_value = "none", value_name = "none|gradient")]

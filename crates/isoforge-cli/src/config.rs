@@ -313,6 +313,9 @@ impl ExtractConfig {
                 threads,
                 sparse: a.sparse.then_some(true),
                 lipschitz: a.lipschitz.as_deref().map(lipschitz).transpose()?,
+                follow: (a.follow || !a.seed.is_empty())
+                    .then(|| a.seed.iter().map(|s| seed(s)).collect::<Result<Vec<_>>>())
+                    .transpose()?,
                 ..Default::default()
             },
             attributes: attributes(a)?,
@@ -386,6 +389,12 @@ fn color(a: &ExtractArgs) -> Result<Option<ColorBy>> {
         None => None,
     };
     Ok(Some(ColorBy { attribute: name.clone(), map, range }))
+}
+
+/// `--seed X,Y,Z`: three finite numbers.
+fn seed(s: &str) -> Result<[f64; 3]> {
+    let v: Vec<f64> = s.split(',').map(|x| parse_number("--seed", x)).collect::<Result<_>>()?;
+    <[f64; 3]>::try_from(v).map_err(|_| anyhow!("--seed {s:?}: expected X,Y,Z"))
 }
 
 /// `--lipschitz L`: a finite number above 0.

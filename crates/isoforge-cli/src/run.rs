@@ -135,6 +135,7 @@ fn needs_memory(c: &ExtractConfig) -> Vec<&'static str> {
         (r.color.is_some(), "--color-by"),
         (c.color_volume.is_some(), "--color-volume"),
         (r.options.sparse == Some(true), "--sparse"),
+        (r.options.follow.is_some(), "--follow"),
     ]
     .into_iter()
     .filter_map(|(given, flag)| given.then_some(flag))

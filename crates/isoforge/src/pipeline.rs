@@ -25,8 +25,13 @@ use crate::extract::{
 use crate::grid::{AnyGrid, DType, DenseGrid, Sample, SparseGrid};
 use crate::mesh::{KeyRecord, Mesh, MeshBuilder, MeshSink, WriteBehind};
 use crate::volume::catalog::Builtin;
-use crate::volume::{Field, FieldVisitor, GridVolume, Iso, Prefetch, Sampled, SlabSource, Tabulated, Volume};
-use crate::walk::{walk_ranges, FlyingEdgesWalker, Progress, SlabWalker, StreamStats, WalkStats, Walker};
+use crate::volume::{
+    Field, FieldVisitor, GridVolume, Iso, Prefetch, Sampled, SlabSource, SparseVolume, Tabulated, Volume,
+};
+use crate::walk::{
+    walk_cells, walk_ranges, FlyingEdgesWalker, FollowStats, Follower, Progress, SlabWalker, StreamStats, WalkStats,
+    Walker,
+};
 
 pub use crate::mesh::Normals;
 
@@ -126,6 +131,10 @@ pub struct Options {
     /// field's own: sparse sampling skips what the surface cannot reach. A field without either is
     /// sampled at every point (memory still grows with the surface).
     pub lipschitz: Option<f64>,
+    /// Surface following on sparse grids ([`extract_following`]): `Some` with no points floods
+    /// from seeds in every block that may be crossed (every component), with points from the
+    /// cells met marching +x from each (world coordinates). Implies `sparse`.
+    pub follow: Option<Vec<[f64; 3]>>,
 }
 
 /// A mesh and what the walk saw.
@@ -295,7 +304,7 @@ pub fn extract_grid(grid: &AnyGrid, iso: Iso, opts: &Options, progress: Option<&
         opts: &Options,
         progress: Option<&dyn Progress>,
     ) -> Result<Extraction> {
-        if opts.sparse == Some(true) {
+        if opts.sparse == Some(true) || opts.follow.is_some() {
             return extract_sparse(&SparseGrid::from_dense(g, iso), iso, opts);
         }
         let mut out = builder(opts);
@@ -314,6 +323,10 @@ pub fn extract_grid(grid: &AnyGrid, iso: Iso, opts: &Options, progress: Option<&
 /// # Errors
 /// As [`extract`]; [`Error::InvalidInput`] with a mask or a range (not supported on sparse grids).
 pub fn extract_sparse<S: Sample>(grid: &SparseGrid<S>, iso: Iso, opts: &Options) -> Result<Extraction> {
+    if let Some(points) = &opts.follow {
+        let seeds = if points.is_empty() { Seeds::Tree } else { Seeds::Points(points) };
+        return in_pool(opts.threads, || extract_following(grid, iso, opts, seeds).map(|(e, _)| e))?;
+    }
     check(iso, opts, grid.lattice().dims())?;
     if opts.mask.is_some() || opts.range.is_some() {
         return Err(Error::InvalidInput("a sparse grid is walked by its active blocks: no mask or range".into()));
@@ -332,6 +345,66 @@ pub fn extract_sparse<S: Sample>(grid: &SparseGrid<S>, iso: Iso, opts: &Options)
         }
     }
     in_pool(opts.threads, || with_extractor(opts.method, Go { grid, iso, opts }))?
+}
+
+/// Where surface following starts ([`extract_following`]).
+#[derive(Debug, Clone, Copy)]
+pub enum Seeds<'a> {
+    /// Every component: seeds found in the blocks the grid's bounds say may be crossed.
+    Tree,
+    /// The components met marching along +x from each of these world points (points inside
+    /// the objects wanted).
+    Points(&'a [[f64; 3]]),
+}
+
+/// Surface following on a sparse grid: the cells the surface crosses, flooded from `seeds`
+/// ([`Follower`]), walked one by one. With [`Seeds::Tree`] the mesh has the polygons and vertices
+/// of [`extract_sparse`] (numbered in cell order); with points, only the components met. Returns
+/// what the flood visited: every crossed cell of those components once, and the cells examined
+/// to find seeds.
+///
+/// # Errors
+/// As [`extract`]; [`Error::InvalidInput`] for `mt-bcc` (it meshes cells whose corners agree, which
+/// a flood over crossed cells never reaches), a mask or a range.
+pub fn extract_following<S: Sample>(
+    grid: &SparseGrid<S>,
+    iso: Iso,
+    opts: &Options,
+    seeds: Seeds<'_>,
+) -> Result<(Extraction, FollowStats)> {
+    check(iso, opts, grid.lattice().dims())?;
+    if opts.mask.is_some() || opts.range.is_some() {
+        return Err(Error::InvalidInput("surface following floods from seeds: no mask or range".into()));
+    }
+    if opts.method == Method::TetrahedraBcc {
+        return Err(Error::InvalidInput(
+            "surface following visits the cells the surface crosses; mt-bcc also meshes cells whose corners agree: \
+             walk the whole grid instead"
+                .into(),
+        ));
+    }
+    let vol = SparseVolume::new(grid);
+    let mut follower = Follower::new(&vol, iso);
+    match seeds {
+        Seeds::Tree => follower.flood_ranges(&grid.active_ranges(iso, false)),
+        Seeds::Points(points) => points.iter().for_each(|&p| follower.flood_from_point(p)),
+    }
+    let (cells, stats) = follower.finish();
+    struct Go<'a, S> {
+        vol: SparseVolume<'a, S>,
+        iso: Iso,
+        cells: &'a [[u32; 3]],
+        out: MeshBuilder,
+    }
+    impl<S: Sample> ExtractorVisitor for Go<'_, S> {
+        type Output = Result<Extraction>;
+        fn visit<X: Extractor + Sync>(mut self, x: X) -> Result<Extraction> {
+            let stats = walk_cells(&self.vol, self.iso, &x, self.cells, &mut self.out)?;
+            finish(self.out, stats)
+        }
+    }
+    let e = with_extractor(opts.method, Go { vol, iso, cells: &cells, out: builder(opts) })?;
+    Ok((e, stats))
 }
 
 /// A source of slabs in whichever sample type its file stores (a volume reader).
@@ -558,7 +631,8 @@ pub fn extract_builtin(b: &Builtin, iso: Iso, opts: &Options, progress: Option<&
         fn visit<F: Field + Clone + Sync>(self, field: &F) -> Self::Output {
             let lipschitz = self.opts.lipschitz.or_else(|| field.lipschitz());
             let sampled = Sampled::new(field.clone(), self.b.lattice.clone());
-            if self.opts.sparse.unwrap_or(self.b.lattice.num_points() > Tabulated::MAX_POINTS) {
+            let large = self.b.lattice.num_points() > Tabulated::MAX_POINTS;
+            if self.opts.sparse.unwrap_or(large) || self.opts.follow.is_some() {
                 let grid = in_pool(self.opts.threads, || SparseGrid::from_field(&sampled, self.iso, lipschitz))??;
                 return extract_sparse(&grid, self.iso, self.opts);
             }

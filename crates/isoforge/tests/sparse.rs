@@ -8,7 +8,7 @@ use common::{canonical, canonical_with_normals, Rng};
 use isoforge::grid::{AnyGrid, DenseGrid, Lattice, Sample, SparseGrid};
 use isoforge::math::Vec3;
 use isoforge::mesh::{Mesh, Normals};
-use isoforge::pipeline::{extract_grid, extract_sparse, Method, Options};
+use isoforge::pipeline::{extract_following, extract_grid, extract_sparse, Method, Options, Seeds};
 use isoforge::topo;
 use isoforge::volume::{Iso, Sampled, Volume};
 
@@ -308,4 +308,72 @@ fn dense_round_trip_and_random_access_agree() {
         canonical(&extract_grid(&back.into(), iso, &Options::default(), None).unwrap().mesh),
         canonical(&extract_grid(&g.into(), iso, &Options::default(), None).unwrap().mesh)
     );
+}
+
+/// Cells with corners on both sides of the iso: what surface following must visit.
+fn crossed_cells(g: &DenseGrid<f32>, iso: Iso) -> u64 {
+    let dims = g.lattice().dims();
+    let mut n = 0;
+    for k in 0..dims[2] - 1 {
+        for j in 0..dims[1] - 1 {
+            for i in 0..dims[0] - 1 {
+                let inside = (0..8u32)
+                    .filter(|c| iso.exact_offset(g.get([i + (c & 1), j + (c >> 1 & 1), k + (c >> 2 & 1)]) as f64) < 0.0)
+                    .count();
+                n += u64::from(inside != 0 && inside != 8);
+            }
+        }
+    }
+    n
+}
+
+#[test]
+fn following_from_the_tree_finds_every_component_and_visits_only_crossed_cells() {
+    let g = blobs([52, 41, 47], 30, 8);
+    for iso in [Iso::below(0.0), Iso::above(0.8)] {
+        let sparse = SparseGrid::from_dense(&g, iso);
+        for method in Method::ALL.into_iter().filter(|&m| m != Method::TetrahedraBcc) {
+            let opts = Options { method, normals: Normals::Gradient, ..Options::default() };
+            let (followed, stats) = extract_following(&sparse, iso, &opts, Seeds::Tree).unwrap();
+            let walked = extract_sparse(&sparse, iso, &opts).unwrap();
+            assert_eq!(
+                canonical_with_normals(&followed.mesh),
+                canonical_with_normals(&walked.mesh),
+                "{} {iso:?}",
+                method.name()
+            );
+            assert_eq!(stats.visited, crossed_cells(&g, iso), "{}: visited", method.name());
+            // A flood covers every mesh component it touches: at most one per component.
+            let components = topo::check(&walked.mesh).components.len() as u64;
+            assert!((1..=components).contains(&stats.floods), "{}: {} floods", method.name(), stats.floods);
+        }
+    }
+    let opts = Options { method: Method::TetrahedraBcc, ..Options::default() };
+    let sparse = SparseGrid::from_dense(&g, Iso::below(0.0));
+    assert!(extract_following(&sparse, Iso::below(0.0), &opts, Seeds::Tree).is_err());
+}
+
+#[test]
+fn following_from_a_point_meshes_the_component_around_it() {
+    // Two balls far apart; a point inside the second finds its surface only.
+    let lattice = Lattice::new([48, 24, 24]).unwrap();
+    let field = |p: Vec3| {
+        let a = (p - Vec3::new(10.0, 11.5, 11.5)).length() - 6.0;
+        let b = (p - Vec3::new(34.0, 11.5, 11.5)).length() - 7.0;
+        a.min(b)
+    };
+    let vol = Sampled::new(field, lattice);
+    let iso = Iso::below(0.0);
+    let sparse = SparseGrid::from_field(&vol, iso, Some(1.0)).unwrap();
+    let opts = Options { method: Method::MarchingCubes33, ..Options::default() };
+    let (one, stats) = extract_following(&sparse, iso, &opts, Seeds::Points(&[[34.0, 11.5, 11.5]])).unwrap();
+    let r = topo::check(&one.mesh);
+    assert_eq!(r.components.len(), 1);
+    assert!(r.is_closed());
+    assert!(one.mesh.positions.iter().all(|p| p[0] > 26.0), "only the second ball");
+    assert_eq!(stats.floods, 1);
+    // Both: the whole mesh.
+    let (both, _) =
+        extract_following(&sparse, iso, &opts, Seeds::Points(&[[34.0, 11.5, 11.5], [9.0, 11.0, 12.0]])).unwrap();
+    assert_eq!(canonical(&both.mesh), canonical(&extract_sparse(&sparse, iso, &opts).unwrap().mesh));
 }

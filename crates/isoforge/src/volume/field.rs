@@ -16,6 +16,24 @@ pub trait Field {
     fn lipschitz(&self) -> Option<f64> {
         None
     }
+
+    /// Bounds `(min, max)` of the value over the world box `lo ..= hi`, when the field can tell
+    /// (interval arithmetic): sparse sampling skips a box whose bounds exclude the iso, and
+    /// walkers skip its cells. They must hold for the values [`value`](Field::value) computes,
+    /// rounding included (widen them by a few ulps of the values' size).
+    fn bounds(&self, lo: Vec3, hi: Vec3) -> Option<(f32, f32)> {
+        let _ = (lo, hi);
+        None
+    }
+}
+
+/// `(min, max)` widened by `REL` of their size plus `ABS`: room for `f32` rounding in a field's
+/// [`Field::bounds`] (its computed values may differ from the exact ones by a few ulps).
+pub fn widened((lo, hi): (f32, f32)) -> (f32, f32) {
+    const REL: f32 = 1e-5;
+    const ABS: f32 = 1e-6;
+    let pad = REL * lo.abs().max(hi.abs()) + ABS;
+    (lo - pad, hi + pad)
 }
 
 impl<F: Fn(Vec3) -> f32> Field for F {

@@ -21,7 +21,7 @@ mod sparse;
 mod tabulated;
 pub mod texture;
 
-pub use field::{central_difference, Field, FieldVisitor};
+pub use field::{central_difference, widened, Field, FieldVisitor};
 pub use grid_volume::{
     edge_gradient, grid_crossing, grid_segment_crossing, point_gradient, point_gradient_at, trilinear_value, GridVolume,
 };
@@ -29,6 +29,7 @@ pub use oracle::{Bisection, Illinois, Linear, Oracle};
 pub use prefetch::Prefetch;
 pub use sampled::Sampled;
 pub use source::SlabSource;
+pub use sparse::SparseVolume;
 pub use tabulated::Tabulated;
 
 use crate::cube::EdgeKey;

@@ -71,6 +71,19 @@ impl<F: Field, O: Oracle> Volume for Sampled<F, O> {
         self.field.gradient(self.world(p))
     }
 
+    /// The field's [`Field::bounds`] over the world box around the index box's corners.
+    fn value_bounds(&self, lo: [u32; 3], hi: [u32; 3], iso: Iso) -> Option<(f32, f32)> {
+        let corners = (0..8u32).map(|c| {
+            let p = [0, 1, 2].map(|a| if c >> a & 1 == 0 { lo[a] } else { hi[a] } as f64);
+            self.world(p)
+        });
+        let (wlo, whi) = corners
+            .fold((Vec3::splat(f32::INFINITY), Vec3::splat(f32::NEG_INFINITY)), |(l, h), p| (l.min(p), h.max(p)));
+        let (a, b) = self.field.bounds(wlo, whi)?;
+        let (a, b) = (iso.offset(a as f64), iso.offset(b as f64));
+        Some((a.min(b), a.max(b)))
+    }
+
     fn segment_crossing(&self, p0: [f64; 3], p1: [f64; 3], d0: f32, d1: f32, iso: Iso) -> f32 {
         let (p0, p1) = (self.world(p0), self.world(p1));
         let g = |t: f32| iso.offset(self.field.value(p0.lerp(p1, t)) as f64);

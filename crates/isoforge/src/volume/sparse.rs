@@ -91,7 +91,10 @@ impl SparseGrid<f32> {
                 iso.value
             )));
         }
-        let grid = match lipschitz {
+        // The field's own bounds over a box, when it has them (interval arithmetic), then the
+        // Lipschitz bound.
+        let bounded = lipschitz.is_some() || vol.value_bounds([0; 3], dims.map(|d| d - 1), iso).is_some();
+        let grid = match bounded.then(|| lipschitz.unwrap_or(f64::INFINITY)) {
             Some(l) => {
                 // The side of all points of the box lo .. hi, or `None` when the bound cannot
                 // tell (then split `depth` more times): uniform when the centre lies farther from
@@ -131,6 +134,14 @@ impl SparseGrid<f32> {
                     found
                 }
                 let test = |lo: [u32; 3], hi: [u32; 3]| -> Option<bool> {
+                    if let Some((min, max)) = vol.value_bounds(lo, hi.map(|v| v - 1), iso) {
+                        if min >= 0.0 || max < 0.0 {
+                            return Some(max < 0.0);
+                        }
+                    }
+                    if !l.is_finite() {
+                        return None;
+                    }
                     let half = [0, 1, 2].map(|a| (hi[a] - lo[a] - 1) as f64 / 2.0);
                     let r = (0..3).map(|a| (half[a] * spacing[a]).powi(2)).sum::<f64>().sqrt();
                     let v = offset([0, 1, 2].map(|a| lo[a] as f64 + half[a]));
@@ -303,5 +314,59 @@ impl<S: Sample> SparseGrid<S> {
             ranges.push(CellRange { lo: c, hi });
         }
         ranges
+    }
+}
+
+/// A sparse grid as a volume: values from its leaves and tiles, crossings and gradients by the
+/// very routines of [`GridVolume`](super::GridVolume) (the same bits on the same samples), value
+/// bounds from its leaves. What walkers that visit cells one by one read (surface following).
+#[derive(Debug, Clone, Copy)]
+pub struct SparseVolume<'g, S> {
+    grid: &'g SparseGrid<S>,
+}
+
+impl<'g, S: Sample> SparseVolume<'g, S> {
+    /// Wraps a sparse grid.
+    pub fn new(grid: &'g SparseGrid<S>) -> Self {
+        SparseVolume { grid }
+    }
+
+    #[inline]
+    fn at(&self, p: [u32; 3]) -> f64 {
+        self.grid.get(p).to_f64()
+    }
+}
+
+impl<S: Sample> Volume for SparseVolume<'_, S> {
+    #[inline]
+    fn lattice(&self) -> &crate::grid::Lattice {
+        self.grid.lattice()
+    }
+    fn fill_slab(&self, k: u32, iso: Iso, out: &mut [f32]) {
+        let [nx, ny, _] = self.grid.lattice().dims();
+        let mut row = Vec::new();
+        self.grid.fill_box([0, 0, k], [nx, ny, k + 1], &mut row);
+        for (o, v) in out.iter_mut().zip(row) {
+            *o = iso.offset(v.to_f64());
+        }
+    }
+    #[inline]
+    fn crossing(&self, e: crate::cube::EdgeKey, d0: f32, d1: f32, iso: Iso) -> f32 {
+        super::grid_crossing(e, d0, d1, iso, &|p| self.at(p))
+    }
+    fn segment_crossing(&self, p0: [f64; 3], p1: [f64; 3], d0: f32, d1: f32, iso: Iso) -> f32 {
+        super::grid_segment_crossing(self.grid.lattice().dims(), [p0, p1], d0, d1, iso, &|p| self.at(p))
+    }
+    fn gradient(&self, e: crate::cube::EdgeKey, t: f32) -> crate::math::Vec3 {
+        super::edge_gradient(self.grid.lattice(), e, t, &|p| self.at(p))
+    }
+    fn value_at(&self, p: [f64; 3], iso: Iso) -> f32 {
+        iso.offset(super::trilinear_value(self.grid.lattice().dims(), p, &|q| self.at(q)))
+    }
+    fn gradient_at(&self, p: [f64; 3]) -> crate::math::Vec3 {
+        super::point_gradient_at(self.grid.lattice(), p, &|q| self.at(q))
+    }
+    fn bounded_by_corners(&self) -> bool {
+        true
     }
 }

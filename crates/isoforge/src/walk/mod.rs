@@ -14,6 +14,7 @@
 
 mod cached;
 pub mod flying_edges;
+mod follow;
 mod ranges;
 mod reference;
 pub(crate) mod segment;
@@ -21,7 +22,9 @@ mod slab;
 mod stitch;
 
 pub use flying_edges::{FlyingEdgesWalker, StreamStats};
+pub use follow::{FollowStats, Follower};
 pub use ranges::{walk_ranges, BoxSamples};
+pub(crate) use reference::walk_cells;
 pub use reference::ReferenceWalker;
 pub use slab::SlabWalker;
 pub use stitch::{stitch, stitch_keyed, KeyedMesh};

@@ -19,16 +19,12 @@ pub struct ReferenceWalker;
 impl<V: Volume> Walker<V> for ReferenceWalker {
     fn walk<X: Extractor + Sync>(&mut self, vol: &V, iso: Iso, x: &X, out: &mut MeshBuilder) -> Result<WalkStats> {
         let lattice = vol.lattice().clone();
-        let mut stats = WalkStats::default();
         if !lattice.has_cells() {
-            return Ok(stats);
+            return Ok(WalkStats::default());
         }
         out.set_reverse_winding(lattice.is_mirrored());
         let [nx, ny, nz] = lattice.dims();
-        let mut ids: HashMap<EdgeKey, (VertexId, [f32; 3])> = HashMap::new();
-        let mut seg_ids: HashMap<SegmentKey, (VertexId, [f32; 3])> = HashMap::new();
-        let mut placed: HashMap<[u32; 3], Vec<(VertexId, u16)>> = HashMap::new();
-        let mut mismatch = None;
+        let mut keyed = Keyed::default();
         for k in 0..nz - 1 {
             for j in 0..ny - 1 {
                 for i in 0..nx - 1 {
@@ -39,43 +35,94 @@ impl<V: Volume> Walker<V> for ReferenceWalker {
                         let s = if o[2] == 0 { &s0 } else { &s1 };
                         s[(j + o[1]) as usize * nx as usize + (i + o[0]) as usize]
                     });
-                    let case = case_of(&d);
-                    stats.cells += 1;
-                    match case {
-                        0 => stats.cells_outside += 1,
-                        255 => stats.cells_inside += 1,
-                        _ => {}
-                    }
-                    if wants_cell(x, case) {
-                        let mut cell = RefCell {
-                            ijk: [i, j, k],
-                            dims: [nx, ny, nz],
-                            d,
-                            case,
-                            vol,
-                            iso,
-                            ids: &mut ids,
-                            seg_ids: &mut seg_ids,
-                            placed: &mut placed,
-                            n_placed: 0,
-                            memo: [f32::NAN; 7],
-                            out,
-                            mismatch: &mut mismatch,
-                        };
-                        x.place(&mut cell);
-                        x.process(&mut cell);
-                    }
+                    keyed.visit(vol, iso, x, [i, j, k], d, out);
                 }
             }
         }
-        match mismatch {
+        keyed.finish()
+    }
+}
+
+/// Walks exactly `cells` of `vol` (sorted (z, y, x), each once) with `x` at `iso`, as the
+/// reference walker does (values from [`Volume::value_at`] at the corners, vertices joined by key
+/// in maps): what surface following walks, the cells it found.
+///
+/// # Errors
+/// [`Error::Internal`] when a crossing is not reproducible.
+pub(crate) fn walk_cells<V: Volume + ?Sized, X: Extractor>(
+    vol: &V,
+    iso: Iso,
+    x: &X,
+    cells: &[[u32; 3]],
+    out: &mut MeshBuilder,
+) -> Result<WalkStats> {
+    out.set_reverse_winding(vol.lattice().is_mirrored());
+    let mut keyed = Keyed::default();
+    for &c in cells {
+        let d = CORNER_OFFSETS.map(|o| vol.value_at([0, 1, 2].map(|a| (c[a] + o[a]) as f64), iso));
+        keyed.visit(vol, iso, x, c, d, out);
+    }
+    keyed.finish()
+}
+
+/// The maps of a walk without caches: vertices by key, placed vertices by cell.
+#[derive(Default)]
+struct Keyed {
+    ids: HashMap<EdgeKey, (VertexId, [f32; 3])>,
+    seg_ids: HashMap<SegmentKey, (VertexId, [f32; 3])>,
+    placed: HashMap<[u32; 3], Vec<(VertexId, u16)>>,
+    mismatch: Option<String>,
+    stats: WalkStats,
+}
+
+impl Keyed {
+    /// Cell `ijk` with offset values `d`: counted, and handed to `x` when it wants it.
+    fn visit<V: Volume + ?Sized, X: Extractor>(
+        &mut self,
+        vol: &V,
+        iso: Iso,
+        x: &X,
+        ijk: [u32; 3],
+        d: [f32; 8],
+        out: &mut MeshBuilder,
+    ) {
+        let case = case_of(&d);
+        self.stats.cells += 1;
+        match case {
+            0 => self.stats.cells_outside += 1,
+            255 => self.stats.cells_inside += 1,
+            _ => {}
+        }
+        if wants_cell(x, case) {
+            let mut cell = RefCell {
+                ijk,
+                dims: vol.lattice().dims(),
+                d,
+                case,
+                vol,
+                iso,
+                ids: &mut self.ids,
+                seg_ids: &mut self.seg_ids,
+                placed: &mut self.placed,
+                n_placed: 0,
+                memo: [f32::NAN; 7],
+                out,
+                mismatch: &mut self.mismatch,
+            };
+            x.place(&mut cell);
+            x.process(&mut cell);
+        }
+    }
+
+    fn finish(self) -> Result<WalkStats> {
+        match self.mismatch {
             Some(key) => Err(Error::Internal(format!("crossing on {key} is not reproducible"))),
-            None => Ok(stats),
+            None => Ok(self.stats),
         }
     }
 }
 
-struct RefCell<'a, V> {
+struct RefCell<'a, V: ?Sized> {
     ijk: [u32; 3],
     dims: [u32; 3],
     d: [f32; 8],
@@ -91,7 +138,7 @@ struct RefCell<'a, V> {
     mismatch: &'a mut Option<String>,
 }
 
-impl<V: Volume> Cell for RefCell<'_, V> {
+impl<V: Volume + ?Sized> Cell for RefCell<'_, V> {
     fn ijk(&self) -> [u32; 3] {
         self.ijk
     }

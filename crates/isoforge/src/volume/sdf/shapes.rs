@@ -1,5 +1,12 @@
 use crate::math::Vec3;
-use crate::volume::Field;
+use crate::volume::{widened, Field};
+
+/// The nearest and farthest distances from `c` to the box `lo ..= hi`.
+fn distance_range(c: Vec3, lo: Vec3, hi: Vec3) -> (f32, f32) {
+    let near = (c.clamp(lo, hi) - c).length();
+    let far = (c - lo).abs().max((c - hi).abs()).length();
+    (near, far)
+}
 
 /// A sphere: exact signed distance.
 #[derive(Debug, Clone, Copy, PartialEq)]
@@ -21,6 +28,10 @@ impl Field for Sphere {
     }
     fn lipschitz(&self) -> Option<f64> {
         Some(1.0)
+    }
+    fn bounds(&self, lo: Vec3, hi: Vec3) -> Option<(f32, f32)> {
+        let (near, far) = distance_range(self.center, lo, hi);
+        Some(widened((near - self.radius, far - self.radius)))
     }
 }
 
@@ -111,6 +122,17 @@ impl Field for Gyroid {
     /// size) times ω: |∇| ≤ 2√3·ω; the ball's distance adds slope 1 at most.
     fn lipschitz(&self) -> Option<f64> {
         Some((2.0 * 3f64.sqrt() * self.frequency as f64).max(1.0))
+    }
+    /// The gyroid lies in [−3, 3]; clipped, the larger of it and the ball's distance bounds.
+    fn bounds(&self, lo: Vec3, hi: Vec3) -> Option<(f32, f32)> {
+        let g = (-3.0f32, 3.0f32);
+        Some(match self.clip {
+            None => widened(g),
+            Some(r) => {
+                let (near, far) = distance_range(Vec3::ZERO, lo, hi);
+                widened((g.0.max(near - r), g.1.max(far - r)))
+            }
+        })
     }
 }
 
