@@ -221,6 +221,10 @@ pub struct ExtractArgs {
     /// first crossed cell marching +x from it seeds the flood. Implies --follow.
     #[arg(long, value_name = "X,Y,Z", allow_hyphen_values = true)]
     pub seed: Vec<String>,
+    /// Level of the multiresolution pyramid: the lattice coarsened 2^L times (volumes: means of
+    /// blocks of 2^L³ points; fields: sampled every 2^L points). 0 (default): full resolution.
+    #[arg(long, value_name = "L", default_value_t = 0, value_parser = clap::value_parser!(u32).range(0..=12))]
+    pub level: u32,
     /// Vertex normals: none (default, as VTK in the peer benchmarks) or gradient (unit normals
     /// from the field gradient, written to PLY and OBJ).
     #[arg(long, default_value = "none", value_name = "none|gradient")]

@@ -316,6 +316,7 @@ impl ExtractConfig {
                 follow: (a.follow || !a.seed.is_empty())
                     .then(|| a.seed.iter().map(|s| seed(s)).collect::<Result<Vec<_>>>())
                     .transpose()?,
+                level: a.level,
                 ..Default::default()
             },
             attributes: attributes(a)?,

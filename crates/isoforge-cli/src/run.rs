@@ -136,6 +136,7 @@ fn needs_memory(c: &ExtractConfig) -> Vec<&'static str> {
         (c.color_volume.is_some(), "--color-volume"),
         (r.options.sparse == Some(true), "--sparse"),
         (r.options.follow.is_some(), "--follow"),
+        (r.options.level > 0, "--level"),
     ]
     .into_iter()
     .filter_map(|(given, flag)| given.then_some(flag))

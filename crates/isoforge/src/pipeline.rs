@@ -135,6 +135,10 @@ pub struct Options {
     /// from seeds in every block that may be crossed (every component), with points from the
     /// cells met marching +x from each (world coordinates). Implies `sparse`.
     pub follow: Option<Vec<[f64; 3]>>,
+    /// Level of the multiresolution pyramid to mesh: the lattice coarsened 2^level times (grids:
+    /// means of blocks of points, [`downsample_mean`](crate::grid::downsample_mean) and
+    /// [`SparseGrid::downsample`]; fields: sampled every 2^level points). 0: the lattice itself.
+    pub level: u32,
 }
 
 /// A mesh and what the walk saw.
@@ -304,6 +308,10 @@ pub fn extract_grid(grid: &AnyGrid, iso: Iso, opts: &Options, progress: Option<&
         opts: &Options,
         progress: Option<&dyn Progress>,
     ) -> Result<Extraction> {
+        if opts.level > 0 {
+            let coarse = crate::grid::downsample_mean(g, 1 << opts.level.min(31))?;
+            return go(&coarse, iso, &Options { level: 0, ..opts.clone() }, progress);
+        }
         if opts.sparse == Some(true) || opts.follow.is_some() {
             return extract_sparse(&SparseGrid::from_dense(g, iso), iso, opts);
         }
@@ -323,6 +331,13 @@ pub fn extract_grid(grid: &AnyGrid, iso: Iso, opts: &Options, progress: Option<&
 /// # Errors
 /// As [`extract`]; [`Error::InvalidInput`] with a mask or a range (not supported on sparse grids).
 pub fn extract_sparse<S: Sample>(grid: &SparseGrid<S>, iso: Iso, opts: &Options) -> Result<Extraction> {
+    if opts.level > 0 {
+        let mut coarse = grid.downsample()?;
+        for _ in 1..opts.level {
+            coarse = coarse.downsample()?;
+        }
+        return extract_sparse(&coarse, iso, &Options { level: 0, ..opts.clone() });
+    }
     if let Some(points) = &opts.follow {
         let seeds = if points.is_empty() { Seeds::Tree } else { Seeds::Points(points) };
         return in_pool(opts.threads, || extract_following(grid, iso, opts, seeds).map(|(e, _)| e))?;
@@ -630,16 +645,40 @@ pub fn extract_builtin(b: &Builtin, iso: Iso, opts: &Options, progress: Option<&
         type Output = Result<Extraction>;
         fn visit<F: Field + Clone + Sync>(self, field: &F) -> Self::Output {
             let lipschitz = self.opts.lipschitz.or_else(|| field.lipschitz());
-            let sampled = Sampled::new(field.clone(), self.b.lattice.clone());
-            let large = self.b.lattice.num_points() > Tabulated::MAX_POINTS;
-            if self.opts.sparse.unwrap_or(large) || self.opts.follow.is_some() {
-                let grid = in_pool(self.opts.threads, || SparseGrid::from_field(&sampled, self.iso, lipschitz))??;
-                return extract_sparse(&grid, self.iso, self.opts);
+            let lattice = coarsened(&self.b.lattice, self.opts.level)?;
+            let opts = &Options { level: 0, ..self.opts.clone() };
+            let sampled = Sampled::new(field.clone(), lattice);
+            let large = sampled.lattice().num_points() > Tabulated::MAX_POINTS;
+            if opts.sparse.unwrap_or(large) || opts.follow.is_some() {
+                let grid = in_pool(opts.threads, || SparseGrid::from_field(&sampled, self.iso, lipschitz))??;
+                return extract_sparse(&grid, self.iso, opts);
             }
-            extract_with_progress(&sampled, self.iso, self.opts, self.progress)
+            extract_with_progress(&sampled, self.iso, opts, self.progress)
         }
     }
     b.field.visit(Go { b, iso, opts, progress })
+}
+
+/// `lattice` sampled every 2^level points: the same origin and direction, spacing 2^level times
+/// larger, the points that fit.
+///
+/// # Errors
+/// [`Error::InvalidInput`] when an axis would keep fewer than 2 points.
+fn coarsened(lattice: &crate::grid::Lattice, level: u32) -> Result<crate::grid::Lattice> {
+    if level == 0 {
+        return Ok(lattice.clone());
+    }
+    let step = 1u64 << level.min(31);
+    let dims = lattice.dims().map(|n| ((n as u64 - 1) / step + 1) as u32);
+    if dims.iter().any(|&n| n < 2) {
+        return Err(Error::InvalidInput(format!(
+            "level {level}: a lattice of {:?} points keeps {dims:?} points, fewer than 2 on an axis",
+            lattice.dims()
+        )));
+    }
+    crate::grid::Lattice::with_geometry(dims, lattice.spacing().map(|s| s * step as f64), lattice.origin())?
+        .with_direction(lattice.direction())
+        .map(|l| l.with_space(lattice.space()))
 }
 
 #[cfg(test)]

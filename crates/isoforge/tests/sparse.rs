@@ -8,9 +8,10 @@ use common::{canonical, canonical_with_normals, Rng};
 use isoforge::grid::{AnyGrid, DenseGrid, Lattice, Sample, SparseGrid};
 use isoforge::math::Vec3;
 use isoforge::mesh::{Mesh, Normals};
-use isoforge::pipeline::{extract_following, extract_grid, extract_sparse, Method, Options, Seeds};
+use isoforge::pipeline::{self, extract_following, extract_grid, extract_sparse, Method, Options, Seeds};
 use isoforge::topo;
 use isoforge::volume::{Iso, Sampled, Volume};
+use isoforge::walk::walk_ranges;
 
 /// Every method's mesh of `sparse` equals its mesh of `dense`, vertices (with normals) and
 /// polygons, up to numbering.
@@ -27,9 +28,34 @@ where
             assert_eq!(a.num_vertices(), b.num_vertices(), "{what}: {} vertices", method.name());
             assert_eq!(canonical_with_normals(&a), canonical_with_normals(&b), "{what}: {} {normals:?}", method.name());
             triangles += b.num_triangles() + b.num_quads();
+            // Tiles of one block: many ranges, stitched.
+            let ranges = sparse.active_ranges_in(iso, method == Method::TetrahedraBcc, 1);
+            let (c, _) = pipeline::with_extractor(method, Walk { sparse, ranges: &ranges, iso, normals });
+            assert_eq!(
+                canonical_with_normals(&c.mesh),
+                canonical_with_normals(&b),
+                "{what}: {} in {} ranges",
+                method.name(),
+                ranges.len()
+            );
         }
     }
     triangles
+}
+
+/// A walk of given ranges of a sparse grid with a method's extractor.
+struct Walk<'a, S> {
+    sparse: &'a SparseGrid<S>,
+    ranges: &'a [isoforge::cube::CellRange],
+    iso: Iso,
+    normals: Normals,
+}
+
+impl<S: Sample> pipeline::ExtractorVisitor for Walk<'_, S> {
+    type Output = (isoforge::walk::KeyedMesh, isoforge::walk::WalkStats);
+    fn visit<X: isoforge::extract::Extractor + Sync>(self, x: X) -> Self::Output {
+        walk_ranges(self.sparse, self.ranges, self.iso, &x, self.normals, isoforge::mesh::KeyRecord::None).unwrap()
+    }
 }
 
 /// Balls of random centres and radii (some touching, some a fraction of a cell wide) and a
@@ -376,4 +402,50 @@ fn following_from_a_point_meshes_the_component_around_it() {
     let (both, _) =
         extract_following(&sparse, iso, &opts, Seeds::Points(&[[34.0, 11.5, 11.5], [9.0, 11.0, 12.0]])).unwrap();
     assert_eq!(canonical(&both.mesh), canonical(&extract_sparse(&sparse, iso, &opts).unwrap().mesh));
+}
+
+#[test]
+fn coarser_levels_are_block_means_and_mesh_the_same_shape() {
+    let g = blobs([70, 45, 53], 10, 9);
+    let iso = Iso::below(0.0);
+    let sparse = SparseGrid::from_dense(&g, iso);
+    let coarse = sparse.downsample().unwrap();
+    let dense_coarse = isoforge::grid::downsample_mean(&g, 2).unwrap();
+    assert_eq!(coarse.lattice(), dense_coarse.lattice());
+    // Where the eight fine points are leaf samples, the coarse value is their mean.
+    let mut compared = 0;
+    for n in 0..coarse.num_leaves() {
+        let o = coarse.leaf_origin(n);
+        for (at, &v) in coarse.leaf_values(n).iter().enumerate() {
+            let p = [o[0] + at as u32 % 8, o[1] + at as u32 / 8 % 8, o[2] + at as u32 / 64];
+            if (0..3).any(|a| p[a] >= coarse.lattice().dims()[a]) {
+                continue;
+            }
+            let fine_in_leaves = (0..8u32).all(|c| {
+                let f = [0, 1, 2].map(|a| 2 * p[a] + (c >> a & 1));
+                sparse.block_at(f.map(|x| x / 8 * 8)).is_err()
+            });
+            if fine_in_leaves {
+                let want = dense_coarse.get(p);
+                assert!((v - want).abs() <= 1e-5 * want.abs().max(1.0), "{p:?}: {v} vs {want}");
+                compared += 1;
+            }
+        }
+    }
+    assert!(compared > 1000);
+    // A sphere field at two levels: closed, one component, on the sphere within a coarse cell.
+    let lattice = Lattice::spanning([129; 3], [-1.0; 3], [1.0; 3]).unwrap();
+    let vol = Sampled::new(sphere([0.02, 0.01, -0.03], 0.6), lattice);
+    let grid = SparseGrid::from_field(&vol, iso, Some(1.0)).unwrap();
+    for level in [1, 2] {
+        let opts = Options { method: Method::MarchingCubes, level, ..Options::default() };
+        let m = extract_sparse(&grid, iso, &opts).unwrap().mesh;
+        let r = topo::check(&m);
+        assert!(r.is_closed() && r.components.len() == 1, "level {level}");
+        let h = 2.0 / 128.0 * f32::powi(2.0, level as i32);
+        for p in &m.positions {
+            let d = (Vec3::from(*p) - Vec3::new(0.02, 0.01, -0.03)).length() - 0.6;
+            assert!(d.abs() < h, "level {level}: vertex {p:?} off the sphere by {d}");
+        }
+    }
 }

@@ -379,6 +379,66 @@ impl<S: Sample> SparseGrid<S> {
     }
 }
 
+impl<S: Sample> SparseGrid<S> {
+    /// The next level of the multiresolution pyramid: each point the mean of a 2³ block of this
+    /// grid's points, at the block's centre (spacing doubled; trailing points that fill no block
+    /// dropped), as [`downsample_mean`](super::downsample_mean) does for dense grids. A coarse
+    /// block whose eight fine blocks are tiles of one value stays a tile; the others are leaves.
+    ///
+    /// # Errors
+    /// [`Error::InvalidInput`] when an axis has fewer than 2 points.
+    pub fn downsample(&self) -> Result<SparseGrid<f32>> {
+        let lat = &self.lattice;
+        let dims = lat.dims();
+        if dims.iter().any(|&n| n < 2) {
+            return Err(Error::InvalidInput(format!("a sparse grid of {dims:?} points has no coarser level")));
+        }
+        let coarse = dims.map(|n| n / 2);
+        let lattice = Lattice::with_geometry(coarse, lat.spacing().map(|s| s * 2.0), lat.to_world([0.5; 3]))?
+            .with_direction(lat.direction())?
+            .with_space(lat.space());
+        let background = self.background.to_f64() as f32;
+        let node = |coord: [u32; 3]| {
+            let mut fine = Vec::new();
+            SparseNode::blocks(coord, coarse, background, &mut |o: [u32; 3], out: &mut [f32]| {
+                // The eight fine blocks under this coarse block: one value, or means.
+                let mut one: Option<Option<S>> = None;
+                for c in 0..8u32 {
+                    let f = [0, 1, 2].map(|a| 2 * o[a] + LEAF * (c >> a & 1));
+                    if (0..3).any(|a| f[a] >= 2 * coarse[a]) {
+                        continue;
+                    }
+                    one = match (one, self.block_at(f)) {
+                        (None, Ok(v)) => Some(Some(v)),
+                        (Some(Some(u)), Ok(v)) if u == v => Some(Some(u)),
+                        _ => Some(None),
+                    };
+                }
+                if let Some(Some(v)) = one {
+                    return Some(v.to_f64() as f32);
+                }
+                let hi = [0, 1, 2].map(|a| (2 * (o[a] + LEAF)).min(2 * coarse[a]));
+                self.fill_box(o.map(|v| 2 * v), hi, &mut fine);
+                let d = [0, 1, 2].map(|a| (hi[a] - 2 * o[a]) as usize);
+                for z in 0..d[2] / 2 {
+                    for y in 0..d[1] / 2 {
+                        for x in 0..d[0] / 2 {
+                            let mut sum = 0.0f64;
+                            for c in 0..8usize {
+                                let (i, j, k) = (2 * x + (c & 1), 2 * y + (c >> 1 & 1), 2 * z + (c >> 2 & 1));
+                                sum += fine[(k * d[1] + j) * d[0] + i].to_f64();
+                            }
+                            out[in_leaf([x as u32, y as u32, z as u32])] = (sum / 8.0) as f32;
+                        }
+                    }
+                }
+                None
+            })
+        };
+        Ok(SparseGrid::build(lattice, background, &node))
+    }
+}
+
 /// How [`SparseNode::blocks`] asks for one block: its value, or its samples written.
 pub type BlockFill<'a, S> = dyn FnMut([u32; 3], &mut [S]) -> Option<S> + 'a;
 

@@ -223,9 +223,9 @@ impl SparseGrid<f32> {
     }
 }
 
-/// Blocks of cells per range of [`SparseGrid::active_ranges`] at most (along x): long enough that
-/// a walk's setup is paid once for many blocks, short enough to spread over threads.
-const RUN_BLOCKS: u32 = 32;
+/// Tiles per range of [`SparseGrid::active_ranges`] at most (along x): long enough that a walk's
+/// setup is paid once for much work, short enough to spread over threads.
+const RUN_TILES: u32 = 4;
 
 impl<S: Sample> SparseGrid<S> {
     /// The cell ranges a walk at `iso` must visit to make every polygon of the grid's surface:
@@ -238,6 +238,18 @@ impl<S: Sample> SparseGrid<S> {
     /// tiles of opposite sides meet; the second never happens in grids made by this crate's
     /// constructors (a leaf lies between), and the VDB reader refuses it.
     pub fn active_ranges(&self, iso: Iso, uniform_too: bool) -> Vec<CellRange> {
+        self.active_ranges_in(iso, uniform_too, Self::TILE_BLOCKS)
+    }
+
+    /// Blocks per edge of the tiles [`active_ranges`](SparseGrid::active_ranges) walks active
+    /// blocks in: walking the idle cells of a tile of 64³ cells costs less than the setup of
+    /// walks of its active blocks alone (sphere 1024³: 1.0 s with tiles of one block, 0.6 s with
+    /// these; docs/BENCHMARKS.md §8).
+    pub const TILE_BLOCKS: u32 = 8;
+
+    /// [`active_ranges`](SparseGrid::active_ranges) with tiles of `tile_blocks`³ blocks (at least
+    /// 1; the ranges are the same cells in other boxes, so the same mesh).
+    pub fn active_ranges_in(&self, iso: Iso, uniform_too: bool, tile_blocks: u32) -> Vec<CellRange> {
         let dims = self.lattice().dims();
         let cells = dims.map(|d| d.saturating_sub(1));
         if cells.contains(&0) {
@@ -297,15 +309,21 @@ impl<S: Sample> SparseGrid<S> {
             active.sort_unstable_by_key(order);
             active.dedup();
         }
-        // Runs along x of up to RUN_BLOCKS blocks.
+        // Tiles of TILE_BLOCKS³ blocks holding an active block (walking a few idle cells costs less than
+        // a walk's setup), then runs of tiles along x.
+        let size = LEAF * tile_blocks.max(1);
+        let mut tiles: Vec<[u32; 3]> = active.iter().map(|c| c.map(|v| v / size * size)).collect();
+        tiles.dedup();
+        tiles.sort_unstable_by_key(order);
+        tiles.dedup();
         let mut ranges: Vec<CellRange> = Vec::new();
-        for c in active {
-            let hi = [0, 1, 2].map(|a| (c[a] + LEAF).min(cells[a]));
+        for c in tiles {
+            let hi = [0, 1, 2].map(|a| (c[a] + size).min(cells[a]));
             if let Some(last) = ranges.last_mut() {
                 if last.lo[1] == c[1]
                     && last.lo[2] == c[2]
                     && last.hi[0] == c[0]
-                    && c[0] - last.lo[0] < RUN_BLOCKS * LEAF
+                    && c[0] - last.lo[0] < RUN_TILES * size
                 {
                     last.hi[0] = hi[0];
                     continue;
