@@ -449,3 +449,27 @@ fn coarser_levels_are_block_means_and_mesh_the_same_shape() {
         }
     }
 }
+
+/// Tiles of opposite sides side by side, without a leaf between (as files may hold): the surface
+/// between them is meshed as on the dense samples, for child tiles and for whole-node tiles.
+#[test]
+fn surfaces_between_tiles_are_meshed() {
+    use isoforge::grid::SparseNode;
+    // 300 × 140 × 60 points: node (1, 0, 0) is one tile of −1; in node (0, 0, 0) the blocks at
+    // 8..32 on each axis are tiles of −1; the rest is the background 1.
+    let lattice = Lattice::new([300, 140, 60]).unwrap();
+    let dims = lattice.dims();
+    let grid = SparseGrid::build(lattice, 1.0f32, &|coord: [u32; 3]| {
+        if coord == [1, 0, 0] {
+            return SparseNode::tile(-1.0);
+        }
+        SparseNode::blocks(coord, dims, 1.0, &mut |o: [u32; 3], _: &mut [f32]| {
+            Some(if coord == [0, 0, 0] && o.iter().all(|&v| (8..32).contains(&v)) { -1.0 } else { 1.0 })
+        })
+    });
+    assert_eq!(grid.num_leaves(), 0);
+    let dense = grid.to_dense().unwrap();
+    let iso = Iso::below(0.0);
+    let t = assert_same_meshes(&grid, &dense, iso, "tiles only");
+    assert!(t > 0);
+}

@@ -236,6 +236,75 @@ impl<S: Sample> SparseGrid<S> {
         }
     }
 
+    /// The blocks of 8³ points (origins) that are tiles (or background) with a face neighbour
+    /// block that is a tile of the other side (`inside` tells the sides): where a surface runs
+    /// between constant regions, with no leaf to show it. Each node's child tiles are checked
+    /// across their six faces, each root tile across the blocks of its six faces.
+    pub fn tile_boundary_blocks(&self, inside: &dyn Fn(S) -> bool) -> Vec<[u32; 3]> {
+        let dims = self.lattice.dims();
+        let mut out = Vec::new();
+        let check = |o: [u32; 3], v: S, out: &mut Vec<[u32; 3]>| {
+            for a in 0..3 {
+                for up in [false, true] {
+                    let mut n = o;
+                    if up {
+                        n[a] += LEAF;
+                        if n[a] >= dims[a] {
+                            continue;
+                        }
+                    } else if let Some(x) = n[a].checked_sub(LEAF) {
+                        n[a] = x;
+                    } else {
+                        continue;
+                    }
+                    if let Child::Tile(w) = self.block(n) {
+                        if inside(w) != inside(v) {
+                            out.push(o);
+                            out.push(n);
+                        }
+                    }
+                }
+            }
+        };
+        for node in &self.nodes {
+            let base = node.coord.map(|c| c * NODE_POINTS);
+            for (c, child) in node.children.iter().enumerate() {
+                if let Child::Tile(v) = *child {
+                    let c = c as u32;
+                    let o = [
+                        base[0] + LEAF * (c % NODE),
+                        base[1] + LEAF * (c / NODE % NODE),
+                        base[2] + LEAF * (c / (NODE * NODE)),
+                    ];
+                    if (0..3).all(|a| o[a] < dims[a]) {
+                        check(o, v, &mut out);
+                    }
+                }
+            }
+        }
+        for (coord, entry) in &self.root {
+            let Entry::Tile(v) = *entry else { continue };
+            let base = coord.map(|c| c * NODE_POINTS);
+            // The blocks on the tile's faces.
+            for a in 0..3 {
+                for side in [0, NODE - 1] {
+                    for u in 0..NODE {
+                        for w in 0..NODE {
+                            let mut o = base;
+                            o[a] += LEAF * side;
+                            o[(a + 1) % 3] += LEAF * u;
+                            o[(a + 2) % 3] += LEAF * w;
+                            if (0..3).all(|x| o[x] < dims[x]) {
+                                check(o, v, &mut out);
+                            }
+                        }
+                    }
+                }
+            }
+        }
+        out
+    }
+
     /// The samples of the points `lo .. hi` (half-open, inside the lattice), x fastest, into
     /// `out` (resized): leaf rows copied, tiles filled.
     pub fn fill_box(&self, lo: [u32; 3], hi: [u32; 3], out: &mut Vec<S>) {

@@ -235,8 +235,8 @@ impl<S: Sample> SparseGrid<S> {
     /// the blocks just above them on each axis; joined in runs along x, sorted (z, y, x).
     ///
     /// A cell block can be crossed only where a leaf is among its corners' blocks, or where two
-    /// tiles of opposite sides meet; the second never happens in grids made by this crate's
-    /// constructors (a leaf lies between), and the VDB reader refuses it.
+    /// tiles of opposite sides meet (files may hold that: a fog volume's tiles of 1 beside the
+    /// background 0): both kinds are candidates, kept when their corners' bounds straddle the iso.
     pub fn active_ranges(&self, iso: Iso, uniform_too: bool) -> Vec<CellRange> {
         self.active_ranges_in(iso, uniform_too, Self::TILE_BLOCKS)
     }
@@ -266,6 +266,17 @@ impl<S: Sample> SparseGrid<S> {
         let mut candidates: Vec<[u32; 3]> = Vec::with_capacity(self.num_leaves() * 8);
         for n in 0..self.num_leaves() {
             let o = self.leaf_origin(n);
+            for d in 0..8u32 {
+                let c = [0, 1, 2].map(|a| o[a].checked_sub(LEAF * (d >> a & 1)));
+                if let [Some(x), Some(y), Some(z)] = c {
+                    if x < cells[0] && y < cells[1] && z < cells[2] {
+                        candidates.push([x, y, z]);
+                    }
+                }
+            }
+        }
+        // And every block of cells between tiles of opposite sides.
+        for o in self.tile_boundary_blocks(&|v: S| iso.exact_offset(v.to_f64()) < 0.0) {
             for d in 0..8u32 {
                 let c = [0, 1, 2].map(|a| o[a].checked_sub(LEAF * (d >> a & 1)));
                 if let [Some(x), Some(y), Some(z)] = c {
