@@ -232,11 +232,28 @@ def dicoms():
         print("Pillow not importable: no JPEG DICOM seed")
 
 
+# ------------------------------------------------------------------------------------------
+# OpenVDB
+
+def vdbs():
+    """The .vdb files of testdata/vdb/ (made by its make_vdb.py) read from memory (selector 0),
+    the smallest also through a file (1), and truncations of tiny.vdb (inside the header, the
+    descriptor, the metadata, the 32^3 node's masks, the leaf values)."""
+    for p in files("vdb", ".vdb"):
+        seed("read_vdb", p.name, 0, p.read_bytes())
+    for name in ["tiny.vdb", "tiny_stream.vdb"]:
+        seed("read_vdb", "file_" + name, 1, (TESTDATA / "vdb" / name).read_bytes())
+    tiny = (TESTDATA / "vdb" / "tiny.vdb").read_bytes()
+    for cut in [40, 120, 400, 2000, 8000, len(tiny) - 300, len(tiny) - 1]:
+        seed("read_vdb", "tiny_cut_%d.vdb" % cut, 0, tiny[:cut])
+
+
 if __name__ == "__main__":
     shutil.rmtree(OUT, ignore_errors=True)
     volumes()
     images()
     meshes()
     dicoms()
+    vdbs()
     for d in sorted(OUT.iterdir()):
         print(f"{d.name}: {len(list(d.iterdir()))} seeds")

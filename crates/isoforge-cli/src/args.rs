@@ -211,7 +211,7 @@ pub struct ExtractArgs {
     /// For fields: a bound L on how fast the value changes, |f(p) − f(q)| ≤ L·|p − q| in world
     /// units (1 for a signed distance); replaces the field's own. Without one, a field with no
     /// known bound is sampled at every point (memory still grows with the surface).
-    #[arg(long, value_name = "L")]
+    #[arg(long, value_name = "L", allow_hyphen_values = true)]
     pub lipschitz: Option<String>,
     /// Surface following (implies --sparse): flood through the cells the surface crosses from a
     /// seed in every block that may be crossed (every component), or from --seed points only.
@@ -223,7 +223,7 @@ pub struct ExtractArgs {
     pub seed: Vec<String>,
     /// Level of the multiresolution pyramid: the lattice coarsened 2^L times (volumes: means of
     /// blocks of 2^L³ points; fields: sampled every 2^L points). 0 (default): full resolution.
-    #[arg(long, value_name = "L", default_value_t = 0, value_parser = clap::value_parser!(u32).range(0..=12))]
+    #[arg(long, value_name = "L", default_value_t = 0, value_parser = clap::value_parser!(u32).range(0..=12), allow_hyphen_values = true)]
     pub level: u32,
     /// Vertex normals: none (default, as VTK in the peer benchmarks) or gradient (unit normals
     /// from the field gradient, written to PLY and OBJ).

@@ -5,7 +5,7 @@
 
 use std::path::{Path, PathBuf};
 
-use anyhow::Result;
+use anyhow::{bail, Result};
 use isoforge::pipeline::request::AttributeSource;
 use isoforge_io::{Batch, MeshFormat};
 
@@ -83,6 +83,14 @@ pub fn plan_extract(c: &ExtractConfig) -> Result<Batch> {
                 outputs.push((t, None, "--time-json".to_string()));
             }
         }
+    }
+    if outputs.len() > isoforge_io::Batch::MAX_FILES {
+        bail!(
+            "--iso: {} values write {} files; at most {} in one run",
+            isos.len(),
+            outputs.len(),
+            isoforge_io::Batch::MAX_FILES
+        );
     }
     let mut inputs = input_files(&c.input, "-i");
     if let Some(m) = &c.mask {

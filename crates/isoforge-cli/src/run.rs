@@ -5,9 +5,9 @@ use std::time::Instant;
 
 use anyhow::{anyhow, bail, Context, Result};
 use isoforge::extract::Counting;
-use isoforge::grid::{AnyGrid, Histogram, Sample, IDENTITY};
+use isoforge::grid::{AnyGrid, AnySparse, Histogram, Sample, IDENTITY};
 use isoforge::mesh::{ExternalError, MeshBatch, MeshSink, Normals};
-use isoforge::pipeline::{self, Extraction, Method};
+use isoforge::pipeline::{self, Extraction, Method, Options};
 use isoforge::topo::{self, CheckOptions, Guarantee, MeshReport, StreamCheck};
 use isoforge::volume::catalog::{self, Builtin};
 use isoforge::volume::Iso;
@@ -37,6 +37,8 @@ pub enum Outcome {
 pub enum Loaded {
     Grid(AnyGrid),
     Field(Builtin),
+    /// A sparse grid (an OpenVDB file).
+    Sparse(Box<isoforge_io::SparseFile>),
     /// A volume to mesh slab by slab (it does not fit the memory budget).
     Stream(VolumeReader),
 }
@@ -55,6 +57,8 @@ struct Budget {
     normals: bool,
     /// `--require`: the in-memory check must fit too.
     check: bool,
+    /// Fields sampled sparsely (`--sparse`, `--follow`).
+    sparse: bool,
 }
 
 /// Opens the input; with a memory budget, a volume whose in-memory extraction could exceed it
@@ -62,10 +66,38 @@ struct Budget {
 /// stream does.
 fn open_input(input: &InputConfig, budget: Option<&Budget>, prefer_stream: bool) -> Result<Loaded> {
     let (path, raw) = match &input.source {
-        Source::Field(b) => return Ok(Loaded::Field(b.clone())),
+        Source::Field(f) => {
+            if let Some(b) = budget {
+                // Fields do not stream: the table of values and the mesh must fit.
+                let points = f.lattice.num_points();
+                if b.sparse || points > isoforge::volume::Tabulated::MAX_POINTS {
+                    bail!(
+                        "--max-memory: a field sampled sparsely ({} points) uses memory that follows its \
+                         surface, which is not known before sampling; drop --max-memory",
+                        points
+                    );
+                }
+                let need = estimate(&f.lattice, points.saturating_mul(4), b);
+                if need > b.bytes {
+                    bail!(
+                        "--max-memory {} MiB: meshing the field in memory can need {} MiB (its {} values \
+                         and the largest mesh --method {} could make), and fields do not stream",
+                        b.bytes >> 20,
+                        need.div_ceil(1 << 20),
+                        points,
+                        b.method.name()
+                    );
+                }
+            }
+            return Ok(Loaded::Field(f.clone()));
+        }
         Source::File { path, raw } => (path, raw),
     };
     let name = path.display();
+    if raw.is_none() && isoforge_io::VolumeFormat::from_path(path) == Some(isoforge_io::VolumeFormat::Vdb) {
+        let file = spin(format!("reading {name}"), || isoforge_io::read_sparse(path, None, &input.limits))?;
+        return Ok(Loaded::Sparse(Box::new(file)));
+    }
     let open_limits = if budget.is_some() { Limits::new(u64::MAX) } else { input.limits };
     let reader = open_reader(path, raw.as_ref(), &open_limits)?;
     if let Some(b) = budget {
@@ -78,6 +110,17 @@ fn open_input(input: &InputConfig, budget: Option<&Budget>, prefer_stream: bool)
                     b.method.name(),
                     need >> 20,
                     b.bytes >> 20
+                );
+            }
+            let least = stream_minimum(&reader);
+            if least > b.bytes {
+                bail!(
+                    "{name}: --max-memory {} KiB: streaming it slab by slab holds at least {} KiB (nine slabs \
+                     of {}×{} samples, before any mesh)",
+                    b.bytes >> 10,
+                    least.div_ceil(1 << 10),
+                    reader.lattice().dims()[0],
+                    reader.lattice().dims()[1]
                 );
             }
             return Ok(Loaded::Stream(reader));
@@ -198,7 +241,11 @@ const SLACK: u64 = 64 << 20;
 /// smaller, but it is not known before the walk; with the worst case counted, the budget holds
 /// whatever the data.
 fn in_memory_estimate(reader: &VolumeReader, b: &Budget) -> u64 {
-    let l = reader.lattice();
+    estimate(reader.lattice(), reader.volume_bytes(), b)
+}
+
+/// [`in_memory_estimate`] of the samples of `volume_bytes` on `l`.
+fn estimate(l: &isoforge::grid::Lattice, volume_bytes: u64, b: &Budget) -> u64 {
     let points = l.num_points();
     let cells = l.dims().iter().map(|&d| u64::from(d.saturating_sub(1))).product::<u64>();
     let ((per_point, per_cell), growth) =
@@ -212,7 +259,18 @@ fn in_memory_estimate(reader: &VolumeReader, b: &Budget) -> u64 {
     } else {
         0
     };
-    reader.volume_bytes().saturating_add(points / 8).saturating_add(SLACK).saturating_add(mesh).saturating_add(check)
+    volume_bytes.saturating_add(points / 8).saturating_add(SLACK).saturating_add(mesh).saturating_add(check)
+}
+
+/// The least memory a streamed extraction of `reader` holds whatever the data: its slabs of
+/// samples (the walker's five and the read-ahead's four), three planes of bits and two of row
+/// counts; the slabs' meshes come on top, as large as the surface makes them.
+fn stream_minimum(reader: &VolumeReader) -> u64 {
+    let [nx, ny, _] = reader.lattice().dims().map(u64::from);
+    let samples = (nx * ny).saturating_mul(reader.dtype().size() as u64).saturating_mul(9);
+    let bits = 3 * ny * nx.div_ceil(64) * 8;
+    let rows = 2 * ny * 40;
+    samples.saturating_add(bits).saturating_add(rows)
 }
 
 fn input_name(input: &InputConfig) -> String {
@@ -384,13 +442,14 @@ pub fn extract(c: &ExtractConfig) -> Result<Outcome> {
         grows: r.options.method.counting() == Counting::Unknown || c.mask.is_some(),
         normals: r.options.normals == Normals::Gradient,
         check: !c.require.is_empty(),
+        sparse: r.options.sparse == Some(true) || r.options.follow.is_some(),
     });
     let batch = crate::outputs::plan_extract(c)?;
     let loaded = open_input(&c.input, budget.as_ref(), streams_by_default(c))?;
     let name = input_name(&c.input);
     let default_iso = match &loaded {
         Loaded::Field(b) => b.iso,
-        Loaded::Grid(_) | Loaded::Stream(_) => Iso::below(0.0),
+        Loaded::Grid(_) | Loaded::Stream(_) | Loaded::Sparse(_) => Iso::below(0.0),
     };
     let isos = r.isos_or(default_iso);
     let mut mask = None;
@@ -428,6 +487,16 @@ pub fn extract(c: &ExtractConfig) -> Result<Outcome> {
             Loaded::Grid(r.region.apply(g, outside).with_context(|| name.clone())?)
         }
         Loaded::Field(_) if c.mask.is_some() => bail!("--mask applies to volume files"),
+        Loaded::Sparse(_) if !r.region.is_identity() || c.mask.is_some() => {
+            bail!("--roi, --close, --space index and --mask apply to dense volume files, not to {name}")
+        }
+        Loaded::Sparse(s) => {
+            if let Some(range) = s.grid.value_range() {
+                request::check_isos_in_range(&isos, range.min, range.max)
+                    .map_err(|e| anyhow!("{name}: {e} (see `isoforge info {name}`)"))?;
+            }
+            Loaded::Sparse(s)
+        }
         field => field,
     };
     let mut c = c.clone();
@@ -513,6 +582,19 @@ fn extract_labels(
         roi.point_box(g.lattice()).with_context(|| format!("{name}: --roi"))?;
     }
     let g = c.request.region.for_labels().apply(g, 0.0).with_context(|| name.to_string())?;
+    // Each label is a pass over the whole volume: say so before a long run (an image's grey
+    // values taken for labels are hundreds of them).
+    let count = match labels {
+        pipeline::Labels::All => pipeline::labels_present(&g).len(),
+        pipeline::Labels::These(v) => v.len(),
+    };
+    if count > MANY_LABELS {
+        eprintln!(
+            "{name}: {count} labels: one pass over the {} points for each, every surface kept until written \
+             (a label volume rarely has this many: is it a label volume?)",
+            g.lattice().num_points()
+        );
+    }
     let start = Instant::now();
     let task = Task::counting("meshing label");
     let surfaces = pipeline::extract_labels_with_progress(&g, labels, &c.request.options, Some(&task))
@@ -617,6 +699,22 @@ fn vertex_data(
     data
 }
 
+/// Labels beyond which `--labels` warns before meshing (each label is a pass over the volume).
+const MANY_LABELS: usize = 64;
+
+/// One in-memory extraction of a loaded input (the library call for its kind).
+fn extract_loaded(loaded: &Loaded, iso: Iso, options: &Options, task: &Task) -> Result<Extraction> {
+    Ok(match loaded {
+        Loaded::Grid(g) => pipeline::extract_grid(g, iso, options, Some(task))?,
+        Loaded::Field(b) => pipeline::extract_builtin(b, iso, options, Some(task))?,
+        Loaded::Sparse(s) => match &s.grid {
+            AnySparse::F32(g) => pipeline::extract_sparse(g, iso, options)?,
+            AnySparse::F64(g) => pipeline::extract_sparse(g, iso, options)?,
+        },
+        Loaded::Stream(_) => bail!("too large to mesh in memory"),
+    })
+}
+
 /// What every iso of one `extract` run shares.
 #[derive(Clone, Copy)]
 struct Job<'a> {
@@ -649,11 +747,7 @@ fn extract_one(
         let options = &c.request.options;
         let task = Task::start(format!("extracting iso {} ({})", iso.value, options.method.name()));
         let start = Instant::now();
-        last = Some(match loaded {
-            Loaded::Grid(g) => pipeline::extract_grid(g, iso, options, Some(&task))?,
-            Loaded::Field(b) => pipeline::extract_builtin(b, iso, options, Some(&task))?,
-            Loaded::Stream(_) => bail!("internal: streamed input reached the in-memory path"),
-        });
+        last = Some(extract_loaded(loaded, iso, options, &task).with_context(|| name.to_string())?);
         runs.push(start.elapsed().as_secs_f64());
         task.finish();
     }
@@ -714,6 +808,10 @@ pub fn info(input: &InputConfig, json_out: bool) -> Result<Outcome> {
         Loaded::Grid(g) => (g.lattice().clone(), g.dtype().to_string()),
         Loaded::Field(b) => (b.lattice.clone(), "field (f32)".to_string()),
         Loaded::Stream(r) => (r.lattice().clone(), r.dtype().to_string()),
+        Loaded::Sparse(s) => (
+            s.grid.lattice().clone(),
+            format!("sparse {}", if matches!(s.grid, AnySparse::F32(_)) { "f32" } else { "f64" }),
+        ),
     };
     let (lo, hi) = lattice.world_bounds();
     let mut v = json!({
@@ -730,6 +828,19 @@ pub fn info(input: &InputConfig, json_out: bool) -> Result<Outcome> {
     let hist = match &loaded {
         Loaded::Grid(g) => spin("histogram", || Histogram::of(g, 256)),
         Loaded::Stream(_) => None,
+        Loaded::Sparse(s) => {
+            let st = s.grid.stats();
+            v["sparse"] = json!({
+                "grid": s.name, "class": s.class, "other_grids": s.others,
+                "active_points": s.active_points, "leaves": st.leaves, "stored_samples": st.stored_samples,
+                "nodes": st.nodes, "tiles": st.child_tiles + st.root_tiles, "bytes": st.bytes,
+                "index_origin": s.grid.index_origin(),
+            });
+            if let Some(r) = s.grid.value_range() {
+                v["value_range"] = json!([r.min, r.max]);
+            }
+            None
+        }
         Loaded::Field(b) => {
             v["default_iso"] = json!(b.iso.value);
             v["inside"] = json!(b.iso.inside.name());
@@ -770,6 +881,29 @@ pub fn info(input: &InputConfig, json_out: bool) -> Result<Outcome> {
     println!("world:       ({:.4}, {:.4}, {:.4}) to ({:.4}, {:.4}, {:.4})", lo[0], lo[1], lo[2], hi[0], hi[1], hi[2]);
     if let Loaded::Field(b) = &loaded {
         println!("default iso: {} (inside {})", b.iso.value, b.iso.inside.name());
+    }
+    if let Loaded::Sparse(s) = &loaded {
+        let st = s.grid.stats();
+        let class = s.class.as_deref().map(|c| format!(", {c}")).unwrap_or_default();
+        println!(
+            "grid:        {}{class}{}",
+            s.name,
+            if s.others.is_empty() { String::new() } else { format!(" (also in the file: {})", s.others.join(", ")) }
+        );
+        println!(
+            "sparse:      {} active points; {} leaves of 8³ ({} samples), {} nodes, {} tiles, {:.1} MiB",
+            s.active_points,
+            st.leaves,
+            st.stored_samples,
+            st.nodes,
+            st.child_tiles + st.root_tiles,
+            st.bytes as f64 / 1048576.0
+        );
+        let o = s.grid.index_origin();
+        println!("index:       lattice point 0 is the file's index ({}, {}, {})", o[0], o[1], o[2]);
+        if let Some(r) = s.grid.value_range() {
+            println!("values:      {} to {}", r.min, r.max);
+        }
     }
     if let Some(h) = &hist {
         println!("values:      {} to {}, mean {:.4}", h.min, h.max, h.mean);
@@ -965,11 +1099,7 @@ pub fn render(c: &RenderConfig) -> Result<Outcome> {
             let iso = c.request.isos_or(default_iso)[0];
             let options = &c.request.options;
             let task = Task::start(format!("extracting iso {} ({})", iso.value, options.method.name()));
-            let mesh = match &loaded {
-                Loaded::Grid(g) => pipeline::extract_grid(g, iso, options, Some(&task))?.mesh,
-                Loaded::Field(b) => pipeline::extract_builtin(b, iso, options, Some(&task))?.mesh,
-                Loaded::Stream(_) => bail!("{name}: too large to render in memory"),
-            };
+            let mesh = extract_loaded(&loaded, iso, options, &task).with_context(|| name.clone())?.mesh;
             task.finish();
             mesh
         }

@@ -356,7 +356,7 @@ fn streamed_mesh_equals_in_memory_mesh() {
         let o = isoforge(&[&base[..], &["-o", p(&mem)]].concat());
         assert_eq!(o.status.code(), Some(0), "{}", stderr(&o));
         let t = dir.path().join("t.json");
-        let o = isoforge(&[&base[..], &["-o", p(&streamed), "--max-memory", "1K", "--time-json", p(&t)]].concat());
+        let o = isoforge(&[&base[..], &["-o", p(&streamed), "--max-memory", "64K", "--time-json", p(&t)]].concat());
         assert_eq!(o.status.code(), Some(0), "{}", stderr(&o));
         assert!(stderr(&o).contains("streamed slab by slab"), "{}", stderr(&o));
         let j: serde_json::Value = serde_json::from_str(&std::fs::read_to_string(&t).unwrap()).unwrap();
@@ -368,7 +368,7 @@ fn streamed_mesh_equals_in_memory_mesh() {
     }
     // Out-of-core runs of the raw volume into `out` with `extra` flags.
     let out_of_core = |extra: &[&str], out: &Path| -> Vec<String> {
-        let base = ["extract", "-i", p(&raw), "--dims", "70,40,33", "--dtype", "u16", "--max-memory", "1K"];
+        let base = ["extract", "-i", p(&raw), "--dims", "70,40,33", "--dtype", "u16", "--max-memory", "64K"];
         base.iter().chain(extra).copied().chain(["-o", p(out)]).map(String::from).collect()
     };
     let fails_out_of_core = |extra: &[&str], name: &str, message: &str| {
@@ -462,14 +462,14 @@ fn several_isos_stream_out_of_core_a_file_each() {
     let none = dir.path().join("none");
     std::fs::create_dir_all(&none).unwrap();
     let o =
-        isoforge(&["extract", "-i", p(&gz), "--iso", "0.5,99999", "--max-memory", "1K", "-o", p(&none.join("m.ply"))]);
+        isoforge(&["extract", "-i", p(&gz), "--iso", "0.5,99999", "--max-memory", "3K", "-o", p(&none.join("m.ply"))]);
     assert_eq!(o.status.code(), Some(2), "{}", stderr(&o));
     assert!(stderr(&o).contains("is outside the value range"), "{}", stderr(&o));
     assert_eq!(std::fs::read_dir(&none).unwrap().count(), 0, "a failed run leaves nothing");
     for ext in ["glb", "obj"] {
         let out = none.join(format!("m.{ext}"));
         fails(
-            &["extract", "-i", p(&gz), "--iso", "0.5,1.5", "--max-memory", "1K", "-o", p(&out)],
+            &["extract", "-i", p(&gz), "--iso", "0.5,1.5", "--max-memory", "3K", "-o", p(&out)],
             "several isos in one",
             &out,
         );

@@ -476,6 +476,10 @@ fn output_error(path: &Path, detail: impl std::fmt::Display) -> Error {
 }
 
 impl Batch {
+    /// The most files one batch writes (its temporary files are registered for the signal
+    /// handler's cleanup, in a fixed table).
+    pub const MAX_FILES: usize = REGISTRY_SLOTS;
+
     /// An empty batch.
     pub fn new() -> Self {
         Self::default()

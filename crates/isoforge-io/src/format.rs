@@ -24,6 +24,8 @@ pub enum VolumeFormat {
     Png,
     /// TIFF image or multi-page stack (`.tif`, `.tiff`).
     Tiff,
+    /// OpenVDB (`.vdb`): a sparse grid, read by [`read_sparse`](crate::read_sparse).
+    Vdb,
 }
 
 /// A mesh file format.
@@ -54,7 +56,7 @@ fn lower_name(path: &Path) -> String {
 
 impl VolumeFormat {
     /// Every volume format, in the order help texts list them.
-    pub const ALL: [VolumeFormat; 9] = [
+    pub const ALL: [VolumeFormat; 10] = [
         VolumeFormat::Nrrd,
         VolumeFormat::Nifti,
         VolumeFormat::MetaImage,
@@ -63,6 +65,7 @@ impl VolumeFormat {
         VolumeFormat::Vti,
         VolumeFormat::Png,
         VolumeFormat::Tiff,
+        VolumeFormat::Vdb,
         VolumeFormat::Raw,
     ];
 
@@ -78,6 +81,7 @@ impl VolumeFormat {
             VolumeFormat::Vti => &[".vti"],
             VolumeFormat::Png => &[".png"],
             VolumeFormat::Tiff => &[".tif", ".tiff"],
+            VolumeFormat::Vdb => &[".vdb"],
         }
     }
 
@@ -99,6 +103,7 @@ impl VolumeFormat {
             VolumeFormat::Vti => "VTK image data (XML)",
             VolumeFormat::Png => "PNG",
             VolumeFormat::Tiff => "TIFF",
+            VolumeFormat::Vdb => "OpenVDB (sparse: float and double grids)",
         }
     }
 }

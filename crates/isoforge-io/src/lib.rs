@@ -46,6 +46,8 @@ pub use limits::Limits;
 pub use memory::keep_freed_memory;
 #[cfg(feature = "raw")]
 pub use read::raw::RawSpec;
+#[cfg(feature = "vdb")]
+pub use read::sparse::{read_sparse, SparseFile};
 pub use read::stream::VolumeReader;
 #[cfg(feature = "tiff")]
 pub use read::tiff::{read_tiff_rgb, RgbVolume};
@@ -108,6 +110,7 @@ pub fn open_volume(path: &Path, limits: &Limits) -> Result<VolumeReader> {
         #[cfg(feature = "tiff")]
         Some(VolumeFormat::Tiff) => read::tiff::open_tiff(path, limits),
         Some(VolumeFormat::Raw) => unsupported("raw volumes need their layout: pass --dims X,Y,Z and --dtype"),
+        Some(VolumeFormat::Vdb) => unsupported("an OpenVDB file is sparse: read it with read_sparse"),
         #[allow(unreachable_patterns)]
         Some(f) => unsupported(&format!("{} support is not compiled in", f.name())),
         None => unsupported(

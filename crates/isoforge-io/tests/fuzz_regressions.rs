@@ -91,3 +91,15 @@ fn issue_10_fuzz_dicom_rle_segment_shorter_than_the_image() {
     let e = read_volume(&series, &Limits::new(16 << 20)).unwrap_err().to_string();
     assert!(e.contains("s0.dcm: RLE segment 0"), "{e}");
 }
+
+/// Issue 44, read_vdb: a grid type holding newlines and 5 KB of other bytes was put into the
+/// message as it was; names and types from the file are now quoted (escaped) and cut.
+#[test]
+fn issue_44_fuzz_vdb_names_in_messages_stay_on_one_line() {
+    let data = artifact("read_vdb", "crash-control-characters-in-type-name");
+    let e = isoforge_io::read::vdb::read_vdb_bytes(Path::new("f.vdb"), &data[1..], &Limits::new(16 << 20))
+        .unwrap_err()
+        .to_string();
+    assert!(e.starts_with("f.vdb: ") && !e.contains('\n') && e.len() < 400, "{e}");
+    assert!(e.contains(r#"type "\0Tree_float_5_4_3"#), "{e}");
+}

@@ -405,6 +405,14 @@ pub fn extract_following<S: Sample>(
         Seeds::Points(points) => points.iter().for_each(|&p| follower.flood_from_point(p)),
     }
     let (cells, stats) = follower.finish();
+    if cells.is_empty() {
+        return Err(Error::InvalidInput(match seeds {
+            Seeds::Tree => format!("no surface at iso {}: no cell of the grid is crossed", iso.value),
+            Seeds::Points(_) => {
+                format!("no surface at iso {}: marching +x from the seeds met no cell the surface crosses", iso.value)
+            }
+        }));
+    }
     struct Go<'a, S> {
         vol: SparseVolume<'a, S>,
         iso: Iso,

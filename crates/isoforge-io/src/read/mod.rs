@@ -23,6 +23,8 @@ pub mod ply;
 pub mod png;
 #[cfg(feature = "raw")]
 pub mod raw;
+#[cfg(feature = "vdb")]
+pub mod sparse;
 #[cfg(any(feature = "png", feature = "tiff"))]
 pub mod stack;
 #[cfg(feature = "stl")]
@@ -30,6 +32,8 @@ pub mod stl;
 pub mod stream;
 #[cfg(feature = "tiff")]
 pub mod tiff;
+#[cfg(feature = "vdb")]
+pub mod vdb;
 #[cfg(feature = "vtk")]
 pub mod vti;
 #[cfg(feature = "vtk")]

@@ -95,7 +95,7 @@ pub struct SparseStats {
     pub nodes: u64,
     /// Root entries that are tiles (128³ points of one value).
     pub root_tiles: u64,
-    /// Child tiles (8³ points of one value).
+    /// Child tiles (8³ points of one value) other than the background.
     pub child_tiles: u64,
     /// Bytes held by the grid's arrays.
     pub bytes: u64,
@@ -178,8 +178,12 @@ impl<S: Sample> SparseGrid<S> {
 
     /// Counts and bytes (see [`SparseStats`]).
     pub fn stats(&self) -> SparseStats {
-        let child_tiles =
-            self.nodes.iter().flat_map(|n| n.children.iter()).filter(|c| matches!(c, Child::Tile(_))).count();
+        let child_tiles = self
+            .nodes
+            .iter()
+            .flat_map(|n| n.children.iter())
+            .filter(|c| matches!(c, Child::Tile(v) if *v != self.background))
+            .count();
         let root_tiles = self.root.iter().filter(|(_, e)| matches!(e, Entry::Tile(_))).count();
         let bytes = self.leaf_values.capacity() * std::mem::size_of::<S>()
             + self.leaf_origins.capacity() * 12
@@ -282,12 +286,32 @@ impl<S: Sample> SparseGrid<S> {
                 }
             }
         }
+        let nodes = dims.map(|d| d.div_ceil(NODE_POINTS));
         for (coord, entry) in &self.root {
             let Entry::Tile(v) = *entry else { continue };
             let base = coord.map(|c| c * NODE_POINTS);
-            // The blocks on the tile's faces.
+            // The blocks on the tile's faces, but for faces against a root tile of the same side
+            // or the lattice's end (a tile of 4096³ points is 32768 of these).
             for a in 0..3 {
                 for side in [0, NODE - 1] {
+                    let mut n = *coord;
+                    if side == 0 {
+                        let Some(x) = n[a].checked_sub(1) else { continue };
+                        n[a] = x;
+                    } else {
+                        n[a] += 1;
+                        if n[a] >= nodes[a] {
+                            continue;
+                        }
+                    }
+                    let across = match self.entry(n) {
+                        None => Some(self.background),
+                        Some(Entry::Tile(w)) => Some(w),
+                        Some(Entry::Node(_)) => None,
+                    };
+                    if across.is_some_and(|w| inside(w) == inside(v)) {
+                        continue;
+                    }
                     for u in 0..NODE {
                         for w in 0..NODE {
                             let mut o = base;
@@ -414,6 +438,22 @@ impl<S: Sample> SparseGrid<S> {
         let coords: Vec<[u32; 3]> = (0..per_axis[2])
             .flat_map(|z| (0..per_axis[1]).flat_map(move |y| (0..per_axis[0]).map(move |x| [x, y, z])))
             .collect();
+        Self::build_nodes(lattice, background, coords, node)
+    }
+
+    /// [`build`](SparseGrid::build) visiting only the nodes at `coords` (node coordinates, any
+    /// order, inside the lattice); every other point has the background. For sources that know
+    /// where their data is (a file's leaves and tiles).
+    pub fn build_nodes(
+        lattice: Lattice,
+        background: S,
+        mut coords: Vec<[u32; 3]>,
+        node: &(dyn Fn([u32; 3]) -> SparseNode<S> + Sync),
+    ) -> Self {
+        let per_axis = lattice.dims().map(|d| d.div_ceil(NODE_POINTS));
+        coords.retain(|c| (0..3).all(|a| c[a] < per_axis[a]));
+        coords.sort_unstable_by_key(|c| (c[2], c[1], c[0]));
+        coords.dedup();
         #[cfg(feature = "parallel")]
         let built: Vec<SparseNode<S>> = {
             use rayon::prelude::*;
@@ -592,4 +632,48 @@ fn child_index(p: [u32; 3]) -> usize {
 fn in_leaf(p: [u32; 3]) -> usize {
     let c = p.map(|v| v % LEAF);
     (c[0] + LEAF * (c[1] + LEAF * c[2])) as usize
+}
+
+/// A sparse grid of either floating sample type (what sparse files hold: OpenVDB's float and
+/// double grids), matched once at the top of a pipeline.
+#[derive(Debug, Clone, PartialEq)]
+pub enum AnySparse {
+    /// 32-bit samples.
+    F32(SparseGrid<f32>),
+    /// 64-bit samples.
+    F64(SparseGrid<f64>),
+}
+
+impl AnySparse {
+    /// The lattice the grid samples.
+    pub fn lattice(&self) -> &Lattice {
+        match self {
+            AnySparse::F32(g) => g.lattice(),
+            AnySparse::F64(g) => g.lattice(),
+        }
+    }
+
+    /// Counts and bytes.
+    pub fn stats(&self) -> SparseStats {
+        match self {
+            AnySparse::F32(g) => g.stats(),
+            AnySparse::F64(g) => g.stats(),
+        }
+    }
+
+    /// The value range of the samples (see [`SparseGrid::value_range`]).
+    pub fn value_range(&self) -> Option<super::ValueRange> {
+        match self {
+            AnySparse::F32(g) => g.value_range(),
+            AnySparse::F64(g) => g.value_range(),
+        }
+    }
+
+    /// Where lattice point 0 sits in the file's signed index space.
+    pub fn index_origin(&self) -> [i32; 3] {
+        match self {
+            AnySparse::F32(g) => g.index_origin(),
+            AnySparse::F64(g) => g.index_origin(),
+        }
+    }
 }
