@@ -221,7 +221,7 @@ async function start() {
   if (info.kind === "demo") setIsoRange(1, 200, info.iso);
   if (info.kind === "volume" && info.range) {
     setIsoRange(info.range[0], info.range[1], info.iso ?? (info.range[0] + info.range[1]) / 2);
-    drawHistogram(info.histogram);
+    if (info.histogram) drawHistogram(info.histogram);
   }
   $("n-val").textContent = $("n").value;
   const on = (id, ev, f) => $(id).addEventListener(ev, f);

@@ -707,10 +707,7 @@ fn extract_loaded(loaded: &Loaded, iso: Iso, options: &Options, task: &Task) -> 
     Ok(match loaded {
         Loaded::Grid(g) => pipeline::extract_grid(g, iso, options, Some(task))?,
         Loaded::Field(b) => pipeline::extract_builtin(b, iso, options, Some(task))?,
-        Loaded::Sparse(s) => match &s.grid {
-            AnySparse::F32(g) => pipeline::extract_sparse(g, iso, options)?,
-            AnySparse::F64(g) => pipeline::extract_sparse(g, iso, options)?,
-        },
+        Loaded::Sparse(s) => pipeline::extract_any_sparse(&s.grid, iso, options)?,
         Loaded::Stream(_) => bail!("too large to mesh in memory"),
     })
 }
@@ -1126,6 +1123,7 @@ pub fn view(c: &ViewConfig) -> Result<Outcome> {
             let name = input_name(input);
             match load(input)? {
                 Loaded::Grid(grid) => Shown::Volume { name, grid },
+                Loaded::Sparse(file) => Shown::Sparse { name, grid: file.grid },
                 _ => bail!("{name}: view shows volume files, meshes, or (without INPUT) the demo fields"),
             }
         }

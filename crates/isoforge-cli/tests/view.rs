@@ -297,6 +297,23 @@ fn write_crate(path: &Path, n: u32) {
 }
 
 #[test]
+fn issue_44_sparse_files_are_shown() {
+    // An OpenVDB level set: served as a volume (its values' range, iso 0 first, no histogram),
+    // meshed as `extract` meshes it; regions are not offered.
+    let vdb = repo().join("testdata/vdb/sphere.vdb");
+    let v = Viewer::start(&[p(&vdb)]);
+    let info = v.json("/api/info");
+    assert_eq!((info["kind"].as_str(), info["iso"].as_f64()), (Some("volume"), Some(0.0)), "{info}");
+    assert!(info["histogram"].is_null() && info["sparse"]["leaves"].as_u64() > Some(0), "{info}");
+    assert_eq!(info["parameters"], serde_json::json!(["method", "iso"]));
+    let full = v.mesh("iso=0&level=preview");
+    assert_eq!(full.head["level"], "full", "a small grid needs no preview");
+    assert!(full.triangles.len() > 100);
+    assert_same("sparse", &full, &extract(&["-i", p(&vdb), "--iso", "0"]));
+    assert_eq!(v.get("/api/mesh?iso=0&roi=0:4,0:4,0:4").0, 400, "no regions on sparse grids");
+}
+
+#[test]
 fn issue_10_large_volumes_get_a_preview_first() {
     // Issue 10: each slider step sent the whole mesh (147 MB on the shoulder CT). Volumes over
     // 2 M points now answer a preview first: the volume block-averaged, meshed the same way.

@@ -22,7 +22,7 @@ use crate::extract::{
     BodyCentredTetrahedra, Counting, Decomposition, Extractor, MarchingCubes, MarchingCubes33, MarchingTetrahedra,
     Masked, PointMask, SurfaceNets,
 };
-use crate::grid::{AnyGrid, DType, DenseGrid, Sample, SparseGrid};
+use crate::grid::{AnyGrid, AnySparse, DType, DenseGrid, Sample, SparseGrid};
 use crate::mesh::{KeyRecord, Mesh, MeshBuilder, MeshSink, WriteBehind};
 use crate::volume::catalog::Builtin;
 use crate::volume::{
@@ -320,6 +320,17 @@ pub fn extract_grid(grid: &AnyGrid, iso: Iso, opts: &Options, progress: Option<&
         finish(out, stats)
     }
     in_pool(opts.threads, || crate::with_grid!(grid, g => go(g, iso, opts, progress)))?
+}
+
+/// [`extract_sparse`] on a sparse grid of either sample type (as read from a file).
+///
+/// # Errors
+/// As [`extract_sparse`].
+pub fn extract_any_sparse(grid: &AnySparse, iso: Iso, opts: &Options) -> Result<Extraction> {
+    match grid {
+        AnySparse::F32(g) => extract_sparse(g, iso, opts),
+        AnySparse::F64(g) => extract_sparse(g, iso, opts),
+    }
 }
 
 /// Extracts from a sparse grid ([`SparseGrid`]): the cell ranges its leaves make active

@@ -33,7 +33,7 @@ use std::sync::{Arc, Mutex, MutexGuard};
 use std::time::{Duration, Instant};
 
 use anyhow::{anyhow, bail, Context, Result};
-use isoforge::grid::{downsample_mean, AnyGrid, Histogram};
+use isoforge::grid::{downsample_mean, AnyGrid, AnySparse, Histogram};
 use isoforge::mesh::Mesh;
 use isoforge::pipeline::{self, request, Method, Roi};
 use isoforge::topo::{self, CheckOptions};
@@ -56,6 +56,9 @@ pub enum Shown {
     Volume { name: String, grid: AnyGrid },
     /// A fixed mesh.
     Mesh { name: String, mesh: Mesh },
+    /// A sparse grid (an OpenVDB file), meshed at the requested iso; its previews mesh a coarser
+    /// level of its pyramid.
+    Sparse { name: String, grid: AnySparse },
 }
 
 /// Largest demo resolution (points per axis).
@@ -251,6 +254,7 @@ impl Viewer {
         match self.shown {
             Shown::Demo => &["method", "iso", "field", "n", "t"],
             Shown::Volume { .. } => &["method", "iso", "roi"],
+            Shown::Sparse { .. } => &["method", "iso"],
             Shown::Mesh { .. } => &[],
         }
     }
@@ -272,6 +276,17 @@ impl Viewer {
                     "dims": grid.lattice().dims(), "inside": self.base.inside.unwrap_or_default().name(),
                     "range": h.map(|h| [h.min, h.max]), "histogram": h.map(|h| h.counts.clone()),
                     "iso": h.map(|h| h.surface_iso()), "preview_step": preview_step(grid.lattice().num_points()),
+                })
+            }
+            Shown::Sparse { name, grid } => {
+                let (range, stats) = (grid.value_range().map(|r| [r.min, r.max]), grid.stats());
+                // A level set's surface is at 0; other grids start in the middle of their values.
+                let iso = range.map(|[lo, hi]| if lo < 0.0 && hi > 0.0 { 0.0 } else { (lo + hi) / 2.0 });
+                json!({
+                    "kind": "volume", "name": name, "parameters": parameters, "methods": methods, "method": method,
+                    "dims": grid.lattice().dims(), "inside": self.base.inside.unwrap_or_default().name(),
+                    "range": range, "histogram": null, "iso": iso,
+                    "preview_step": 1u32 << sparse_preview_level(grid), "sparse": { "leaves": stats.leaves, "stored_samples": stats.stored_samples, "bytes": stats.bytes },
                 })
             }
             Shown::Mesh { name, mesh } => json!({
@@ -329,7 +344,8 @@ impl Viewer {
                     q.request.region.roi = Some(checked_roi(roi, grid)?);
                 }
             }
-            Shown::Mesh { .. } => {}
+            Shown::Sparse { .. } if iso.is_none() => bail!("iso is required"),
+            Shown::Sparse { .. } | Shown::Mesh { .. } => {}
         }
         Ok(q)
     }
@@ -344,7 +360,17 @@ impl Viewer {
         };
         still_wanted(req)?;
         let start = Instant::now();
+        let sparse_level = match &self.shown {
+            Shown::Sparse { grid, .. } if preview => sparse_preview_level(grid),
+            _ => 0,
+        };
         let (mesh, step) = match self.preview_grid(&q, preview, req)? {
+            _ if sparse_level > 0 => {
+                let Shown::Sparse { grid, .. } = &self.shown else { unreachable!("a level only for sparse grids") };
+                let opts = pipeline::Options { level: sparse_level, ..q.request.options.clone() };
+                let mesh = pipeline::extract_any_sparse(grid, self.iso(&q)?, &opts)?.mesh;
+                (Arc::new(drawable(mesh)), 1 << sparse_level)
+            }
             Some((grid, step)) => {
                 let mesh = pipeline::extract_grid(&grid, self.iso(&q)?, &q.request.options, None)?.mesh;
                 (Arc::new(drawable(mesh)), step)
@@ -362,8 +388,8 @@ impl Viewer {
 
     fn iso(&self, q: &Query) -> Result<Iso> {
         let default = match (&self.shown, q.demo) {
-            (Shown::Volume { .. }, _) if q.request.isos.is_empty() => bail!("iso is required"),
-            (Shown::Volume { .. }, _) => Iso::below(0.0),
+            (Shown::Volume { .. } | Shown::Sparse { .. }, _) if q.request.isos.is_empty() => bail!("iso is required"),
+            (Shown::Volume { .. } | Shown::Sparse { .. }, _) => Iso::below(0.0),
             // The demo fields keep their own inside rule.
             (_, Some(d)) => {
                 let iso = d.field.builtin(MIN_N, d.t)?.iso;
@@ -425,6 +451,7 @@ impl Viewer {
                     pipeline::extract_grid(&grid.crop(lo, hi)?, self.iso(q)?, opts, None)?.mesh
                 }
             },
+            (Shown::Sparse { grid, .. }, _) => pipeline::extract_any_sparse(grid, self.iso(q)?, opts)?.mesh,
             (Shown::Demo, Some(d)) => {
                 pipeline::extract_builtin(&d.field.builtin(d.n, d.t)?, self.iso(q)?, opts, None)?.mesh
             }
@@ -487,6 +514,18 @@ impl Viewer {
         r.headers.push(("Content-Disposition", format!("attachment; filename=\"isosurface.{file}\"")));
         Ok(r)
     }
+}
+
+/// The coarsest pyramid level a sparse grid's preview needs: each level quarters the stored
+/// samples of a surface (halves each axis of a band), so the smallest `L` that brings them
+/// under [`PREVIEW_POINTS`] (0: no preview), at most 4.
+fn sparse_preview_level(grid: &AnySparse) -> u32 {
+    preview_level(grid.stats().stored_samples)
+}
+
+/// [`sparse_preview_level`] for `stored` samples.
+fn preview_level(stored: u64) -> u32 {
+    (0..4).find(|&l| stored >> (2 * l) <= PREVIEW_POINTS).unwrap_or(4)
 }
 
 /// The smallest block size that brings `points` under [`PREVIEW_POINTS`] (1: no preview).
@@ -592,6 +631,15 @@ fn drawable(mut mesh: isoforge::mesh::Mesh) -> isoforge::mesh::Mesh {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn sparse_previews_take_the_level_that_brings_samples_under_the_budget() {
+        assert_eq!(preview_level(PREVIEW_POINTS), 0);
+        assert_eq!(preview_level(PREVIEW_POINTS + 1), 1);
+        assert_eq!(preview_level(4 * PREVIEW_POINTS), 1);
+        assert_eq!(preview_level(4 * PREVIEW_POINTS + 4), 2);
+        assert_eq!(preview_level(u64::MAX), 4, "at most four levels");
+    }
 
     #[test]
     fn preview_steps_bring_points_under_the_budget() {
