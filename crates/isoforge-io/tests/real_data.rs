@@ -11,9 +11,9 @@
 use std::path::{Path, PathBuf};
 use std::time::Instant;
 
-use isoforge::grid::Lattice;
+use isoforge::grid::{AnyGrid, DenseGrid, Lattice, Sample, SparseGrid};
 use isoforge::mesh::Mesh;
-use isoforge::pipeline::{extract_grid, Method, Options};
+use isoforge::pipeline::{extract_following, extract_grid, extract_sparse, Method, Options, Seeds};
 use isoforge::topo::{check_with, CheckOptions, MeshReport};
 use isoforge::volume::Iso;
 
@@ -31,6 +31,36 @@ fn is_slow(method: Method) -> bool {
 fn volumes_dir() -> Option<PathBuf> {
     let dir = Path::new(env!("CARGO_MANIFEST_DIR")).join("../../../shared/data/volumes");
     dir.is_dir().then_some(dir)
+}
+
+/// The scans of the data folder that have a JSON sidecar, sorted (`None` without the folder).
+fn scans() -> Option<Vec<PathBuf>> {
+    let dir = volumes_dir()?;
+    let mut volumes: Vec<PathBuf> = std::fs::read_dir(&dir)
+        .expect("read the data folder")
+        .map(|e| e.expect("a folder entry").path())
+        .filter(|p| p.extension().is_some_and(|x| x == "nrrd") && p.with_extension("json").is_file())
+        .collect();
+    volumes.sort();
+    assert!(!volumes.is_empty(), "{}: no NRRD volume with a JSON sidecar", dir.display());
+    Some(volumes)
+}
+
+/// A mesh as a sorted list of its faces, each the bit patterns of its corners' positions from
+/// its smallest corner on (orientation kept): equal for meshes with the same faces whatever the
+/// vertex numbering.
+fn canonical(m: &Mesh) -> Vec<Vec<[u32; 3]>> {
+    let corner = |v: u32| m.positions[v as usize].map(f32::to_bits);
+    let face = |ids: &[u32]| {
+        let mut c: Vec<[u32; 3]> = ids.iter().map(|&v| corner(v)).collect();
+        let first = (0..c.len()).min_by_key(|&i| c[i]).unwrap_or(0);
+        c.rotate_left(first);
+        c
+    };
+    let mut faces: Vec<Vec<[u32; 3]>> =
+        m.triangles.iter().map(|t| face(t)).chain(m.quads.iter().map(|q| face(q))).collect();
+    faces.sort_unstable();
+    faces
 }
 
 /// The isos a sidecar lists: its Otsu threshold and every suggestion, deduplicated.
@@ -99,17 +129,10 @@ fn defects(mesh: &Mesh, lattice: &Lattice, manifold: bool) -> (MeshReport, Vec<S
 #[cfg_attr(debug_assertions, ignore = "release only: cargo test --release -p isoforge-io --test real_data")]
 fn issue_10_every_method_is_manifold_on_every_real_scan() {
     // https://isoforge/issues/10 — mc33 was non-manifold on the CT head, chest, bunny and shoulder.
-    let Some(dir) = volumes_dir() else {
+    let Some(volumes) = scans() else {
         eprintln!("real_data: skipped, no data folder at ../shared/data/volumes");
         return;
     };
-    let mut volumes: Vec<PathBuf> = std::fs::read_dir(&dir)
-        .expect("read the data folder")
-        .map(|e| e.expect("a folder entry").path())
-        .filter(|p| p.extension().is_some_and(|x| x == "nrrd") && p.with_extension("json").is_file())
-        .collect();
-    volumes.sort();
-    assert!(!volumes.is_empty(), "{}: no NRRD volume with a JSON sidecar", dir.display());
     let full = std::env::var_os("ISOFORGE_REAL_DATA_FULL").is_some();
     let mut failures = Vec::new();
     for path in &volumes {
@@ -146,4 +169,63 @@ fn issue_10_every_method_is_manifold_on_every_real_scan() {
         }
     }
     assert!(failures.is_empty(), "{} defects:\n{}", failures.len(), failures.join("\n"));
+}
+
+#[test]
+#[cfg_attr(debug_assertions, ignore = "release only: cargo test --release -p isoforge-io --test real_data")]
+fn issue_44_sparse_copies_and_surface_following_mesh_every_real_scan_as_the_dense_grid() {
+    // Each scan kept only in its blocks near the first sidecar iso: every method meshes it as
+    // the dense grid (the same faces, bit for bit); surface following from the block tree gives
+    // the same mesh too, visiting exactly the crossed cells (mc and surface nets: the flood's
+    // cells are the method's only through the cells it processes).
+    let Some(volumes) = scans() else {
+        eprintln!("real_data: skipped, no data folder at ../shared/data/volumes");
+        return;
+    };
+    let full = std::env::var_os("ISOFORGE_REAL_DATA_FULL").is_some();
+    for path in &volumes {
+        let name = path.file_stem().and_then(|s| s.to_str()).unwrap_or("?").to_string();
+        let grid = isoforge_io::read_volume(path, &isoforge_io::Limits::new(u64::MAX))
+            .unwrap_or_else(|e| panic!("{}: {e}", path.display()));
+        let iso = Iso::below(sidecar_isos(&path.with_extension("json"))[0]);
+        // The 512² scans: their central half in x and y (a quarter of the work), as above.
+        let dims = grid.lattice().dims();
+        let lo = [dims[0] / 4, dims[1] / 4, 0];
+        let grid = match grid.lattice().num_points() > SLOW_METHOD_MAX_POINTS && !full {
+            true => grid.crop(lo, [lo[0] + dims[0] / 2, lo[1] + dims[1] / 2, dims[2]]).expect("crop"),
+            false => grid,
+        };
+        isoforge::with_grid!(&grid, g => sparse_as_dense(&name, &grid, g, iso));
+    }
+}
+
+/// [`issue_44_sparse_copies_and_surface_following_mesh_every_real_scan_as_the_dense_grid`] on
+/// one scan (`g` is `grid`'s samples).
+fn sparse_as_dense<S: Sample>(name: &str, grid: &AnyGrid, g: &DenseGrid<S>, iso: Iso) {
+    let sparse = SparseGrid::from_dense(g, iso);
+    let st = sparse.stats();
+    for method in Method::ALL {
+        let t = Instant::now();
+        let opts = Options { method, ..Options::default() };
+        let dense = extract_grid(grid, iso, &opts, None).expect("dense");
+        let walked = extract_sparse(&sparse, iso, &opts).expect("sparse");
+        assert_eq!(canonical(&walked.mesh), canonical(&dense.mesh), "{name}: {} sparse", method.name());
+        let mut line = format!(
+            "{name:<30} {:<12} {:>9} faces, {:>7} leaves ({:.1} % of the points)",
+            method.name(),
+            dense.mesh.num_triangles() + dense.mesh.num_quads(),
+            st.leaves,
+            100.0 * st.stored_samples as f64 / grid.lattice().num_points() as f64
+        );
+        // The flood's cells do not depend on the method: mc, and the dual surface nets on the
+        // smaller scans (a flood of the cropped shoulder takes 10 s: it goes cell by cell).
+        let small = grid.lattice().num_points() <= 1 << 23;
+        if method == Method::MarchingCubes || (method == Method::SurfaceNets && small) {
+            let (followed, fs) = extract_following(&sparse, iso, &opts, Seeds::Tree).expect("follow");
+            assert_eq!(canonical(&followed.mesh), canonical(&dense.mesh), "{name}: {} followed", method.name());
+            assert_eq!(fs.visited, dense.stats.active_cells(), "{name}: {} visited", method.name());
+            line += &format!(", followed: {} floods, {} cells visited = crossed", fs.floods, fs.visited);
+        }
+        eprintln!("{line}  {:.2} s", t.elapsed().as_secs_f64());
+    }
 }
