@@ -36,6 +36,12 @@ impl Series<'_> {
     fn write(&self, dir: &Path, name: &str, k: u32) {
         let n = self.normal();
         let pos: Vec<f64> = (0..3).map(|a| self.origin[a] + SPACING * k as f64 * n[a]).collect();
+        self.write_at(dir, name, k, &pos, "0.8\\0.7");
+    }
+
+    /// Writes slice k (its pixels) as `dir/name` at ImagePositionPatient `pos` with PixelSpacing
+    /// `pixel_spacing`.
+    fn write_at(&self, dir: &Path, name: &str, k: u32, pos: &[f64], pixel_spacing: &str) {
         let ds = |v: &[f64]| v.iter().map(|x| format!("{x}")).collect::<Vec<_>>().join("\\");
         let mut obj = InMemDicomObject::new_empty();
         let mut put = |tag, vr, value: PrimitiveValue| {
@@ -55,9 +61,9 @@ impl Series<'_> {
         put(tags::BITS_STORED, VR::US, PrimitiveValue::from(16u16));
         put(tags::HIGH_BIT, VR::US, PrimitiveValue::from(15u16));
         put(tags::PIXEL_REPRESENTATION, VR::US, PrimitiveValue::from(1u16));
-        put(tags::PIXEL_SPACING, VR::DS, PrimitiveValue::from("0.8\\0.7"));
+        put(tags::PIXEL_SPACING, VR::DS, PrimitiveValue::from(pixel_spacing));
         put(tags::SLICE_THICKNESS, VR::DS, PrimitiveValue::from("2.5"));
-        put(tags::IMAGE_POSITION_PATIENT, VR::DS, PrimitiveValue::from(ds(&pos)));
+        put(tags::IMAGE_POSITION_PATIENT, VR::DS, PrimitiveValue::from(ds(pos)));
         let iop: Vec<f64> = self.row.iter().chain(&self.col).copied().collect();
         put(tags::IMAGE_ORIENTATION_PATIENT, VR::DS, PrimitiveValue::from(ds(&iop)));
         put(tags::RESCALE_SLOPE, VR::DS, PrimitiveValue::from("1"));
@@ -178,4 +184,60 @@ fn truncated_slices_are_errors_naming_the_file() {
             Ok(g) => panic!("cut at {len} of {}: read {:?}", whole.len(), g.lattice().dims()),
         }
     }
+}
+
+/// Issue 50: a gantry-tilted series (positions (0, 0.5k, k): 0.5 mm across the slice plane per
+/// 1 mm slice) read as an untilted box. Refused, naming the tilt in degrees and mm per slice.
+#[test]
+fn issue_50_gantry_tilt_is_refused_naming_the_tilt() {
+    let dir = tempfile::tempdir().unwrap();
+    for k in 0..4 {
+        AXIAL.write_at(dir.path(), &format!("{k}.dcm"), k, &[0.0, 0.5 * k as f64, k as f64], "1\\1");
+    }
+    let e = read_volume(dir.path(), &Limits::default()).unwrap_err().to_string();
+    assert!(!e.contains('\n'), "not one line: {e}");
+    assert!(
+        e.contains("gantry tilt")
+            && e.contains("0.500 mm across the slice plane per slice")
+            && e.contains("26.57 degrees")
+            && e.contains("0.dcm to 3.dcm"),
+        "{e}"
+    );
+    // Positions rounded to a hundredth of a millimetre are not a tilt.
+    let dir = tempfile::tempdir().unwrap();
+    for k in 0..4 {
+        AXIAL.write_at(dir.path(), &format!("{k}.dcm"), k, &[0.004 * (k % 2) as f64, 0.0, k as f64], "1\\1");
+    }
+    let g = read_volume(dir.path(), &Limits::default()).unwrap();
+    assert_eq!(g.lattice().dims(), [COLS, ROWS, 4]);
+}
+
+/// Issue 50: one slice of PixelSpacing 2.0 among 1.0 was read with the first slice's spacing.
+#[test]
+fn issue_50_mixed_pixel_spacing_is_refused_naming_both_values_and_the_slice() {
+    let dir = tempfile::tempdir().unwrap();
+    for k in 0..4 {
+        let spacing = if k == 2 { "2\\2" } else { "1\\1" };
+        AXIAL.write_at(dir.path(), &format!("{k}.dcm"), k, &[0.0, 0.0, k as f64], spacing);
+    }
+    let e = read_volume(dir.path(), &Limits::default()).unwrap_err().to_string();
+    assert!(!e.contains('\n'), "not one line: {e}");
+    assert!(e.contains("2.dcm: PixelSpacing [2.0, 2.0] differs from [1.0, 1.0] of 0.dcm"), "{e}");
+}
+
+/// Issue 50: positions 0, 1, 4, 9, 16 said "-1 slices would fill the gap"; irregular spacing is
+/// named as such with both spacings (a true gap still counts the missing slices).
+#[test]
+fn issue_50_irregular_spacing_is_not_called_a_missing_slice() {
+    let dir = tempfile::tempdir().unwrap();
+    for k in 0..5u32 {
+        AXIAL.write_at(dir.path(), &format!("{k}.dcm"), k, &[0.0, 0.0, (k * k) as f64], "1\\1");
+    }
+    let e = read_volume(dir.path(), &Limits::default()).unwrap_err().to_string();
+    assert!(
+        e.contains(
+            "irregularly spaced: 1.000 mm between positions 0.000 (0.dcm) and 1.000 (1.dcm), 5.000 mm elsewhere"
+        ) && !e.contains("would fill"),
+        "{e}"
+    );
 }

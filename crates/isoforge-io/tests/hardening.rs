@@ -589,3 +589,131 @@ fn issue_10_gltf_never_replaces_an_unrelated_bin() {
     assert_eq!(MeshFormat::Gltf.files(&gltf), [gltf.clone(), bin.clone()]);
     assert_eq!(MeshFormat::Glb.files(&gltf), [gltf]);
 }
+
+/// Writes `bytes` as `dir/name` and returns the one-line error of reading it with `limits`,
+/// which must start with the path.
+fn refused(dir: &Path, name: &str, bytes: &[u8], limits: Limits) -> String {
+    let p = dir.join(name);
+    std::fs::write(&p, bytes).unwrap();
+    let e = err(&p, limits);
+    assert!(e.starts_with(&p.display().to_string()), "{name}: {e}");
+    e
+}
+
+fn vtk_ascii(point_data: &str, values: &str) -> String {
+    format!(
+        "# vtk DataFile Version 3.0\nt\nASCII\nDATASET STRUCTURED_POINTS\nDIMENSIONS 2 2 2\nSPACING 1 1 1\nORIGIN 0 0 0\nPOINT_DATA {point_data}\nSCALARS v unsigned_char 1\nLOOKUP_TABLE default\n{values}\n"
+    )
+}
+
+/// Issue 50 (readers): `POINT_DATA -5` was ignored and ASCII values past the declared count were
+/// dropped; both are refused like a count that does not match. A keyword after the values (the
+/// next array) still ends them.
+#[test]
+fn issue_50_vtk_negative_point_data_and_extra_ascii_values_are_refused() {
+    let dir = tempfile::tempdir().unwrap();
+    let values = "0 1 2 3 4 5 6 7";
+    for (name, count, needle) in [
+        ("neg.vtk", "-5", "POINT_DATA -5 does not match DIMENSIONS [2, 2, 2] (8 points)"),
+        ("big.vtk", "9", "POINT_DATA 9 does not match DIMENSIONS [2, 2, 2] (8 points)"),
+        ("words.vtk", "eight", "POINT_DATA eight does not match"),
+    ] {
+        let e = refused(dir.path(), name, vtk_ascii(count, values).as_bytes(), Limits::default());
+        assert!(e.contains(needle), "{name}: {e}");
+    }
+    let e = refused(dir.path(), "extra.vtk", vtk_ascii("8", "0 1 2 3 4 5 6 7 8 9").as_bytes(), Limits::default());
+    assert!(e.contains("ASCII data has more values than the 8 the header declares: value 9 is \"8\""), "{e}");
+    // The same rule for NRRD's ASCII encoding.
+    let text = nrrd("").replace("0 1 2 3 4 5 6 7", "0 1 2 3 4 5 6 7 1e3");
+    let e = refused(dir.path(), "extra.nrrd", text.as_bytes(), Limits::default());
+    assert!(e.contains("value 9 is \"1e3\""), "{e}");
+    // A second array after the first is not extra values.
+    let p = dir.path().join("two.vtk");
+    let two = vtk_ascii("8", "0 1 2 3 4 5 6 7\nSCALARS w float 1\nLOOKUP_TABLE default\n0 0 0 0 0 0 0 0");
+    std::fs::write(&p, two).unwrap();
+    read_volume(&p, &Limits::default()).unwrap();
+}
+
+fn gz(data: &[u8]) -> Vec<u8> {
+    let mut e = flate2::write::GzEncoder::new(Vec::new(), flate2::Compression::default());
+    e.write_all(data).unwrap();
+    e.finish().unwrap()
+}
+
+/// Issue 50 (readers): a gzip NRRD decompressing to more bytes than declared, or holding a second
+/// gzip member, was read; both are refused like trailing garbage, whole or slab by slab.
+#[test]
+fn issue_50_gzip_nrrd_longer_than_declared_or_with_a_second_member_is_refused() {
+    let dir = tempfile::tempdir().unwrap();
+    let header = b"NRRD0004\ntype: uchar\ndimension: 3\nsizes: 2 2 2\nencoding: gzip\n\n".to_vec();
+    let samples: Vec<u8> = (0..8).collect();
+    let file = |body: Vec<u8>| [header.clone(), body].concat();
+    let cases = [
+        (
+            "long.nrrd",
+            file(gz(&[samples.clone(), vec![8]].concat())),
+            "holds more than the 8 bytes the header declares",
+        ),
+        ("second.nrrd", file([gz(&samples), gz(&[])].concat()), "a second gzip member or trailing data"),
+        ("split.nrrd", file([gz(&samples[..4]), gz(&samples[4..])].concat()), "a second gzip member"),
+        ("garbage.nrrd", file([gz(&samples), b"junk".to_vec()].concat()), "trailing data"),
+    ];
+    for (name, bytes, needle) in &cases {
+        let e = refused(dir.path(), name, bytes, Limits::default());
+        assert!(e.contains("gzip data") && e.contains(needle), "{name}: {e}");
+        // Slab by slab: the last slab finds it.
+        let mut r = isoforge_io::read::nrrd::open_nrrd(&dir.path().join(name), &Limits::default()).unwrap();
+        let mut slab = [0u8; 4];
+        r.read_slab(&mut slab).unwrap();
+        let e = r.read_slab(&mut slab).unwrap_err().to_string();
+        assert!(e.contains(needle), "{name}, slab by slab: {e}");
+    }
+    let p = dir.path().join("ok.nrrd");
+    std::fs::write(&p, file(gz(&samples))).unwrap();
+    read_volume(&p, &Limits::default()).unwrap();
+}
+
+/// Issue 50 (readers): `vox_offset 352.5` was truncated to 352.
+#[test]
+fn issue_50_nifti_fractional_vox_offset_is_refused() {
+    let dir = tempfile::tempdir().unwrap();
+    let mut h = nifti_header([2, 2, 2], [1.0; 4], 0, 0, None, b"n+1\0");
+    h[108..112].copy_from_slice(&352.5f32.to_le_bytes());
+    h.push(0);
+    let e = refused(dir.path(), "half.nii", &h, Limits::default());
+    assert!(e.contains("vox_offset 352.5: must be a non-negative whole byte offset"), "{e}");
+}
+
+/// Issue 50 (readers): a MetaImage header line longer than the header room said "no
+/// ElementDataFile".
+#[test]
+fn issue_50_metaimage_overlong_header_line_says_so() {
+    let dir = tempfile::tempdir().unwrap();
+    let text = format!(
+        "NDims = 3\nComment = {}\nDimSize = 2 2 2\nElementType = MET_UCHAR\nElementDataFile = LOCAL\n\0\x01\x02\x03\x04\x05\x06\x07",
+        "x".repeat(70_000)
+    );
+    let e = refused(dir.path(), "long.mha", text.as_bytes(), Limits::default());
+    assert!(e.contains("line 2 is too long") && !e.contains("ElementDataFile ("), "{e}");
+}
+
+/// Issue 50 (memory caps): `--max-bytes 32M` on a large `.vti` reported "over the limit of
+/// 68157440 bytes" (twice the limit and 1 MiB: the room the whole file may take). The samples
+/// a header declares are refused first, with the limit asked for, before the file is read whole;
+/// a file too large for its samples names the limit asked for too.
+#[test]
+fn issue_50_vti_over_the_limit_names_the_limit_asked_for() {
+    let dir = tempfile::tempdir().unwrap();
+    let limits = Limits::new(1 << 20);
+    // 512 x 512 x 450 samples declared, 4 MiB of appended data: more than 3 MiB + 1 MiB of file.
+    let mut big = vti("").replace("0 1 0 1 0 1", "0 511 0 511 0 449").into_bytes();
+    big.resize(4 << 20, b' ');
+    let e = refused(dir.path(), "big.vti", &big, limits);
+    assert!(e.contains("dims 512x512x450 of u8 needs 117964800 bytes, over the limit of 1048576 bytes"), "{e}");
+    // 64³ samples (256 KiB, within the limit) written as text over 3 MiB.
+    let values = format!("255{}", " ".repeat(12)).repeat(64 * 64 * 64 / 2);
+    let text =
+        vti("").replace("0 1 0 1 0 1", "0 63 0 63 0 63").replace("0 1 2 3 4 5 6 7", &format!("{values}{values}"));
+    let e = refused(dir.path(), "text.vti", text.as_bytes(), limits);
+    assert!(e.contains("over the limit of 1048576 bytes") && e.contains("twice the limit"), "{e}");
+}

@@ -148,7 +148,9 @@ const MAX_TOKEN: usize = 512;
 
 /// Parses whitespace- or comma-separated ASCII samples from `r` straight into a grid on
 /// `lattice` (read as a stream: memory is the grid, not the text), then rejects non-finite ones.
-/// Reading stops after the samples the lattice needs.
+/// After the samples the lattice needs, one more token is looked at: a number there means the
+/// data holds more values than the header declares (refused); anything else (a VTK keyword
+/// starting the next array, a closing tag) ends the data.
 pub(crate) fn ascii_grid(ctx: Ctx, r: impl Read, lattice: Lattice, dtype: DType) -> Result<AnyGrid> {
     fn go<S: Sample + std::str::FromStr>(ctx: Ctx, r: impl Read, lattice: Lattice) -> Result<AnyGrid>
     where
@@ -191,6 +193,15 @@ pub(crate) fn ascii_grid(ctx: Ctx, r: impl Read, lattice: Lattice, dtype: DType)
         if data.len() < n {
             return Err(ctx.bad(format!("ASCII data has {} values, the header declares {n}", data.len())));
         }
+        if let Some(extra) = next_token(&mut r, ctx)? {
+            if std::str::from_utf8(&extra).is_ok_and(|t| t.parse::<f64>().is_ok()) {
+                return Err(ctx.bad(format!(
+                    "ASCII data has more values than the {n} the header declares: value {} is {:?}",
+                    n + 1,
+                    String::from_utf8_lossy(&extra)
+                )));
+            }
+        }
         let grid = DenseGrid::new(lattice, data).map_err(|e| ctx.lib(e))?;
         ensure_finite(ctx, grid.first_non_finite())?;
         Ok(grid.into())
@@ -205,5 +216,34 @@ pub(crate) fn ascii_grid(ctx: Ctx, r: impl Read, lattice: Lattice, dtype: DType)
         DType::F32 => go::<f32>(ctx, r, lattice),
         DType::F64 => go::<f64>(ctx, r, lattice),
         other => Err(ctx.unsupported(format!("ASCII samples of type {other}"))),
+    }
+}
+
+/// The next token of `r` (at most `MAX_TOKEN` bytes of it), `None` at the end.
+fn next_token(r: &mut impl BufRead, ctx: Ctx) -> Result<Option<Vec<u8>>> {
+    let mut tok = Vec::new();
+    loop {
+        let buf = r.fill_buf().map_err(|e| ctx.bad(format!("ASCII data: unreadable after its values: {e}")))?;
+        if buf.is_empty() {
+            return Ok((!tok.is_empty()).then_some(tok));
+        }
+        let mut used = 0;
+        for &b in buf {
+            if b.is_ascii_whitespace() || b == b',' {
+                if !tok.is_empty() {
+                    break;
+                }
+            } else if tok.len() < MAX_TOKEN {
+                tok.push(b);
+            } else {
+                break;
+            }
+            used += 1;
+        }
+        let available = buf.len();
+        r.consume(used);
+        if used < available {
+            return Ok(Some(tok));
+        }
     }
 }

@@ -8,7 +8,11 @@
 //! - **Spacing**: PixelSpacing (row spacing, column spacing) in-plane; the measured distance
 //!   between consecutive slice positions along the normal. Positions must be evenly spaced: a gap
 //!   (a missing slice) or a duplicate position is an error naming the positions, never silently
-//!   interpolated.
+//!   interpolated; unevenly spaced positions are refused as irregular. Every slice must share the
+//!   first one's PixelSpacing, size and orientation.
+//! - **Gantry tilt**: positions that drift across the slice plane (a tilted gantry shears the
+//!   stack) are refused with the tilt in degrees and mm per slice: a lattice's axes are
+//!   orthonormal, and an untilted box would misplace every slice.
 //! - **Values**: stored values × RescaleSlope + RescaleIntercept (Hounsfield units for CT),
 //!   as i16 when that is exact (integer slope and intercept, range fits), f32 otherwise.
 //! - **World**: DICOM patient coordinates (LPS, millimetres): origin = the first slice's
@@ -63,6 +67,45 @@ struct Slice {
     slope: f64,
     inter: f64,
     along: f64,
+}
+
+/// Largest relative difference between the PixelSpacing of two slices of one series.
+const SPACING_TOLERANCE: f64 = 1e-4;
+
+/// Largest sideways drift of a slice position (off the slice normal through the first slice),
+/// as a fraction of the smaller pixel spacing: below it, no sample moves by a tenth of a pixel.
+const TILT_TOLERANCE: f64 = 0.1;
+
+/// Refuses a gantry-tilted series: slice positions that drift across the slice plane (the slices
+/// are sheared, not stacked). A lattice's directions are orthonormal, so the only faithful reading
+/// would be a resampling; reading it as a box would silently move every slice.
+fn check_tilt(ctx: Ctx, slices: &[Slice], normal: [f64; 3], pixel: [f64; 2]) -> Result<()> {
+    let len = normal.iter().map(|x| x * x).sum::<f64>().sqrt();
+    let (Some(first), true) = (slices.first(), len > 0.5) else {
+        return Ok(()); // a bad orientation is refused with the lattice
+    };
+    let unit = normal.map(|x| x / len);
+    // The slice farthest off the normal through the first one.
+    let drift = |s: &Slice| {
+        let d: [f64; 3] = std::array::from_fn(|a| s.position[a] - first.position[a]);
+        let along: f64 = (0..3).map(|a| d[a] * unit[a]).sum();
+        let across = (0..3).map(|a| (d[a] - along * unit[a]).powi(2)).sum::<f64>().sqrt();
+        (across, along)
+    };
+    let Some((i, (across, along))) = slices.iter().map(drift).enumerate().max_by(|a, b| a.1 .0.total_cmp(&b.1 .0))
+    else {
+        return Ok(());
+    };
+    if across <= TILT_TOLERANCE * pixel[0].min(pixel[1]) || i == 0 {
+        return Ok(());
+    }
+    Err(ctx.bad(format!(
+        "gantry tilt: ImagePositionPatient moves {:.3} mm across the slice plane per slice, a tilt of {:.2} degrees ({across:.3} mm from {} to {}); a tilted series is refused, not read as an untilted box (resample it first)",
+        across / i as f64,
+        across.atan2(along.abs()).to_degrees(),
+        first_name(&first.path),
+        first_name(&slices[i].path),
+    )))
 }
 
 /// Opens the DICOM series in folder `dir`.
@@ -149,6 +192,13 @@ pub fn open_dicom_dir(dir: &Path, limits: &Limits) -> Result<VolumeReader> {
                 first_name(&first_path)
             )));
         }
+        if s.pixel.iter().zip(&pixel).any(|(a, b)| (a - b).abs() > SPACING_TOLERANCE * b.abs()) {
+            return Err(sctx.bad(format!(
+                "PixelSpacing {:?} differs from {pixel:?} of {}: a series has one pixel size",
+                s.pixel,
+                first_name(&first_path)
+            )));
+        }
         if (s.rows, s.cols) != (rows, cols) {
             return Err(
                 sctx.bad(format!("{} x {} pixels, the series' first slice has {cols} x {rows}", s.cols, s.rows))
@@ -156,6 +206,7 @@ pub fn open_dicom_dir(dir: &Path, limits: &Limits) -> Result<VolumeReader> {
         }
     }
     slices.sort_by(|a, b| a.along.total_cmp(&b.along));
+    check_tilt(ctx, &slices, normal, pixel)?;
     let n = slices.len();
     let spacing_z = if n > 1 {
         let mut gaps: Vec<f64> = slices.windows(2).map(|w| w[1].along - w[0].along).collect();
@@ -171,16 +222,25 @@ pub fn open_dicom_dir(dir: &Path, limits: &Limits) -> Result<VolumeReader> {
                     w[0].along
                 )));
             }
-            if (gap - median).abs() > 0.01 * median.max(1e-3) + 1e-3 {
-                return Err(ctx.bad(format!(
-                    "slices are not evenly spaced: {:.3} mm between positions {:.3} ({}) and {:.3} ({}) where the spacing is {:.3} mm; a slice is missing ({} slices would fill the gap)",
-                    gap,
+            let off = |want: f64| (gap - want).abs() > 0.01 * want.max(1e-3) + 1e-3;
+            if off(median) {
+                let between = format!(
+                    "{gap:.3} mm between positions {:.3} ({}) and {:.3} ({})",
                     w[0].along,
                     first_name(&w[0].path),
                     w[1].along,
                     first_name(&w[1].path),
-                    median,
-                    (gap / median).round() as i64 - 1
+                );
+                // A whole multiple of the spacing is a gap; anything else is irregular spacing.
+                let multiple = (gap / median).round();
+                if multiple >= 2.0 && !off(multiple * median) {
+                    return Err(ctx.bad(format!(
+                        "slices are not evenly spaced: {between} where the spacing is {median:.3} mm; a slice is missing ({} slices would fill the gap)",
+                        multiple - 1.0
+                    )));
+                }
+                return Err(ctx.bad(format!(
+                    "slices are irregularly spaced: {between}, {median:.3} mm elsewhere (the median spacing); a lattice needs one spacing"
                 )));
             }
         }

@@ -1,5 +1,7 @@
 //! MetaImage (`.mha` with `ElementDataFile = LOCAL`, `.mhd` with a separate data file): raw or
-//! zlib-compressed, either byte order, spacing, offset and `TransformMatrix`.
+//! zlib-compressed, either byte order, spacing, offset and `TransformMatrix`. The header, up to
+//! `ElementDataFile` (its last key), must end within the first 64 KiB; a line running past them
+//! is refused as too long.
 
 use std::path::{Path, PathBuf};
 
@@ -36,6 +38,12 @@ pub fn open_metaimage(path: &Path, limits: &Limits) -> Result<VolumeReader> {
     while offset < head.len() {
         let end = head[offset..].iter().position(|&b| b == b'\n').map_or(head.len(), |p| offset + p);
         line_no += 1;
+        if end == MAX_HEADER_BYTES {
+            // The line goes on past the bytes read: what was read of it is not the whole value.
+            return Err(ctx.bad(format!(
+                "line {line_no} is too long: it does not end within the first {MAX_HEADER_BYTES} bytes, where the header (up to ElementDataFile) must end"
+            )));
+        }
         let line = std::str::from_utf8(&head[offset..end])
             .map_err(|_| ctx.bad(format!("line {line_no}: header is not text")))?
             .trim();

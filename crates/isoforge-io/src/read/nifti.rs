@@ -4,7 +4,8 @@
 //! Hand-written (348-byte fixed header) so every size is checked before allocating and no byte
 //! pattern can panic. World coordinates are NIfTI's RAS+ scanner space. Voxel sizes
 //! `pixdim[1..3]` (qform and pixdim-only methods) must be finite and positive; a negative `qfac`
-//! (`pixdim[0]`) flips the third axis, as the standard says.
+//! (`pixdim[0]`) flips the third axis, as the standard says. `vox_offset` must be a whole number
+//! of bytes.
 
 use std::path::Path;
 
@@ -197,8 +198,8 @@ impl Header {
             Ok(s)
         };
         let vox = b.f32(108);
-        if !(vox.is_finite() && vox >= 0.0 && vox <= (1u64 << 32) as f64) {
-            return Err(ctx.bad(format!("vox_offset {vox}: must be a non-negative byte offset")));
+        if !(vox.is_finite() && vox >= 0.0 && vox <= (1u64 << 32) as f64 && vox.fract() == 0.0) {
+            return Err(ctx.bad(format!("vox_offset {vox}: must be a non-negative whole byte offset")));
         }
         let vox_offset = if magic_pair { vox as usize } else { (vox as usize).max(HEADER_SIZE) };
         let (slope, inter) = (b.f32(112), b.f32(116));

@@ -4,6 +4,8 @@
 //! World coordinates are the file's own space (`space` is kept as given, e.g. LPS for DICOM-derived
 //! volumes). 2D images are read as one z-slab. Spacings must be finite and positive (a flip
 //! belongs in `space directions`); `nan`, the format's "no spacing known", gives unit spacing.
+//! gzip data is one gzip member holding exactly the declared samples: more bytes, a second
+//! member or trailing bytes are refused. ASCII data holds exactly the declared values.
 
 use std::path::{Path, PathBuf};
 
@@ -74,7 +76,7 @@ pub fn open_nrrd(path: &Path, limits: &Limits) -> Result<VolumeReader> {
             let ByteSkip::Bytes(skip) = h.byte_skip else {
                 return Err(ctx.unsupported("byte skip -1 is only defined for raw encoding"));
             };
-            let mut data = open_data(dctx, &data_path, offset, Compression::Gzip, need, "gzip data")?;
+            let mut data = open_data(dctx, &data_path, offset, Compression::GzipOneMember, need, "gzip data")?;
             stream::skip(dctx, &mut data.reader, skip as u64, "gzip data")?;
             Ok(VolumeReader::stream(dctx, lattice, h.dtype, h.big_endian, data))
         }

@@ -20,8 +20,12 @@ const PROGRESS_STEP: usize = 16 << 20;
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 pub(crate) enum Compression {
     None,
+    /// gzip members one after another (bgzip-style `.nii.gz`).
     #[cfg(feature = "gzip")]
     Gzip,
+    /// One gzip member and nothing after it (NRRD): a second member is trailing data.
+    #[cfg(feature = "gzip")]
+    GzipOneMember,
     #[cfg(feature = "gzip")]
     Zlib,
 }
@@ -204,13 +208,28 @@ impl VolumeReader {
         Ok(())
     }
 
-    /// For compressed streams, one more read reaches the end of the stream and verifies its checksum.
+    /// For compressed streams, one more read must reach the end of the stream (verifying its
+    /// checksum): more samples than declared are refused like trailing garbage.
     fn check_trailer(&self, r: &mut dyn Read) -> Result<()> {
         if self.compressed {
-            if let Err(e) = r.read(&mut [0u8; 1]) {
-                return Err(self
-                    .ctx()
-                    .bad(format!("{}: the compressed stream is cut or corrupt after its samples: {e}", self.what)));
+            match r.read(&mut [0u8; 1]) {
+                Ok(0) => {}
+                Ok(_) => {
+                    let total = self.lattice.num_points().saturating_mul(self.file_dtype.size() as u64);
+                    return Err(self.ctx().bad(format!(
+                        "{}: the compressed stream holds more than the {total} bytes the header declares",
+                        self.what
+                    )));
+                }
+                #[cfg(feature = "gzip")]
+                Err(e) if e.get_ref().is_some_and(|inner| inner.is::<TrailingData>()) => {
+                    return Err(self.ctx().bad(format!("{}: after its samples, {e}", self.what)))
+                }
+                Err(e) => {
+                    return Err(self
+                        .ctx()
+                        .bad(format!("{}: the compressed stream is cut or corrupt after its samples: {e}", self.what)))
+                }
             }
         }
         Ok(())
@@ -332,16 +351,53 @@ pub(crate) fn open_data(
 }
 
 /// Wraps a reader in the decompressor for `compression`.
-pub(crate) fn wrap<R: Read + Send + 'static>(r: R, compression: Compression, what: &'static str) -> StreamSpec {
+pub(crate) fn wrap<R: std::io::BufRead + Send + 'static>(
+    r: R,
+    compression: Compression,
+    what: &'static str,
+) -> StreamSpec {
     let reader: Box<dyn Read + Send> = match compression {
         Compression::None => Box::new(r),
         #[cfg(feature = "gzip")]
         Compression::Gzip => Box::new(flate2::read::MultiGzDecoder::new(r)),
         #[cfg(feature = "gzip")]
+        Compression::GzipOneMember => Box::new(OneMember(flate2::bufread::GzDecoder::new(r))),
+        #[cfg(feature = "gzip")]
         Compression::Zlib => Box::new(flate2::read::ZlibDecoder::new(r)),
     };
     StreamSpec { reader, compressed: compression != Compression::None, what }
 }
+
+/// One gzip member that must end the data: after the member, any byte left (a second member,
+/// garbage) is an error rather than the end of the stream.
+#[cfg(feature = "gzip")]
+struct OneMember<B: std::io::BufRead>(flate2::bufread::GzDecoder<B>);
+
+#[cfg(feature = "gzip")]
+impl<B: std::io::BufRead> Read for OneMember<B> {
+    fn read(&mut self, buf: &mut [u8]) -> std::io::Result<usize> {
+        let n = self.0.read(buf)?;
+        if n == 0 && !buf.is_empty() && !self.0.get_mut().fill_buf()?.is_empty() {
+            return Err(std::io::Error::new(std::io::ErrorKind::InvalidData, TrailingData));
+        }
+        Ok(n)
+    }
+}
+
+/// The error [`OneMember`] gives when bytes follow its member.
+#[cfg(feature = "gzip")]
+#[derive(Debug)]
+struct TrailingData;
+
+#[cfg(feature = "gzip")]
+impl std::fmt::Display for TrailingData {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.write_str("bytes follow the end of the gzip stream (a second gzip member or trailing data)")
+    }
+}
+
+#[cfg(feature = "gzip")]
+impl std::error::Error for TrailingData {}
 
 /// Discards `n` bytes of `r` (byte skips after decompression).
 pub(crate) fn skip(ctx: Ctx, r: &mut dyn Read, n: u64, what: &str) -> Result<()> {

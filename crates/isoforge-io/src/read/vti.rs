@@ -2,7 +2,9 @@
 //! single-component array) in any of VTK's layouts — ASCII, inline binary (base64), appended
 //! raw or base64 — uncompressed or zlib-compressed (`vtkZLibDataCompressor`), UInt32 or UInt64
 //! headers, little- or big-endian. Geometry from `WholeExtent`, `Origin`, `Spacing` and
-//! `Direction` (VTK ≥ 9); world = the file's own frame.
+//! `Direction` (VTK ≥ 9); world = the file's own frame. The samples' size (`WholeExtent` × type)
+//! is checked against the limits from the head of the file before it is read whole; the file
+//! itself may take twice the limit and 1 MiB (text encodings are longer than their samples).
 
 use std::io::Read;
 use std::path::Path;
@@ -23,7 +25,17 @@ use crate::limits::Limits;
 /// [`Error::Limit`](crate::Error::Limit) when the volume exceeds `limits`.
 pub fn open_vti(path: &Path, limits: &Limits) -> Result<VolumeReader> {
     let ctx = Ctx::new(path, "VTI");
-    let bytes = decode::read_file(ctx, path, max_file_bytes(limits))?;
+    check_declared_size(ctx, path, limits)?;
+    let len = crate::file::open(ctx, path)?.len;
+    let max = max_file_bytes(limits);
+    if len > max {
+        return Err(ctx.limit(
+            format!("the file (a .vti may take twice the limit and 1 MiB of XML: {max} bytes)"),
+            len,
+            limits.max_bytes,
+        ));
+    }
+    let bytes = decode::read_file(ctx, path, max)?;
     // The XML part ends where raw appended data begins.
     let xml_end = find(&bytes, b"<AppendedData").map_or(bytes.len(), |p| p);
     let xml = String::from_utf8_lossy(&bytes[..xml_end]);
@@ -44,15 +56,7 @@ pub fn open_vti(path: &Path, limits: &Limits) -> Result<VolumeReader> {
         Some(c) => return Err(ctx.unsupported(format!("compressor {c:?}: only vtkZLibDataCompressor is supported"))),
     };
     let image = tag(&xml, "ImageData").ok_or_else(|| ctx.bad("no <ImageData> element"))?;
-    let ext = numbers(ctx, &image, "WholeExtent", 6)?;
-    let mut dims = [0u32; 3];
-    for a in 0..3 {
-        let n = ext[2 * a + 1] - ext[2 * a] + 1.0;
-        if !(n >= 1.0 && n <= u32::MAX as f64 && n.fract() == 0.0) {
-            return Err(ctx.bad(format!("ImageData WholeExtent {ext:?}: axis {a} has no points")));
-        }
-        dims[a] = n as u32;
-    }
+    let (ext, dims) = extent(ctx, &image)?;
     // Absent: the defaults; present: three finite numbers, spacings positive.
     let origin0 = match attr(&image, "Origin") {
         Some(_) => numbers(ctx, &image, "Origin", 3)?,
@@ -110,17 +114,8 @@ pub fn open_vti(path: &Path, limits: &Limits) -> Result<VolumeReader> {
         );
     }
     let ty = attr(head, "type").unwrap_or_default();
-    let dtype = match ty.as_str() {
-        "Int8" => DType::I8,
-        "UInt8" => DType::U8,
-        "Int16" => DType::I16,
-        "UInt16" => DType::U16,
-        "Int32" => DType::I32,
-        "UInt32" => DType::U32,
-        "Float32" => DType::F32,
-        "Float64" => DType::F64,
-        t => return Err(ctx.unsupported(format!("DataArray {name:?} type {t:?} is not supported"))),
-    };
+    let dtype =
+        sample_type(&ty).ok_or_else(|| ctx.unsupported(format!("DataArray {name:?} type {ty:?} is not supported")))?;
     let need = decode::sample_bytes(ctx, dims, dtype, limits)?;
     let lattice = decode::lattice(
         ctx,
@@ -174,6 +169,58 @@ pub fn open_vti(path: &Path, limits: &Limits) -> Result<VolumeReader> {
         f => return Err(ctx.bad(format!("DataArray {name:?} format {f:?}: expected ascii, binary or appended"))),
     };
     Ok(VolumeReader::decoded(ctx, grid))
+}
+
+/// The XML read before the whole file: enough for the `<ImageData>` and `<DataArray>` tags.
+const HEAD_BYTES: u64 = 1 << 20;
+
+/// Refuses a volume whose samples exceed `limits` from the head of the file alone (its
+/// `WholeExtent` and the smallest `DataArray` type there), before the file is read whole.
+/// Whatever the head does not hold is checked after the whole read.
+fn check_declared_size(ctx: Ctx, path: &Path, limits: &Limits) -> Result<()> {
+    let head = crate::file::read_prefix(ctx, path, HEAD_BYTES)?;
+    let xml = String::from_utf8_lossy(&head[..find(&head, b"<AppendedData").unwrap_or(head.len())]);
+    let Some((_, dims)) = tag(&xml, "ImageData").and_then(|image| extent(ctx, &image).ok()) else {
+        return Ok(());
+    };
+    let mut smallest: Option<DType> = None;
+    let mut rest: &str = &xml;
+    while let Some(p) = rest.find("<DataArray") {
+        if let Some(t) = tag(&rest[p..], "DataArray").and_then(|t| attr(&t, "type")).and_then(|t| sample_type(&t)) {
+            smallest = Some(smallest.map_or(t, |s| if t.size() < s.size() { t } else { s }));
+        }
+        rest = &rest[p + 1..];
+    }
+    decode::sample_bytes(ctx, dims, smallest.unwrap_or(DType::U8), limits).map(drop)
+}
+
+/// The `WholeExtent` of an `<ImageData>` start tag and the lattice dims it spans.
+fn extent(ctx: Ctx, image: &str) -> Result<(Vec<f64>, [u32; 3])> {
+    let ext = numbers(ctx, image, "WholeExtent", 6)?;
+    let mut dims = [0u32; 3];
+    for a in 0..3 {
+        let n = ext[2 * a + 1] - ext[2 * a] + 1.0;
+        if !(n >= 1.0 && n <= u32::MAX as f64 && n.fract() == 0.0) {
+            return Err(ctx.bad(format!("ImageData WholeExtent {ext:?}: axis {a} has no points")));
+        }
+        dims[a] = n as u32;
+    }
+    Ok((ext, dims))
+}
+
+/// The sample type of a `DataArray` `type` attribute.
+fn sample_type(ty: &str) -> Option<DType> {
+    Some(match ty {
+        "Int8" => DType::I8,
+        "UInt8" => DType::U8,
+        "Int16" => DType::I16,
+        "UInt16" => DType::U16,
+        "Int32" => DType::I32,
+        "UInt32" => DType::U32,
+        "Float32" => DType::F32,
+        "Float64" => DType::F64,
+        _ => return None,
+    })
 }
 
 /// The largest `.vti` file read into memory: twice the sample limit (text encodings take more

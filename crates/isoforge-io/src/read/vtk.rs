@@ -1,6 +1,7 @@
 //! VTK legacy files holding `DATASET STRUCTURED_POINTS` with one `SCALARS` array (ASCII or BINARY;
 //! binary data is big-endian, as the format says). `DIMENSIONS`, `SPACING` (or `ASPECT_RATIO`) and
-//! `ORIGIN` give the lattice; VTK image data has no direction.
+//! `ORIGIN` give the lattice; VTK image data has no direction. `POINT_DATA`, when given, must be
+//! the point count; ASCII data holds exactly that many values (a keyword may follow them).
 
 use std::path::Path;
 
@@ -90,7 +91,7 @@ pub fn open_vtk(path: &Path, limits: &Limits) -> Result<VolumeReader> {
                 }
             }
             "ORIGIN" => origin = numbers("ORIGIN")?,
-            "POINT_DATA" => points = rest.first().and_then(|t| t.parse::<u64>().ok()),
+            "POINT_DATA" => points = Some(rest.first().copied().unwrap_or_default().to_string()),
             "CELL_DATA" => {
                 return Err(ctx.unsupported(format!("line {n}: CELL_DATA: only point data is a sampled volume")))
             }
@@ -126,8 +127,9 @@ pub fn open_vtk(path: &Path, limits: &Limits) -> Result<VolumeReader> {
     let dtype = dtype.ok_or_else(|| ctx.bad("no SCALARS line"))?;
     let binary = binary.ok_or_else(|| ctx.bad("line 3: neither ASCII nor BINARY"))?;
     let count = dims.iter().map(|&d| d as u64).product::<u64>();
+    // A count that is not a number (`-5`, `1e3`) is as wrong as a count that differs.
     if let Some(p) = points {
-        if p != count {
+        if p.parse::<u64>().ok() != Some(count) {
             return Err(ctx.bad(format!("POINT_DATA {p} does not match DIMENSIONS {dims:?} ({count} points)")));
         }
     }
