@@ -1731,11 +1731,9 @@ fn issue_10_stream_check_equals_check_on_real_cts() {
 
 /// Issue 50: a volume of one slice (a single-slice DICOM folder reads as one, as does this NRRD)
 /// has no cell, so the walk sees nothing and `extract` wrote an empty mesh with exit 0, where any
-/// other volume without a crossing gets "iso … gives no surface" and exit 2. The fix belongs in
-/// the core crate (`WalkStats::uniform_side` is `None` for a walk of no cells, so `NoSurface`
-/// never fires), not in the readers: this test waits for it.
+/// other volume without a crossing gets "iso … gives no surface" and exit 2. The library's
+/// checks now refuse a lattice without cells before the walk, with the same words.
 #[test]
-#[ignore = "issue 50: NoSurface for a lattice without cells is a core-crate fix"]
 fn issue_50_a_volume_of_one_slice_gives_no_surface() {
     let dir = tempfile::tempdir().unwrap();
     let input = dir.path().join("one.nrrd");

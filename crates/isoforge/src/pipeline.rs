@@ -216,6 +216,14 @@ fn check(iso: Iso, opts: &Options, dims: [u32; 3]) -> Result<()> {
     if !iso.value.is_finite() {
         return Err(Error::InvalidInput(format!("iso {}: must be a finite number", iso.value)));
     }
+    if dims.iter().any(|&d| d < 2) {
+        // What `NoSurface` says of a walk whose cells are all on one side, for a walk of none.
+        return Err(Error::InvalidInput(format!(
+            "iso {} gives no surface: the lattice has no cells ({} x {} x {} points; a surface needs two \
+             points on every axis)",
+            iso.value, dims[0], dims[1], dims[2]
+        )));
+    }
     if let Some(mask) = &opts.mask {
         if mask.dims() != dims {
             return Err(Error::InvalidInput(format!("mask dims {:?} differ from the volume's {dims:?}", mask.dims())));
