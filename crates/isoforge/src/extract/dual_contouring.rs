@@ -54,7 +54,8 @@ pub const DEFAULT_MARGIN: f32 = 0.0;
 /// neighbouring cells can share two face segments).
 ///
 /// **Limits**: not manifold where one cell holds two sheets of the surface (they share its
-/// vertex: the measured counts on real scans are in `isoforge-io/tests/real_data.rs`); a
+/// vertex: on the real scans 2 to 122982 non-manifold edges, 88–100 % fewer with `split`;
+/// docs/BENCHMARKS.md §6.23, from `isoforge-io/tests/real_data.rs`); a
 /// feature whose planes meet beyond the margin is cut there (the clamp); a vertex outside its
 /// cell can fold a triangle against its neighbours' (no self-intersection test yet); open along
 /// the lattice's faces.
