@@ -15,7 +15,7 @@ import subprocess
 import sys
 import tempfile
 
-METHODS = ["mc", "mc33", "mt5", "mt6", "mt-bcc", "surface-nets"]
+METHODS = ["mc", "mc33", "mt5", "mt6", "mt-bcc", "surface-nets", "dc"]
 
 
 def run(cmd):

@@ -33,7 +33,7 @@ struct Args {
     /// The iso value (inside ⇔ value < iso).
     #[arg(long)]
     iso: f64,
-    /// Methods, comma-separated (`mc`, `mc33`, `mt5`, `mt6`, `mt-bcc`, `surface-nets`); the
+    /// Methods, comma-separated (`mc`, `mc33`, `mt5`, `mt6`, `mt-bcc`, `surface-nets`, `dc`); the
     /// first is the reference of the ratios.
     #[arg(long, default_value = "mc,mt-bcc")]
     methods: String,

@@ -199,9 +199,18 @@ pub struct ExtractArgs {
     pub inside: Option<String>,
     /// Extraction method: mc33 (default: marching cubes 33, the topology of the trilinear
     /// interpolant), mc (classic marching cubes: exactly vtkFlyingEdges3D's triangles), mt5 / mt6 /
-    /// mt-bcc (marching tetrahedra with 5, 6 or body-centred tetrahedra per cell), surface-nets.
-    #[arg(long, default_value = "mc33", value_name = "mc33|mc|mt5|mt6|mt-bcc|surface-nets")]
+    /// mt-bcc (marching tetrahedra with 5, 6 or body-centred tetrahedra per cell), surface-nets,
+    /// dc (dual contouring: sharp corners and creases from the volume's gradients).
+    #[arg(long, default_value = "mc33", value_name = "mc33|mc|mt5|mt6|mt-bcc|surface-nets|dc")]
     pub method: String,
+    /// With --method dc: keep quads (one per crossed lattice edge) instead of splitting each
+    /// along its shorter diagonal.
+    #[arg(long)]
+    pub quads: bool,
+    /// With --method dc: one vertex per marching-cubes patch of a cell instead of one per cell
+    /// (a cell holding two sheets gives each its own vertex: fewer non-manifold edges).
+    #[arg(long)]
+    pub split: bool,
     /// Walk a sparse grid: a built-in field sampled only near its surface (blocks of 8³ points,
     /// memory growing with the surface; skipped boxes are proven empty with --lipschitz or the
     /// field's own bound), or a volume's blocks near the surface (the same mesh as without).
@@ -336,7 +345,7 @@ pub struct RenderArgs {
     #[arg(long, value_name = "below|above")]
     pub inside: Option<String>,
     /// Extraction method for volumes and fields (as for extract).
-    #[arg(long, default_value = "mc33", value_name = "mc33|mc|mt5|mt6|mt-bcc|surface-nets")]
+    #[arg(long, default_value = "mc33", value_name = "mc33|mc|mt5|mt6|mt-bcc|surface-nets|dc")]
     pub method: String,
     /// Camera: iso (three-quarter), front or top.
     #[arg(long, default_value = "iso", value_name = "iso|front|top")]

@@ -293,6 +293,16 @@ fn flag(flag: &str) -> impl Fn(ParseError) -> anyhow::Error + '_ {
     move |e| anyhow!("{flag} {e}")
 }
 
+/// `method` with `--quads` and `--split` applied: dual contouring's options; other methods refuse them.
+fn dc_options(method: Method, quads: bool, split: bool) -> Result<Method> {
+    match method {
+        Method::DualContouring { .. } => Ok(Method::DualContouring { quads, split }),
+        _ if quads => bail!("--quads applies to --method dc (surface-nets always makes quads; the others triangles)"),
+        _ if split => bail!("--split applies to --method dc"),
+        m => Ok(m),
+    }
+}
+
 impl ExtractConfig {
     pub fn from_args(a: &ExtractArgs, threads: Option<usize>) -> Result<Self> {
         let input = InputConfig::from_args(&a.input)?;
@@ -308,7 +318,7 @@ impl ExtractConfig {
             labels,
             region: region(a)?,
             options: Options {
-                method: a.method.parse().map_err(flag("--method"))?,
+                method: dc_options(a.method.parse().map_err(flag("--method"))?, a.quads, a.split)?,
                 normals: a.normals.parse().map_err(flag("--normals"))?,
                 threads,
                 sparse: a.sparse.then_some(true),

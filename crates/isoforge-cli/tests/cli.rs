@@ -506,6 +506,7 @@ fn streaming_by_default_gives_the_in_memory_bytes() {
         ("mc", "2", "none"),
         ("mc", "2", "gradient"),
         ("surface-nets", "1", "none"),
+        ("dc", "2", "gradient"),
         ("mt-bcc", "2", "none"),
         ("mc33", "2", "none"),
     ];

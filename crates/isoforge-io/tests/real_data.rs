@@ -155,8 +155,17 @@ fn issue_10_every_method_is_manifold_on_every_real_scan() {
                 let e = extract_grid(grid, Iso::below(iso), &opts, None)
                     .unwrap_or_else(|e| panic!("{name} at {iso} with {}: {e}", method.name()));
                 let (r, found) = defects(&e.mesh, grid.lattice(), method.is_manifold());
+                // The dual methods promise no manifoldness: their counts, measured (issue 45).
+                let dual = if method.is_manifold() {
+                    String::new()
+                } else {
+                    format!(
+                        "  [{} non-manifold edges, {} non-manifold vertices, {} inconsistently oriented edges]",
+                        r.non_manifold_edges.count, r.non_manifold_vertices.count, r.inconsistent_edges.count
+                    )
+                };
                 eprintln!(
-                    "{name:<30} {:<11} iso {iso:<9} {:<6} {:>9} triangles {:>5} components  {:>6.2} s  {}",
+                    "{name:<30} {:<11} iso {iso:<9} {:<12} {:>9} triangles {:>5} components  {:>6.2} s  {}{dual}",
                     format!("{:?}", grid.lattice().dims()).replace(' ', ""),
                     method.name(),
                     r.triangles,
@@ -165,6 +174,47 @@ fn issue_10_every_method_is_manifold_on_every_real_scan() {
                     if found.is_empty() { "ok".to_string() } else { found.join("; ") }
                 );
                 failures.extend(found.into_iter().map(|f| format!("{name} at iso {iso} with {}: {f}", method.name())));
+            }
+        }
+    }
+    assert!(failures.is_empty(), "{} defects:\n{}", failures.len(), failures.join("\n"));
+}
+
+/// Issue 45: dual contouring on every real scan at its sidecar isos, one vertex per cell and split
+/// per marching-cubes patch: closed off the lattice's faces, and the non-manifold edges and
+/// vertices each leaves, printed (the dual methods promise no manifoldness yet; the figures are
+/// what `--split` buys).
+#[test]
+#[cfg_attr(debug_assertions, ignore = "release only: cargo test --release -p isoforge-io --test real_data")]
+fn issue_45_dual_contouring_on_every_real_scan() {
+    let Some(volumes) = scans() else {
+        eprintln!("real_data: skipped, no data folder at ../shared/data/volumes");
+        return;
+    };
+    let mut failures = Vec::new();
+    for path in &volumes {
+        let name = path.file_stem().and_then(|s| s.to_str()).unwrap_or("?").to_string();
+        let grid = isoforge_io::read_volume(path, &isoforge_io::Limits::new(u64::MAX))
+            .unwrap_or_else(|e| panic!("{}: {e}", path.display()));
+        for iso in sidecar_isos(&path.with_extension("json")) {
+            for split in [false, true] {
+                let t = Instant::now();
+                let opts = Options { method: Method::DualContouring { quads: false, split }, ..Options::default() };
+                let e = extract_grid(&grid, Iso::below(iso), &opts, None)
+                    .unwrap_or_else(|e| panic!("{name} at {iso} with dc: {e}"));
+                let (r, found) = defects(&e.mesh, grid.lattice(), false);
+                eprintln!(
+                    "{name:<30} iso {iso:<9} dc{:<6} {:>9} triangles {:>6.2} s  {} non-manifold edges, {} non-manifold \
+                     vertices, {} inconsistently oriented edges  {}",
+                    if split { " split" } else { "" },
+                    r.triangles,
+                    t.elapsed().as_secs_f64(),
+                    r.non_manifold_edges.count,
+                    r.non_manifold_vertices.count,
+                    r.inconsistent_edges.count,
+                    if found.is_empty() { "ok".to_string() } else { found.join("; ") }
+                );
+                failures.extend(found.into_iter().map(|f| format!("{name} at iso {iso} with dc (split {split}): {f}")));
             }
         }
     }

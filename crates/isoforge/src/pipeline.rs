@@ -19,8 +19,8 @@ pub use request::{NoSurface, ParseError, Region, Request, Roi};
 use crate::cube::{CellRange, VertexKey};
 use crate::error::{Error, Result};
 use crate::extract::{
-    BodyCentredTetrahedra, Counting, Decomposition, Extractor, MarchingCubes, MarchingCubes33, MarchingTetrahedra,
-    Masked, PointMask, SurfaceNets,
+    BodyCentredTetrahedra, Counting, Decomposition, DualContouring, Extractor, MarchingCubes, MarchingCubes33,
+    MarchingTetrahedra, Masked, PointMask, SurfaceNets,
 };
 use crate::grid::{AnyGrid, AnySparse, DType, DenseGrid, Sample, SparseGrid};
 use crate::mesh::{KeyRecord, Mesh, MeshBuilder, MeshSink, WriteBehind};
@@ -53,20 +53,30 @@ pub enum Method {
     TetrahedraBcc,
     /// Surface nets ([`SurfaceNets`]): dual, one vertex per cell, quads.
     SurfaceNets,
+    /// Dual contouring ([`DualContouring`]): surface nets' connectivity, each vertex fitted to
+    /// the Hermite data of its cell (sharp corners and creases); triangles unless `quads`.
+    DualContouring {
+        /// Keep quads instead of splitting them along their shorter diagonal.
+        quads: bool,
+        /// One vertex per marching-cubes patch of a cell instead of one per cell
+        /// ([`DualContouring::split`]).
+        split: bool,
+    },
 }
 
 impl Method {
     /// Every method, in CLI order.
-    pub const ALL: [Method; 6] = [
+    pub const ALL: [Method; 7] = [
         Method::MarchingCubes,
         Method::MarchingCubes33,
         Method::Tetrahedra5,
         Method::Tetrahedra6,
         Method::TetrahedraBcc,
         Method::SurfaceNets,
+        Method::DualContouring { quads: false, split: false },
     ];
 
-    /// The short CLI name (`mc`, `mc33`, `mt5`, `mt6`, `mt-bcc`, `surface-nets`).
+    /// The short CLI name (`mc`, `mc33`, `mt5`, `mt6`, `mt-bcc`, `surface-nets`, `dc`).
     pub fn name(self) -> &'static str {
         match self {
             Method::MarchingCubes => "mc",
@@ -75,17 +85,19 @@ impl Method {
             Method::Tetrahedra6 => "mt6",
             Method::TetrahedraBcc => "mt-bcc",
             Method::SurfaceNets => "surface-nets",
+            Method::DualContouring { .. } => "dc",
         }
     }
 
     /// Whether the mesh is guaranteed edge- and vertex-manifold and consistently oriented (closed
-    /// when the surface stays inside the lattice). Every method but surface nets, whose cells
-    /// holding two sheets give them one shared vertex.
+    /// when the surface stays inside the lattice). Every method but the dual ones (surface nets,
+    /// dual contouring), whose cells holding two sheets give them one shared vertex.
     pub fn is_manifold(self) -> bool {
-        !matches!(self, Method::SurfaceNets)
+        !matches!(self, Method::SurfaceNets | Method::DualContouring { .. })
     }
 
-    /// Parses a short CLI name.
+    /// Parses a short CLI name (`dc` gives plain dual contouring's triangles:
+    /// `Method::DualContouring { quads: false, split: false }`).
     pub fn parse(s: &str) -> Option<Method> {
         Method::ALL.into_iter().find(|m| m.name() == s)
     }
@@ -178,6 +190,9 @@ pub fn with_extractor<Vis: ExtractorVisitor>(method: Method, v: Vis) -> Vis::Out
         Method::Tetrahedra6 => v.visit(tetrahedra(Decomposition::Six)),
         Method::TetrahedraBcc => v.visit(BodyCentredTetrahedra),
         Method::SurfaceNets => v.visit(SurfaceNets),
+        Method::DualContouring { quads, split } => {
+            v.visit(DualContouring { quads, split, ..DualContouring::default() })
+        }
     }
 }
 

@@ -316,8 +316,11 @@ impl Extractor for Probe {
             }
             let h = cell.hermite(CubeEdge(e));
             // Hermite's point is the crossing the edge's vertex sits on (checked through the keys
-            // below); its normal is a unit vector; asking again gives the same bits.
+            // below); its normal is a unit vector; asking again gives the same bits; in the
+            // cell's frame it is the crossing a placing extractor sees, on this cell's edge.
             cell.edge_vertex(CubeEdge(e));
+            assert_eq!(cell.crossing(CubeEdge(e)), h.local, "edge {e}");
+            assert_eq!(h.on_edge(CubeEdge(e)), h, "edge {e}: in this cell's frame");
             let len: f32 = h.normal.iter().map(|x| x * x).sum::<f32>().sqrt();
             assert!((len - 1.0).abs() < 1e-4, "normal {:?}", h.normal);
             assert_eq!(cell.hermite(CubeEdge(e)), h, "cached");

@@ -2,12 +2,22 @@
 //! [`Hermite`] data. It lives with the extractors, which are written against it; walkers
 //! implement it (so `extract` depends on no walker, and `walk` on `extract` only).
 
+#[cfg(doc)]
+use crate::cube::CORNER_OFFSETS;
 use crate::cube::{CellPoint, CubeEdge};
 use crate::mesh::VertexId;
 #[cfg(doc)]
 use crate::{cube::VertexKey, volume::Volume};
 
 /// A walker's cursor on one cell. Extractors are generic over it and see nothing else.
+///
+/// **The cell's frame.** Extractors place vertices in cell coordinates: `local` ∈ [0, 1]³, the
+/// lattice index `ijk + local` (corner `c` at [`CORNER_OFFSETS`]`[c]`). Everything a cell hands
+/// out for placing is in that frame: [`crossing`](Cell::crossing) and [`Hermite::local`], and
+/// normals as [`Hermite::local_normal`], the plane's covector in cell coordinates scaled so that
+/// `local_normal · (u − local)` is the world distance of cell point `u` from the crossing's
+/// tangent plane (spacing and direction applied). World data ([`Hermite::point`],
+/// [`Hermite::normal`], [`placed_point`](Cell::placed_point)) is what the mesh stores.
 ///
 /// Vertices come in three kinds, each created once per walk and shared through the walker's
 /// caches: crossings on lattice edges ([`edge_vertex`](Cell::edge_vertex)), crossings on other
@@ -26,6 +36,10 @@ pub trait Cell {
     /// outward normal of the field there, computed once per lattice edge. What an algorithm
     /// needs (dual contouring, feature detection); independent of the normals the output stores.
     fn hermite(&mut self, e: CubeEdge) -> Hermite;
+    /// The crossing on edge `e` (its corners must differ in class) in the cell's frame: the
+    /// volume's crossing, where [`edge_vertex`](Cell::edge_vertex) puts its vertex, without the
+    /// normal (cheaper than [`hermite`](Cell::hermite)); computed once per lattice edge.
+    fn crossing(&mut self, e: CubeEdge) -> [f32; 3];
     /// The mesh vertex at the crossing on edge `e` (its corners must differ in class), created on
     /// first request and shared with every other cell touching the same lattice edge.
     fn edge_vertex(&mut self, e: CubeEdge) -> VertexId;
@@ -49,7 +63,13 @@ pub trait Cell {
     /// cells at or before this one in walk order, which walkers have always placed (dual methods
     /// emit a cell's polygons for its edges at corner 0: 0, 4 and 8). `None` also when the
     /// neighbour lies outside the lattice.
-    fn placed_vertex(&mut self, offset: [i8; 3], e: CubeEdge) -> Option<VertexId>;
+    #[inline]
+    fn placed_vertex(&mut self, offset: [i8; 3], e: CubeEdge) -> Option<VertexId> {
+        self.placed_point(offset, e).map(|(v, _)| v)
+    }
+    /// [`placed_vertex`](Cell::placed_vertex) with the vertex's world position (as the mesh
+    /// stores it): what a dual method needs to split a quad along its shorter diagonal.
+    fn placed_point(&mut self, offset: [i8; 3], e: CubeEdge) -> Option<(VertexId, [f32; 3])>;
 
     /// Emits a triangle (wound counter-clockwise seen from outside).
     fn push_triangle(&mut self, t: [VertexId; 3]);
@@ -57,7 +77,9 @@ pub trait Cell {
     fn push_quad(&mut self, q: [VertexId; 4]);
 }
 
-/// A crossing with its outward unit normal: the Hermite data dual methods fit vertices to.
+/// A crossing with its outward unit normal: the Hermite data dual methods fit vertices to, in
+/// world coordinates (what the mesh stores) and in the frame of the cell that asked (what
+/// [`Cell::place_vertex`] takes; see [`Cell`]).
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct Hermite {
     /// World position of the crossing.
@@ -65,4 +87,24 @@ pub struct Hermite {
     /// Unit normal pointing from inside to outside (from the field's gradient; the edge's
     /// direction where the gradient vanishes).
     pub normal: [f32; 3],
+    /// The crossing in cell coordinates: on the cell's edge, [`Cell::crossing`]'s point.
+    pub local: [f32; 3],
+    /// The normal as a covector of cell coordinates, `m_a = spacing_a · (direction_a · normal)`:
+    /// `local_normal · (u − local)` is the world distance of cell point `u` from the tangent
+    /// plane (a unit vector on a lattice of unit spacing).
+    pub local_normal: [f32; 3],
+}
+
+impl Hermite {
+    /// The same crossing seen from a cell where its lattice edge is edge `e`: `local` moved to
+    /// that cell's edge (the parameter along the edge is kept; the other two coordinates are the
+    /// edge's corner offsets, so no rounding).
+    #[inline]
+    pub fn on_edge(mut self, e: CubeEdge) -> Self {
+        let axis = e.axis().index();
+        let t = self.local[axis];
+        self.local = e.origin_offset().map(|x| x as f32);
+        self.local[axis] = t;
+        self
+    }
 }

@@ -9,6 +9,7 @@
 //! | [`MarchingCubes33`] \[Chernyaev95\] | triangles | yes | yes | yes | no |
 //! | [`MarchingTetrahedra`] \[Doi91\] | triangles | yes | yes | of the tetrahedral split | no |
 //! | [`SurfaceNets`] \[Gibson98\] | quads | no (dual: non-manifold where a cell holds two sheets) | yes | no | no |
+//! | [`DualContouring`] \[Ju02\] | triangles (quads on request) | no (surface nets' connectivity) | yes | no | yes: corners and creases whose planes meet inside the cell |
 //! | [`Masked`] | as the inner extractor, open at the mask's edge | | | | |
 //!
 //! How walkers run extractors: [`place`](Extractor::place) (dual methods' own vertices) for every
@@ -20,14 +21,17 @@
 //! before making it run on per-slab meshes stitched by vertex key instead.
 
 mod cell;
+pub mod dual_contouring;
 pub mod marching_cubes;
 pub mod masked;
 pub mod mc33;
+pub mod qef;
 pub mod squares;
 pub mod surface_nets;
 pub mod tetrahedra;
 
 pub use cell::{Cell, Hermite};
+pub use dual_contouring::DualContouring;
 pub use marching_cubes::MarchingCubes;
 pub use masked::{Masked, PointMask};
 pub use mc33::MarchingCubes33;
@@ -216,7 +220,12 @@ impl Cell for ProbeCell {
         self.case
     }
     fn hermite(&mut self, _e: CubeEdge) -> Hermite {
-        Hermite { point: [0.0; 3], normal: [0.0; 3] }
+        Hermite { point: [0.0; 3], normal: [0.0; 3], local: [0.0; 3], local_normal: [0.0; 3] }
+    }
+    fn crossing(&mut self, e: CubeEdge) -> [f32; 3] {
+        let mut p = e.origin_offset().map(|x| x as f32);
+        p[e.axis().index()] = 0.5;
+        p
     }
     fn edge_vertex(&mut self, e: CubeEdge) -> VertexId {
         VertexId(e.0 as u32)
@@ -252,7 +261,7 @@ impl Cell for ProbeCell {
         self.counts.placed += 1;
         VertexId(PROBE_PLACED + self.counts.placed as u32)
     }
-    fn placed_vertex(&mut self, _offset: [i8; 3], _e: CubeEdge) -> Option<VertexId> {
+    fn placed_point(&mut self, _offset: [i8; 3], _e: CubeEdge) -> Option<(VertexId, [f32; 3])> {
         self.other_vertices = true;
         None
     }

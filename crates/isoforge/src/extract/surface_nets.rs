@@ -3,10 +3,11 @@
 //! marching cubes build on.
 
 use super::Extractor;
-use crate::cube::{CubeEdge, CASE_EDGES, CORNER_OFFSETS, EDGE_CORNERS};
+use crate::cube::{CubeEdge, CASE_EDGES};
 use crate::extract::Cell;
 
-/// Surface nets: one vertex per active cell at the mean of its edge crossings, and for every
+/// Surface nets: one vertex per active cell at the mean of its edge crossings (the volume's
+/// crossings, [`Cell::crossing`]: the points marching cubes' vertices sit on), and for every
 /// crossed lattice edge a quad joining the vertices of the four cells around it.
 ///
 /// **Guarantees**: quads (`Mesh::triangulate` splits them); closed when the surface stays inside
@@ -23,16 +24,14 @@ impl Extractor for SurfaceNets {
     const PLACES_VERTICES: bool = true;
 
     fn place<C: Cell>(&self, cell: &mut C) {
-        let (d, crossed) = (*cell.values(), CASE_EDGES[cell.case() as usize]);
+        let crossed = CASE_EDGES[cell.case() as usize];
         let (mut sum, mut n) = ([0.0f32; 3], 0.0f32);
-        for e in 0..12 {
+        for e in 0..12u8 {
             if crossed & (1 << e) == 0 {
                 continue;
             }
-            let [a, b] = EDGE_CORNERS[e];
-            let t = crate::volume::linear_crossing(d[a as usize], d[b as usize]);
-            let mut p = CORNER_OFFSETS[a as usize].map(|x| x as f32);
-            p[e / 4] += t;
+            // The volume's crossing (the one edge vertices sit on), in the cell's frame.
+            let p = cell.crossing(CubeEdge(e));
             for (s, x) in sum.iter_mut().zip(p) {
                 *s += x;
             }

@@ -418,6 +418,9 @@ impl Cell for SolidProbe {
     fn hermite(&mut self, _e: CubeEdge) -> Hermite {
         unreachable!("tetrahedra need no Hermite data")
     }
+    fn crossing(&mut self, _e: CubeEdge) -> [f32; 3] {
+        unreachable!("tetrahedra name segments")
+    }
     fn edge_vertex(&mut self, _e: CubeEdge) -> VertexId {
         unreachable!("tetrahedra name segments")
     }
@@ -445,7 +448,7 @@ impl Cell for SolidProbe {
     fn place_vertex(&mut self, _local: [f32; 3], _edges: u16) -> VertexId {
         unreachable!("tetrahedra place no vertex")
     }
-    fn placed_vertex(&mut self, _offset: [i8; 3], _e: CubeEdge) -> Option<VertexId> {
+    fn placed_point(&mut self, _offset: [i8; 3], _e: CubeEdge) -> Option<(VertexId, [f32; 3])> {
         unreachable!("tetrahedra place no vertex")
     }
     fn push_triangle(&mut self, t: [VertexId; 3]) {
@@ -562,6 +565,9 @@ mod tests {
         fn hermite(&mut self, _e: CubeEdge) -> Hermite {
             unreachable!()
         }
+        fn crossing(&mut self, _e: CubeEdge) -> [f32; 3] {
+            unreachable!()
+        }
         fn edge_vertex(&mut self, e: CubeEdge) -> VertexId {
             let [a, b] = e.corners();
             self.segment_vertex(Corner(a), Corner(b))
@@ -597,7 +603,7 @@ mod tests {
         fn place_vertex(&mut self, _local: [f32; 3], _edges: u16) -> VertexId {
             unreachable!()
         }
-        fn placed_vertex(&mut self, _offset: [i8; 3], _e: CubeEdge) -> Option<VertexId> {
+        fn placed_point(&mut self, _offset: [i8; 3], _e: CubeEdge) -> Option<(VertexId, [f32; 3])> {
             unreachable!()
         }
         fn push_triangle(&mut self, t: [VertexId; 3]) {

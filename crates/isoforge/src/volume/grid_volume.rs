@@ -104,8 +104,32 @@ pub fn edge_gradient(lattice: &Lattice, e: EdgeKey, t: f32, get: &impl Fn([u32; 
     let g1 = point_gradient(dims, e.end(), get);
     let t = t as f64;
     let g = [0, 1, 2].map(|a| g0[a] + (g1[a] - g0[a]) * t);
-    let w = lattice.gradient_to_world(g);
-    Vec3::new(w[0] as f32, w[1] as f32, w[2] as f32)
+    narrow_gradient(lattice.gradient_to_world(g))
+}
+
+/// A world gradient in `f32`: as it is, or, where its largest component lies outside [2⁻¹⁰⁰,
+/// 2¹⁰⁰) (samples beyond `f32`'s range, whose gradient would overflow to infinity or vanish),
+/// scaled by the power of two that brings it near 1: the direction is what walkers use (normals,
+/// dual contouring's planes). Ordinary data never takes the scaled path: its gradients are
+/// unchanged bit for bit.
+#[inline]
+fn narrow_gradient(w: [f64; 3]) -> Vec3 {
+    const LO: f64 = 7.888609052210118e-31; // 2^-100
+    const HI: f64 = 1.2676506002282294e30; // 2^100
+    let largest = w.iter().fold(0.0f64, |m, x| m.max(x.abs()));
+    if largest == 0.0 || (LO..HI).contains(&largest) || !largest.is_finite() {
+        return Vec3::new(w[0] as f32, w[1] as f32, w[2] as f32);
+    }
+    scaled_gradient(w, largest)
+}
+
+#[cold]
+fn scaled_gradient(w: [f64; 3], largest: f64) -> Vec3 {
+    // 2^-e in two factors, each within f64's range for any finite `largest`.
+    let e = largest.log2().floor() as i32;
+    let (a, b) = (-e / 2, -e - -e / 2);
+    let s = w.map(|x| (x * 2f64.powi(a) * 2f64.powi(b)) as f32);
+    Vec3::new(s[0], s[1], s[2])
 }
 
 /// The trilinear interpolant of a grid-backed volume at index point `p` (clamped to the lattice).
@@ -120,8 +144,7 @@ pub fn trilinear_value(dims: [u32; 3], p: [f64; 3], get: &impl Fn([u32; 3]) -> f
 pub fn point_gradient_at(lattice: &Lattice, p: [f64; 3], get: &impl Fn([u32; 3]) -> f64) -> Vec3 {
     let dims = lattice.dims();
     let g = crate::grid::blend(dims, p, |q| point_gradient(dims, q, get));
-    let w = lattice.gradient_to_world(g);
-    Vec3::new(w[0] as f32, w[1] as f32, w[2] as f32)
+    narrow_gradient(lattice.gradient_to_world(g))
 }
 
 /// The crossing on lattice edge `e` of a grid-backed volume whose samples `get` reads: linear in

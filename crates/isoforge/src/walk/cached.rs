@@ -15,17 +15,18 @@
 //! once, by the first cell that asks.
 
 use super::segment::{self, SegmentCache};
-use super::{edge_hermite, push_edge_vertex, Cell, Hermite};
+use super::{cell_crossing, edge_hermite, local_on_edge, push_edge_vertex, Cell, Hermite};
 use crate::cube::{Axis, CellPoint, CubeEdge, EdgeKey, SegmentKey};
 use crate::mesh::{MeshBuilder, VertexId};
 use crate::volume::{Iso, Volume};
 
-/// Vertices placed by one layer of cells: for each cell its entries `(vertex, edge mask)`.
+/// Vertices placed by one layer of cells: for each cell its entries `(vertex, edge mask, world
+/// position)`.
 #[derive(Debug, Default)]
 struct Placed {
     start: Vec<u32>,
     count: Vec<u8>,
-    entries: Vec<(VertexId, u16)>,
+    entries: Vec<(VertexId, u16, [f32; 3])>,
 }
 
 impl Placed {
@@ -37,7 +38,7 @@ impl Placed {
         self.entries.clear();
     }
 
-    fn of(&self, cell: usize) -> &[(VertexId, u16)] {
+    fn of(&self, cell: usize) -> &[(VertexId, u16, [f32; 3])] {
         let (s, c) = (self.start[cell] as usize, self.count[cell] as usize);
         &self.entries[s..s + c]
     }
@@ -218,12 +219,15 @@ pub(crate) struct LayerCaches {
     placed: [Placed; 2],
     /// Hermite data per edge slot, like the ids (allocated on the first request).
     hermite: Option<Box<[Stamped<Hermite>; 5]>>,
+    /// Crossing parameters per edge slot, like the ids (allocated on the first request).
+    crossings: Option<Box<[Stamped<f32>; 5]>>,
     /// Cell-centre values (offset by iso) of the current layer and the one below, by layer
     /// parity, each computed once through `Volume::value_at` (allocated on the first request).
     centres: Option<Box<[Stamped<f32>; 2]>>,
 }
 
-const NO_HERMITE: Hermite = Hermite { point: [f32::NAN; 3], normal: [0.0; 3] };
+const NO_HERMITE: Hermite =
+    Hermite { point: [f32::NAN; 3], normal: [0.0; 3], local: [f32::NAN; 3], local_normal: [0.0; 3] };
 
 impl LayerCaches {
     /// Empty caches for the box of `w × h` points from `origin`, starting at cell layer `k`.
@@ -244,6 +248,9 @@ impl LayerCaches {
         }
         for s in self.hermite.iter_mut().flat_map(|t| t.iter_mut()) {
             s.reset(n, NO_HERMITE);
+        }
+        for s in self.crossings.iter_mut().flat_map(|t| t.iter_mut()) {
+            s.reset(n, f32::NAN);
         }
         for s in self.centres.iter_mut().flat_map(|t| t.iter_mut()) {
             s.reset(n, f32::NAN);
@@ -515,13 +522,36 @@ impl<V: Volume + ?Sized> Cell for CachedCell<'_, V> {
             _ => &mut slots[4],
         };
         if let Some(h) = slot.get(at, stamp) {
-            return h;
+            return h.on_edge(e);
         }
         let [c0, c1] = e.corners();
         let key = EdgeKey::of_cell(self.ijk, e);
         let h = edge_hermite(self.vol, key, self.d[c0 as usize], self.d[c1 as usize], self.iso);
         slot.set(at, stamp, h);
-        h
+        h.on_edge(e)
+    }
+
+    fn crossing(&mut self, e: CubeEdge) -> [f32; 3] {
+        let (table, stamp, at) = self.caches.edge_slot(self.ijk, e);
+        let n = self.caches.w * self.caches.h;
+        let slots = self.caches.crossings.get_or_insert_with(|| {
+            let mut t: [Stamped<f32>; 5] = Default::default();
+            for s in &mut t {
+                s.reset(n, f32::NAN);
+            }
+            Box::new(t)
+        });
+        let slot = match table {
+            0 => &mut slots[stamp as usize % 2],
+            1 => &mut slots[2 + stamp as usize % 2],
+            _ => &mut slots[4],
+        };
+        if let Some(t) = slot.get(at, stamp) {
+            return local_on_edge(e, t);
+        }
+        let p = cell_crossing(self.vol, self.ijk, e, &self.d, self.iso);
+        slot.set(at, stamp, p[e.axis().index()]);
+        p
     }
 
     #[inline]
@@ -609,7 +639,7 @@ impl<V: Volume + ?Sized> Cell for CachedCell<'_, V> {
     fn place_vertex(&mut self, local: [f32; 3], edges: u16) -> VertexId {
         let n = self.placed;
         self.placed += 1;
-        let id = segment::push_cell_vertex(self.vol, self.iso, self.ijk, n, local, self.out);
+        let (id, w) = segment::push_cell_vertex(self.vol, self.iso, self.ijk, n, local, self.out);
         let c = self.caches.cell_index(self.ijk);
         let layer = &mut self.caches.placed[1];
         if !layer.start.is_empty() {
@@ -617,12 +647,12 @@ impl<V: Volume + ?Sized> Cell for CachedCell<'_, V> {
                 layer.start[c] = layer.entries.len() as u32;
             }
             layer.count[c] += 1;
-            layer.entries.push((id, edges));
+            layer.entries.push((id, edges, w));
         }
         id
     }
 
-    fn placed_vertex(&mut self, offset: [i8; 3], e: CubeEdge) -> Option<VertexId> {
+    fn placed_point(&mut self, offset: [i8; 3], e: CubeEdge) -> Option<(VertexId, [f32; 3])> {
         let key = EdgeKey::of_cell(self.ijk, e);
         let cell = segment::neighbour(self.ijk, offset)?;
         let ne = key.in_cell(cell)?;
@@ -635,7 +665,7 @@ impl<V: Volume + ?Sized> Cell for CachedCell<'_, V> {
             return None;
         }
         let c = self.caches.cell_index(cell);
-        layer.of(c).iter().find(|(_, m)| m & (1 << ne.0) != 0).map(|&(v, _)| v)
+        layer.of(c).iter().find(|(_, m, _)| m & (1 << ne.0) != 0).map(|&(v, _, w)| (v, w))
     }
 
     #[inline]

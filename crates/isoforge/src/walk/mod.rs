@@ -29,7 +29,7 @@ pub use reference::ReferenceWalker;
 pub use slab::SlabWalker;
 pub use stitch::{stitch, stitch_keyed, KeyedMesh};
 
-use crate::cube::{CellRange, EdgeKey, VertexKey};
+use crate::cube::{CellRange, CubeEdge, EdgeKey, VertexKey};
 use crate::error::Result;
 use crate::extract::Extractor;
 use crate::mesh::{MeshBuilder, VertexId};
@@ -119,11 +119,44 @@ pub fn edge_normal<V: Volume + ?Sized>(vol: &V, key: EdgeKey, t: f32, d0: f32, i
     }
 }
 
-/// Hermite data of lattice edge `key`.
+/// Hermite data of lattice edge `key`, its cell coordinates in the frame of the cell whose
+/// corner 0 is the edge's origin ([`Hermite::on_edge`] moves them to any other cell's edge).
 #[inline]
 pub fn edge_hermite<V: Volume + ?Sized>(vol: &V, key: EdgeKey, d0: f32, d1: f32, iso: Iso) -> Hermite {
     let (point, t) = edge_crossing(vol, key, d0, d1, iso);
-    Hermite { point, normal: edge_normal(vol, key, t, d0, iso) }
+    let normal = edge_normal(vol, key, t, d0, iso);
+    let mut local = [0.0; 3];
+    local[key.axis.index()] = t;
+    Hermite { point, normal, local, local_normal: local_covector(vol.lattice(), normal) }
+}
+
+/// A world normal `n` as a covector of cell (index) coordinates: `m_a = spacing_a · (direction_a ·
+/// n)`, so `m · δ` is the world length along `n` of the index-space step `δ` (see [`Cell`]).
+#[inline]
+pub fn local_covector(lattice: &crate::grid::Lattice, n: [f32; 3]) -> [f32; 3] {
+    let (dir, spacing) = (lattice.direction(), lattice.spacing());
+    [0, 1, 2].map(|a| (spacing[a] * (0..3).map(|w| dir[a][w] * n[w] as f64).sum::<f64>()) as f32)
+}
+
+/// The crossing on edge `e` of cell `ijk` (offset values `d`) in the cell's frame.
+#[inline]
+pub(crate) fn cell_crossing<V: Volume + ?Sized>(
+    vol: &V,
+    ijk: [u32; 3],
+    e: CubeEdge,
+    d: &[f32; 8],
+    iso: Iso,
+) -> [f32; 3] {
+    let [c0, c1] = e.corners();
+    local_on_edge(e, vol.crossing(EdgeKey::of_cell(ijk, e), d[c0 as usize], d[c1 as usize], iso))
+}
+
+/// The point at parameter `t` on edge `e` in cell coordinates.
+#[inline]
+pub(crate) fn local_on_edge(e: CubeEdge, t: f32) -> [f32; 3] {
+    let mut p = e.origin_offset().map(|x| x as f32);
+    p[e.axis().index()] = t;
+    p
 }
 
 /// Creates the vertex at the crossing on `key` in `out`, with its normal when `out` stores normals.

@@ -1,7 +1,9 @@
 use std::collections::HashMap;
 
 use super::segment;
-use super::{edge_crossing, edge_hermite, push_edge_vertex, wants_cell, Cell, Hermite, WalkStats, Walker};
+use super::{
+    cell_crossing, edge_crossing, edge_hermite, push_edge_vertex, wants_cell, Cell, Hermite, WalkStats, Walker,
+};
 use crate::cube::{case_of, CellPoint, CubeEdge, EdgeKey, SegmentKey, CORNER_OFFSETS};
 use crate::error::{Error, Result};
 use crate::extract::Extractor;
@@ -65,12 +67,15 @@ pub(crate) fn walk_cells<V: Volume + ?Sized, X: Extractor>(
     keyed.finish()
 }
 
+/// Vertices placed per cell: `(vertex, edge mask, world position)`.
+type PlacedMap = HashMap<[u32; 3], Vec<(VertexId, u16, [f32; 3])>>;
+
 /// The maps of a walk without caches: vertices by key, placed vertices by cell.
 #[derive(Default)]
 struct Keyed {
     ids: HashMap<EdgeKey, (VertexId, [f32; 3])>,
     seg_ids: HashMap<SegmentKey, (VertexId, [f32; 3])>,
-    placed: HashMap<[u32; 3], Vec<(VertexId, u16)>>,
+    placed: PlacedMap,
     mismatch: Option<String>,
     stats: WalkStats,
 }
@@ -131,7 +136,7 @@ struct RefCell<'a, V: ?Sized> {
     iso: Iso,
     ids: &'a mut HashMap<EdgeKey, (VertexId, [f32; 3])>,
     seg_ids: &'a mut HashMap<SegmentKey, (VertexId, [f32; 3])>,
-    placed: &'a mut HashMap<[u32; 3], Vec<(VertexId, u16)>>,
+    placed: &'a mut PlacedMap,
     n_placed: u8,
     memo: [f32; 7],
     out: &'a mut MeshBuilder,
@@ -151,6 +156,10 @@ impl<V: Volume + ?Sized> Cell for RefCell<'_, V> {
     fn hermite(&mut self, e: CubeEdge) -> Hermite {
         let [c0, c1] = e.corners();
         edge_hermite(self.vol, EdgeKey::of_cell(self.ijk, e), self.d[c0 as usize], self.d[c1 as usize], self.iso)
+            .on_edge(e)
+    }
+    fn crossing(&mut self, e: CubeEdge) -> [f32; 3] {
+        cell_crossing(self.vol, self.ijk, e, &self.d, self.iso)
     }
     fn edge_vertex(&mut self, e: CubeEdge) -> VertexId {
         let [c0, c1] = e.corners();
@@ -182,7 +191,7 @@ impl<V: Volume + ?Sized> Cell for RefCell<'_, V> {
         }
         let (vol, iso) = (self.vol, self.iso);
         let (key, d0, d1) = segment::cell_segment(vol, iso, self.ijk, &self.d, &mut self.memo, (a, b));
-        let p = segment::segment_hermite(vol, key, d0, d1, iso).point;
+        let p = segment::world_point(vol, segment::segment_point(vol, key, d0, d1, iso));
         if let Some(&(id, first)) = self.seg_ids.get(&key) {
             if p.map(f32::to_bits) != first.map(f32::to_bits) {
                 *self.mismatch = Some(format!("{key:?}"));
@@ -196,16 +205,16 @@ impl<V: Volume + ?Sized> Cell for RefCell<'_, V> {
     fn place_vertex(&mut self, local: [f32; 3], edges: u16) -> VertexId {
         let n = self.n_placed;
         self.n_placed += 1;
-        let id = segment::push_cell_vertex(self.vol, self.iso, self.ijk, n, local, self.out);
-        self.placed.entry(self.ijk).or_default().push((id, edges));
+        let (id, w) = segment::push_cell_vertex(self.vol, self.iso, self.ijk, n, local, self.out);
+        self.placed.entry(self.ijk).or_default().push((id, edges, w));
         id
     }
-    fn placed_vertex(&mut self, offset: [i8; 3], e: CubeEdge) -> Option<VertexId> {
+    fn placed_point(&mut self, offset: [i8; 3], e: CubeEdge) -> Option<(VertexId, [f32; 3])> {
         let key = EdgeKey::of_cell(self.ijk, e);
         let cell = segment::neighbour(self.ijk, offset)?;
         let ne = key.in_cell(cell)?;
         let entries = self.placed.get(&cell)?;
-        entries.iter().find(|(_, m)| m & (1 << ne.0) != 0).map(|&(v, _)| v)
+        entries.iter().find(|(_, m, _)| m & (1 << ne.0) != 0).map(|&(v, _, w)| (v, w))
     }
     fn push_quad(&mut self, q: [VertexId; 4]) {
         self.out.push_quad(q);

@@ -7,7 +7,6 @@ use std::hash::BuildHasherDefault;
 
 use crate::math::KeyHasher;
 
-use super::Hermite;
 use crate::cube::{CellPoint, SegmentKey, VertexKey};
 use crate::mesh::{MeshBuilder, VertexId};
 use crate::volume::{Iso, Volume};
@@ -74,13 +73,6 @@ pub(crate) fn normal_between<V: Volume + ?Sized>(
     })
 }
 
-/// Hermite data of segment `key` given the offset values at its ends `a` (`d0`) and `b` (`d1`):
-/// the crossing and the outward normal.
-pub fn segment_hermite<V: Volume + ?Sized>(vol: &V, key: SegmentKey, d0: f32, d1: f32, iso: Iso) -> Hermite {
-    let p = segment_point(vol, key, d0, d1, iso);
-    Hermite { point: world_point(vol, p), normal: segment_normal(vol, key, p, d0, iso) }
-}
-
 /// Creates the vertex at the crossing on segment `key` in `out` (with its normal when `out`
 /// stores normals).
 pub(crate) fn push_segment_vertex<V: Volume + ?Sized>(
@@ -97,7 +89,7 @@ pub(crate) fn push_segment_vertex<V: Volume + ?Sized>(
 }
 
 /// Creates the `n`-th vertex cell `ijk` places, at cell coordinates `local` (normal from the
-/// gradient there when `out` stores normals).
+/// gradient there when `out` stores normals); returns it with its world position.
 pub(crate) fn push_cell_vertex<V: Volume + ?Sized>(
     vol: &V,
     iso: Iso,
@@ -105,10 +97,11 @@ pub(crate) fn push_cell_vertex<V: Volume + ?Sized>(
     n: u8,
     local: [f32; 3],
     out: &mut MeshBuilder,
-) -> VertexId {
+) -> (VertexId, [f32; 3]) {
     let p = [0, 1, 2].map(|a| ijk[a] as f64 + local[a] as f64);
     let normal = if out.wants_normals() { point_normal(vol, p, iso, || [0.0; 3]) } else { [0.0; 3] };
-    out.push_vertex(VertexKey::Cell { ijk, n }, world_point(vol, p), normal)
+    let w = world_point(vol, p);
+    (out.push_vertex(VertexKey::Cell { ijk, n }, w, normal), w)
 }
 
 /// The cell at `ijk + offset`, or `None` below index 0.

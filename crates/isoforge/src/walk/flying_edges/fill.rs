@@ -16,7 +16,7 @@ use crate::grid::Sample;
 use crate::mesh::{huge_capacity, Mesh, MeshBuilder, VertexId};
 use crate::volume::SampleSlabs;
 use crate::walk::segment;
-use crate::walk::{edge_crossing, edge_hermite, edge_normal, Cell, Hermite, Progress};
+use crate::walk::{cell_crossing, edge_crossing, edge_hermite, edge_normal, Cell, Hermite, Progress};
 
 /// What the running sums take from a row's counts: its vertices, triangles and quads.
 pub(super) trait Counted: Copy + Default {
@@ -563,7 +563,12 @@ impl<X: Extractor, O: FillOut> Cell for FillCell<'_, X, O> {
     fn hermite(&mut self, e: CubeEdge) -> Hermite {
         let [c0, c1] = e.corners();
         let d = *self.values();
-        edge_hermite(self.p.vol, EdgeKey::of_cell(self.ijk, e), d[c0 as usize], d[c1 as usize], self.p.iso)
+        edge_hermite(self.p.vol, EdgeKey::of_cell(self.ijk, e), d[c0 as usize], d[c1 as usize], self.p.iso).on_edge(e)
+    }
+
+    fn crossing(&mut self, e: CubeEdge) -> [f32; 3] {
+        let d = *self.values();
+        cell_crossing(self.p.vol, self.ijk, e, &d, self.p.iso)
     }
 
     #[inline(always)]
@@ -620,7 +625,7 @@ impl<X: Extractor, O: FillOut> Cell for FillCell<'_, X, O> {
         VertexId(id as u32)
     }
 
-    fn placed_vertex(&mut self, _offset: [i8; 3], _e: CubeEdge) -> Option<VertexId> {
+    fn placed_point(&mut self, _offset: [i8; 3], _e: CubeEdge) -> Option<(VertexId, [f32; 3])> {
         debug_assert!(false, "an extractor with Counting::Known asked for a neighbour's placed vertex");
         None
     }

@@ -1,0 +1,283 @@
+//! Quadratic error functions of Hermite data: the point that best fits a set of tangent planes,
+//! solved by a symmetric eigen-decomposition with small singular values truncated \[Ju02\].
+//!
+//! In: crossings and normals in one frame (a cell's coordinates). Out: the minimiser nearest the
+//! crossings' mean (the mass point) along the directions the planes leave free.
+
+/// The sums a quadratic error function `E(x) = Σ (nᵢ · (x − pᵢ))²` needs: `AᵀA`, `Aᵀb`, the mass
+/// point's sum, and the count. Accumulated in `f64`; the planes are added in any order.
+#[derive(Debug, Clone, Copy, Default, PartialEq)]
+pub struct Qef {
+    /// `Σ n nᵀ` (symmetric, full).
+    ata: [[f64; 3]; 3],
+    /// `Σ n (n · p)`.
+    atb: [f64; 3],
+    /// `Σ p`.
+    mass: [f64; 3],
+    /// Planes added.
+    count: u32,
+}
+
+/// Which singular values of the QEF [`Qef::solve`] keeps, and how far it moved.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct QefSolution {
+    /// The minimiser (the mass point plus the least-norm correction in the kept directions).
+    pub point: [f64; 3],
+    /// Directions kept (0: no plane, or all normals zero; 1: a plane; 2: a crease; 3: a corner).
+    pub rank: u8,
+}
+
+impl Qef {
+    /// Adds the tangent plane through `p` with normal `n` (any length: the length weighs it).
+    #[inline]
+    pub fn add(&mut self, p: [f32; 3], n: [f32; 3]) {
+        let (p, n) = (p.map(f64::from), n.map(f64::from));
+        let d = n[0] * p[0] + n[1] * p[1] + n[2] * p[2];
+        for r in 0..3 {
+            for c in 0..3 {
+                self.ata[r][c] += n[r] * n[c];
+            }
+            self.atb[r] += n[r] * d;
+            self.mass[r] += p[r];
+        }
+        self.count += 1;
+    }
+
+    /// The planes added.
+    pub fn count(&self) -> u32 {
+        self.count
+    }
+
+    /// The mean of the points added (the origin of the solve; `None` without points).
+    pub fn mass_point(&self) -> Option<[f64; 3]> {
+        (self.count > 0).then(|| self.mass.map(|s| s / self.count as f64))
+    }
+
+    /// The error `E(x)` at `x` (for tests and reports): `xᵀAᵀAx − 2xᵀAᵀb + bᵀb` without the
+    /// constant `bᵀb`, so only differences between points mean something.
+    pub fn relative_error(&self, x: [f64; 3]) -> f64 {
+        let mut e = 0.0;
+        for r in 0..3 {
+            for c in 0..3 {
+                e += x[r] * self.ata[r][c] * x[c];
+            }
+            e -= 2.0 * x[r] * self.atb[r];
+        }
+        e
+    }
+
+    /// The minimiser of `E` nearest the mass point `c`: `x = c + V Σ⁺ Vᵀ (Aᵀb − AᵀA c)`, where
+    /// `AᵀA = V Λ Vᵀ` and `Σ⁺` inverts the eigenvalues `λ ≥ truncation² · λ_max` (singular values
+    /// `σ = √λ` at least `truncation` times the largest) and zeroes the others, so directions the
+    /// planes barely constrain (a flat patch's tangent directions, a crease's direction) stay at
+    /// the mass point instead of running off along noise. `None` without points.
+    pub fn solve(&self, truncation: f64) -> Option<QefSolution> {
+        let c = self.mass_point()?;
+        let (values, vectors) = symmetric_eigen(self.ata);
+        let largest = values.iter().fold(0.0f64, |m, &v| m.max(v));
+        let mut point = c;
+        let mut rank = 0;
+        if largest > 0.0 && largest.is_finite() {
+            // The residual's right-hand side at the mass point.
+            let r: [f64; 3] = [0, 1, 2].map(|i| self.atb[i] - (0..3).map(|j| self.ata[i][j] * c[j]).sum::<f64>());
+            for k in 0..3 {
+                if values[k] < truncation * truncation * largest || values[k] <= 0.0 {
+                    continue;
+                }
+                rank += 1;
+                let v = [vectors[0][k], vectors[1][k], vectors[2][k]];
+                let along = (v[0] * r[0] + v[1] * r[1] + v[2] * r[2]) / values[k];
+                for i in 0..3 {
+                    point[i] += along * v[i];
+                }
+            }
+        }
+        if point.iter().any(|x| !x.is_finite()) {
+            return Some(QefSolution { point: c, rank: 0 });
+        }
+        Some(QefSolution { point, rank })
+    }
+}
+
+/// Sweeps of cyclic Jacobi rotations at most (3×3 symmetric matrices converge in about 5).
+const JACOBI_SWEEPS: usize = 32;
+
+/// Eigen-decomposition of a symmetric 3×3 matrix by cyclic Jacobi rotations: the eigenvalues and
+/// the eigenvectors as the columns of the second matrix (`a = V diag(λ) Vᵀ`, `V` orthonormal).
+/// `a` must be symmetric.
+pub fn symmetric_eigen(mut a: [[f64; 3]; 3]) -> ([f64; 3], [[f64; 3]; 3]) {
+    let mut v = [[1.0, 0.0, 0.0], [0.0, 1.0, 0.0], [0.0, 0.0, 1.0]];
+    for _ in 0..JACOBI_SWEEPS {
+        let off = a[0][1] * a[0][1] + a[0][2] * a[0][2] + a[1][2] * a[1][2];
+        let diag = a[0][0] * a[0][0] + a[1][1] * a[1][1] + a[2][2] * a[2][2];
+        if off <= f64::EPSILON * f64::EPSILON * diag || off == 0.0 {
+            break;
+        }
+        for (p, q) in [(0, 1), (0, 2), (1, 2)] {
+            if a[p][q] == 0.0 {
+                continue;
+            }
+            // The rotation that zeroes a[p][q] (the smaller of the two angles: stable).
+            let theta = (a[q][q] - a[p][p]) / (2.0 * a[p][q]);
+            let t = theta.signum() / (theta.abs() + (theta * theta + 1.0).sqrt());
+            let t = if t.is_finite() { t } else { 0.0 };
+            let c = 1.0 / (t * t + 1.0).sqrt();
+            let s = t * c;
+            // a ← Jᵀ a J, v ← v J with J the identity but J[p][p] = J[q][q] = c, J[p][q] = s, J[q][p] = −s.
+            let mut j = [[1.0, 0.0, 0.0], [0.0, 1.0, 0.0], [0.0, 0.0, 1.0]];
+            j[p][p] = c;
+            j[q][q] = c;
+            j[p][q] = s;
+            j[q][p] = -s;
+            let aj = mul(a, j);
+            a = mul(transpose(j), aj);
+            a[p][q] = 0.0;
+            a[q][p] = 0.0;
+            v = mul(v, j);
+        }
+    }
+    ([a[0][0], a[1][1], a[2][2]], v)
+}
+
+fn mul(a: [[f64; 3]; 3], b: [[f64; 3]; 3]) -> [[f64; 3]; 3] {
+    let mut m = [[0.0; 3]; 3];
+    for r in 0..3 {
+        for c in 0..3 {
+            m[r][c] = (0..3).map(|k| a[r][k] * b[k][c]).sum();
+        }
+    }
+    m
+}
+
+fn transpose(a: [[f64; 3]; 3]) -> [[f64; 3]; 3] {
+    [0, 1, 2].map(|r| [0, 1, 2].map(|c| a[c][r]))
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// A small seeded generator (xorshift) for values in [−1, 1).
+    fn rng(seed: u64) -> impl FnMut() -> f64 {
+        let mut s = seed;
+        move || {
+            s ^= s << 13;
+            s ^= s >> 7;
+            s ^= s << 17;
+            (s >> 11) as f64 / (1u64 << 52) as f64 - 1.0
+        }
+    }
+
+    /// Random symmetric matrices (full rank, rank-deficient, repeated eigenvalues) are rebuilt from
+    /// their decomposition, whose vectors are orthonormal.
+    #[test]
+    fn eigen_decomposition_rebuilds_random_symmetric_matrices() {
+        let mut r = rng(0x9e37_79b9_7f4a_7c15);
+        for trial in 0..2000 {
+            let mut a = [[0.0; 3]; 3];
+            // Sums of 0–4 outer products: ranks 0–3, the QEF's own matrices.
+            for _ in 0..trial % 5 {
+                let n = [r(), r(), r()];
+                for i in 0..3 {
+                    for j in 0..3 {
+                        a[i][j] += n[i] * n[j];
+                    }
+                }
+            }
+            if trial % 7 == 0 {
+                a = [[2.0, 0.0, 0.0], [0.0, 2.0, 0.0], [0.0, 0.0, 2.0 + r() * 1e-12]];
+            }
+            let (l, v) = symmetric_eigen(a);
+            let scale = a.iter().flatten().fold(1e-300f64, |m, x| m.max(x.abs()));
+            for i in 0..3 {
+                for j in 0..3 {
+                    let rebuilt: f64 = (0..3).map(|k| v[i][k] * l[k] * v[j][k]).sum();
+                    assert!((rebuilt - a[i][j]).abs() <= 1e-12 * scale, "trial {trial}: {a:?} → {l:?}, {v:?}");
+                    let dot: f64 = (0..3).map(|k| v[k][i] * v[k][j]).sum();
+                    assert!((dot - f64::from(u8::from(i == j))).abs() < 1e-12, "trial {trial}: not orthonormal");
+                }
+            }
+            assert!(l.iter().all(|&x| x >= -1e-12 * scale), "trial {trial}: a sum of squares has λ ≥ 0: {l:?}");
+        }
+    }
+
+    /// Three planes of a corner meet at the corner whatever the crossings on them; two planes (a
+    /// crease) leave the crease's direction at the mass point; one plane projects the mass point.
+    #[test]
+    fn planes_meet_at_corners_and_creases_keep_the_mass_point() {
+        let corner = [0.3, 0.6, 0.45];
+        // A rotated frame: unit normals of three perpendicular planes.
+        let (a, b) = (0.4f64, 0.7f64);
+        let n = [
+            [a.cos() * b.cos(), a.sin() * b.cos(), b.sin()],
+            [-a.sin(), a.cos(), 0.0],
+            [-a.cos() * b.sin(), -a.sin() * b.sin(), b.cos()],
+        ];
+        let mut r = rng(7);
+        let on_plane = |k: usize, r: &mut dyn FnMut() -> f64| {
+            // A point of plane k: the corner moved along the two other normals.
+            let (u, w) = (n[(k + 1) % 3], n[(k + 2) % 3]);
+            let (s, t) = (r() * 0.4, r() * 0.4);
+            [0, 1, 2].map(|i| (corner[i] + s * u[i] + t * w[i]) as f32)
+        };
+        for planes in 1..=3usize {
+            let mut q = Qef::default();
+            for k in 0..planes {
+                for _ in 0..2 {
+                    q.add(on_plane(k, &mut r), n[k].map(|x| x as f32));
+                }
+            }
+            let s = q.solve(0.1).unwrap();
+            assert_eq!(s.rank as usize, planes);
+            let c = q.mass_point().unwrap();
+            for (k, nk) in n.iter().enumerate() {
+                let d = (0..3).map(|i| nk[i] * (s.point[i] - corner[i])).sum::<f64>();
+                let from_mass = (0..3).map(|i| nk[i] * (s.point[i] - c[i])).sum::<f64>();
+                if k < planes {
+                    assert!(d.abs() < 1e-6, "{planes} planes: off plane {k} by {d}");
+                } else {
+                    // Free directions keep the mass point's coordinate.
+                    assert!(from_mass.abs() < 1e-6, "{planes} planes: moved {from_mass} along free {k}");
+                }
+            }
+        }
+    }
+
+    /// Nearly parallel planes (a slightly curved patch) are one plane after truncation: the point
+    /// stays near the mass point instead of shooting off to where the planes meet.
+    #[test]
+    fn nearly_parallel_planes_are_truncated() {
+        let mut q = Qef::default();
+        q.add([0.2, 0.5, 0.5], [0.0, 0.0, 1.0]);
+        q.add([0.8, 0.5, 0.52], [0.02, 0.0, 0.9998]);
+        let s = q.solve(0.1).unwrap();
+        assert_eq!(s.rank, 1);
+        assert!((s.point[0] - 0.5).abs() < 0.02 && (s.point[2] - 0.5).abs() < 0.02, "{:?}", s.point);
+        // Without truncation the planes meet far away.
+        let wild = q.solve(0.0).unwrap();
+        assert_eq!(wild.rank, 2);
+        assert!((wild.point[2] - 0.5).abs() > 1.0 || (wild.point[0] - 0.5).abs() > 1.0, "{:?}", wild.point);
+        assert!(Qef::default().solve(0.1).is_none());
+    }
+
+    /// The solution minimises the error over the kept directions: no random step from it (in the
+    /// span of the kept directions) lowers `E`.
+    #[test]
+    fn solution_is_a_minimum() {
+        let mut r = rng(42);
+        for _ in 0..300 {
+            let mut q = Qef::default();
+            for _ in 0..(2 + (r().abs() * 6.0) as usize) {
+                let n = [r(), r(), r()].map(|x| x as f32);
+                q.add([r(), r(), r()].map(|x| (x * 0.5 + 0.5) as f32), n);
+            }
+            let s = q.solve(1e-6).unwrap();
+            let e0 = q.relative_error(s.point);
+            for _ in 0..10 {
+                let step = [r(), r(), r()].map(|x| x * 1e-3);
+                let e = q.relative_error([0, 1, 2].map(|i| s.point[i] + step[i]));
+                assert!(e >= e0 - 1e-9 * e0.abs().max(1.0), "{e} < {e0}");
+            }
+        }
+    }
+}
