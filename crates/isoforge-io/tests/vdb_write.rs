@@ -257,6 +257,9 @@ fn names_with_the_separator_and_misaligned_origins_are_refused_before_writing() 
     let grid = grid.with_index_origin([4, 0, 0]);
     let e = write_vdb(&mut bytes, &grid, &VdbWriteOptions::default()).unwrap_err();
     assert!(e.to_string().contains("index origin [4, 0, 0]"), "{e}");
+    let grid = grid.with_index_origin([0, i32::MAX - 7, 0]);
+    let e = write_vdb(&mut bytes, &grid, &VdbWriteOptions::default()).unwrap_err();
+    assert!(e.to_string().contains("OpenVDB indices are i32"), "{e}");
     assert!(bytes.is_empty());
 }
 

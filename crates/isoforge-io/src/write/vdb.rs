@@ -101,8 +101,9 @@ pub fn check_vdb<S: Sample>(grid: &SparseGrid<S>, opts: &VdbWriteOptions) -> Res
         return Err(format!("index origin {io:?}: not a multiple of 8 (leaves would not align)"));
     }
     let dims = grid.lattice().dims();
-    // The last point of the last leaf (rounded up to 8) must be an i32 index.
-    let reach = [0, 1, 2].map(|a| i64::from(io[a]) + i64::from(dims[a].div_ceil(LEAF_POINTS)) * 8);
+    // The last point of the last node (leaves and tiles end there) must be an i32 index.
+    let node = 1u32 << LOG2_LOWER_CHILD;
+    let reach = [0, 1, 2].map(|a| i64::from(io[a]) + i64::from(dims[a].div_ceil(node)) * i64::from(node));
     if reach.iter().any(|&r| r > i64::from(i32::MAX)) {
         return Err(format!(
             "index origin {io:?} + dims {dims:?}: indices past {} (OpenVDB indices are i32)",
@@ -198,7 +199,8 @@ impl<T: Out> Plan<T> {
 /// Where the grid's points go, as [`Plan`].
 fn plan<S: Sample, T: Out>(grid: &SparseGrid<S>) -> Plan<T> {
     let io = grid.index_origin();
-    let at = |p: [u32; 3]| [0, 1, 2].map(|a| io[a] + p[a] as i32);
+    // In range: check_vdb bounds every point a leaf or tile holds.
+    let at = |p: [u32; 3]| [0, 1, 2].map(|a| (i64::from(io[a]) + i64::from(p[a])) as i32);
     let mut plan = Plan { uppers: BTreeMap::new(), leaves: grid.num_leaves(), lowers: 0 };
     for n in 0..grid.num_leaves() {
         let q = at(grid.leaf_origin(n));
@@ -349,8 +351,8 @@ fn write_typed<S: Sample, T: Out>(w: &mut dyn Write, grid: &SparseGrid<S>, opts:
         let last = [0, 1, 2].map(|a| (o[a] + LEAF_POINTS).min(dims[a]) - 1);
         active += (0..3).map(|a| u64::from(last[a] - o[a] + 1)).product::<u64>();
         for a in 0..3 {
-            lo[a] = lo[a].min(io[a] + o[a] as i32);
-            hi[a] = hi[a].max(io[a] + last[a] as i32);
+            lo[a] = lo[a].min((i64::from(io[a]) + i64::from(o[a])) as i32);
+            hi[a] = hi[a].max((i64::from(io[a]) + i64::from(last[a])) as i32);
         }
     }
 
