@@ -312,7 +312,7 @@ Examples:
 Dense -> .vdb keeps, as 8x8x8 leaves, every block within --band points of a cell the iso surface
 crosses (inside <=> value < iso); other blocks become constant tiles of their side's extreme
 value, the outside extreme being the background. Leaf points are active, tiles inactive: meshing
-the .vdb at --iso gives the mesh of the dense volume.
+the .vdb at --iso gives the mesh of the dense volume closed at its faces (`extract --close`).
 .vdb -> dense writes the samples of --region (the file's index space, half-open), by default the
 bounding box of the active points; it is refused before anything is allocated when the region's
 samples exceed --max-bytes.")]
