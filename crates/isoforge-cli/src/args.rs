@@ -312,15 +312,44 @@ impl ContourArgs {
 }
 
 #[derive(Debug, ClapArgs)]
+#[command(after_help = "\
+Examples:
+  isoforge convert ct.nrrd ct.vdb --iso 300           dense -> sparse (blocks near iso 300 kept)
+  isoforge convert ct.vdb part.nrrd --region 0:64,0:64,10:20
+  isoforge convert ct.mha ct.nii.gz                   dense -> dense
+
+Dense -> .vdb keeps, as 8x8x8 leaves, every block within --band points of a cell the iso surface
+crosses (inside <=> value < iso); other blocks become constant tiles of their side's extreme
+value, the outside extreme being the background. Leaf points are active, tiles inactive: meshing
+the .vdb at --iso gives the mesh of the dense volume closed at its faces (`extract --close`).
+.vdb -> dense writes the samples of --region (the file's index space, half-open), by default the
+bounding box of the active points; it is refused before anything is allocated when the region's
+samples exceed --max-bytes.")]
 pub struct ConvertArgs {
-    /// Volume or image file (as for `extract -i`; raw with --dims/--dtype).
+    /// Volume or image file (as for `extract -i`; raw with --dims/--dtype), or an OpenVDB .vdb.
     #[arg(value_name = "INPUT")]
     pub input: String,
-    /// Output volume (.nrrd .nii .nii.gz).
+    /// Output volume (.nrrd .nii .nii.gz), or .vdb (sparse; needs --iso).
     #[arg(value_name = "OUTPUT")]
     pub output: PathBuf,
     #[command(flatten)]
     pub layout: LayoutArgs,
+    /// Dense -> .vdb: the iso whose surface the leaves follow (inside <=> value < V).
+    #[arg(long, value_name = "V", allow_hyphen_values = true)]
+    pub iso: Option<String>,
+    /// Dense -> .vdb: points kept around each crossed cell (at least 3, the default).
+    #[arg(long, value_name = "W", allow_hyphen_values = true)]
+    pub band: Option<String>,
+    /// .vdb -> dense: the index box I0:I1,J0:J1,K0:K1 (half-open; default: the active points' box).
+    #[arg(long, value_name = "I0:I1,J0:J1,K0:K1", allow_hyphen_values = true)]
+    pub region: Option<String>,
+    /// The grid read from a .vdb input (default: its first float or double grid), or the name of
+    /// the grid written to a .vdb output (default: "density", "surface" for a level set).
+    #[arg(long, value_name = "NAME")]
+    pub grid: Option<String>,
+    /// .vdb output: the grid's class (unknown, level-set, fog-volume).
+    #[arg(long = "class", value_name = "CLASS", default_value = "unknown")]
+    pub grid_class: String,
 }
 
 impl ConvertArgs {
@@ -450,6 +479,8 @@ mod tests {
     /// Options whose values are names, paths or lists of names (not numbers).
     const NOT_NUMERIC: &[&str] = &[
         "input",
+        "grid",
+        "grid_class",
         "output",
         "dtype",
         "endian",

@@ -14,7 +14,7 @@ use isoforge::volume::{Inside, Iso};
 use isoforge_io::write::contour::ContourFormat;
 use isoforge_io::{Limits, MeshFormat, RawSpec};
 
-use crate::args::{CheckArgs, ContourArgs, DemoArgs, ExtractArgs, InputArgs, RenderArgs};
+use crate::args::{CheckArgs, ContourArgs, ConvertArgs, DemoArgs, ExtractArgs, InputArgs, RenderArgs};
 
 /// Where values come from.
 #[derive(Clone)]
@@ -450,6 +450,107 @@ fn parse_iso(s: &str) -> Result<f64> {
 
 fn parse_inside(s: &str) -> Result<Inside> {
     s.parse().map_err(flag("--inside"))
+}
+
+/// `isoforge convert`: what to read, where to write, and how to go between dense and sparse.
+pub struct ConvertConfig {
+    pub input: InputConfig,
+    pub output: PathBuf,
+    /// A `.vdb` input (read sparse; `--grid` picks the grid).
+    pub sparse_input: bool,
+    /// A `.vdb` output.
+    pub sparse_output: bool,
+    pub iso: Option<f64>,
+    pub band: u32,
+    /// Half-open index ranges per axis.
+    pub region: Option<[[i64; 2]; 3]>,
+    pub grid: Option<String>,
+    pub class: isoforge_io::GridClass,
+}
+
+impl ConvertConfig {
+    pub fn from_args(a: &ConvertArgs) -> Result<Self> {
+        let input = InputConfig::from_args(&a.input_args())?;
+        let is_vdb =
+            |p: &std::path::Path| isoforge_io::VolumeFormat::from_path(p) == Some(isoforge_io::VolumeFormat::Vdb);
+        let sparse_input = matches!(&input.source, Source::File { path, raw: None } if is_vdb(path));
+        let sparse_output = is_vdb(&a.output);
+        let iso = a.iso.as_deref().map(parse_iso).transpose()?;
+        let least = isoforge::grid::sparse::SURFACE_MARGIN;
+        let band = match a.band.as_deref() {
+            None => least,
+            Some(w) => w
+                .trim()
+                .parse::<u32>()
+                .map_err(|_| anyhow!("--band {w:?}: expected a whole number of points (at least {least})"))?,
+        };
+        if band < least {
+            bail!(
+                "--band {band}: at least {} points (a walk reads that far around a crossed cell)",
+                isoforge::grid::sparse::SURFACE_MARGIN
+            );
+        }
+        let region = a.region.as_deref().map(parse_region).transpose()?;
+        let class = match a.grid_class.as_str() {
+            "unknown" => isoforge_io::GridClass::Unknown,
+            "level-set" => isoforge_io::GridClass::LevelSet,
+            "fog-volume" => isoforge_io::GridClass::FogVolume,
+            c => bail!("--class {c:?}: expected unknown, level-set or fog-volume"),
+        };
+        let dense_to_sparse = sparse_output && !sparse_input;
+        if dense_to_sparse && iso.is_none() {
+            bail!(
+                "{}: writing a .vdb from a dense volume needs --iso (the leaves follow that surface)",
+                a.output.display()
+            );
+        }
+        if !dense_to_sparse && (iso.is_some() || a.band.is_some()) {
+            bail!("--iso and --band apply to a dense input written as .vdb");
+        }
+        let sparse_to_dense = sparse_input && !sparse_output;
+        if region.is_some() && !sparse_to_dense {
+            bail!("--region applies to a .vdb input written as a dense volume");
+        }
+        if a.grid_class != "unknown" && !sparse_output {
+            bail!("--class applies to a .vdb output");
+        }
+        Ok(ConvertConfig {
+            input,
+            output: a.output.clone(),
+            sparse_input,
+            sparse_output,
+            iso,
+            band,
+            region,
+            grid: a.grid.clone(),
+            class,
+        })
+    }
+}
+
+/// `I0:I1,J0:J1,K0:K1` → half-open ranges, each start below its end.
+fn parse_region(s: &str) -> Result<[[i64; 2]; 3]> {
+    let parts: Vec<&str> = s.split(',').collect();
+    if parts.len() != 3 {
+        bail!("--region {s:?}: expected I0:I1,J0:J1,K0:K1 (three half-open index ranges)");
+    }
+    let mut out = [[0i64; 2]; 3];
+    for (a, part) in parts.iter().enumerate() {
+        let axis = ["x", "y", "z"][a];
+        let (lo, hi) =
+            part.split_once(':').ok_or_else(|| anyhow!("--region {s:?}: axis {axis}: {part:?} is not START:END"))?;
+        let num = |t: &str| {
+            t.trim()
+                .parse::<i32>()
+                .map_err(|_| anyhow!("--region {s:?}: axis {axis}: {t:?} is not an index (a 32-bit integer)"))
+        };
+        let (lo, hi) = (num(lo)?, num(hi)?);
+        if lo >= hi {
+            bail!("--region {s:?}: axis {axis}: {lo}:{hi} holds no point (half-open: START < END)");
+        }
+        out[a] = [i64::from(lo), i64::from(hi)];
+    }
+    Ok(out)
 }
 
 pub struct ContourConfig {

@@ -72,9 +72,7 @@ fn main() -> ExitCode {
         Command::Contour(a) => config::ContourConfig::from_args(a).and_then(|c| run::contour(&c)),
         Command::View(a) => config::ViewConfig::from_args(a, threads).and_then(|c| run::view(&c)),
         Command::Render(a) => config::RenderConfig::from_args(a, threads).and_then(|c| run::render(&c)),
-        Command::Convert(a) => {
-            config::InputConfig::from_args(&a.input_args()).and_then(|c| run::convert(&c, &a.output))
-        }
+        Command::Convert(a) => config::ConvertConfig::from_args(a).and_then(|c| run::convert(&c)),
     };
     let _ = std::io::stdout().flush();
     match result {

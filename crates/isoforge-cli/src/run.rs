@@ -5,7 +5,7 @@ use std::time::Instant;
 
 use anyhow::{anyhow, bail, Context, Result};
 use isoforge::extract::Counting;
-use isoforge::grid::{AnyGrid, AnySparse, Histogram, Sample, IDENTITY};
+use isoforge::grid::{AnyGrid, AnySparse, DType, Histogram, Sample, SparseGrid, IDENTITY};
 use isoforge::mesh::{ExternalError, MeshBatch, MeshSink, Normals};
 use isoforge::pipeline::{self, Extraction, Method, Options};
 use isoforge::topo::{self, CheckOptions, Guarantee, MeshReport, StreamCheck};
@@ -19,7 +19,8 @@ use serde_json::json;
 use isoforge::pipeline::request::{self, Attribute, AttributeSource, NoSurface};
 
 use crate::config::{
-    CheckConfig, ContourConfig, DemoConfig, ExtractConfig, InputConfig, Placement, RenderConfig, Source, ViewConfig,
+    CheckConfig, ContourConfig, ConvertConfig, DemoConfig, ExtractConfig, InputConfig, Placement, RenderConfig, Source,
+    ViewConfig,
 };
 use crate::progress::{spin, Task};
 use crate::report;
@@ -1069,15 +1070,85 @@ pub fn contour(c: &ContourConfig) -> Result<Outcome> {
     Ok(Outcome::Success)
 }
 
-pub fn convert(input: &InputConfig, output: &Path) -> Result<Outcome> {
+/// `isoforge convert`: dense → dense (a format change), dense → `.vdb` (sparse near `--iso`),
+/// `.vdb` → dense (a region) or `.vdb` → `.vdb` (the grid rewritten).
+pub fn convert(c: &ConvertConfig) -> Result<Outcome> {
+    let (input, output) = (&c.input, c.output.as_path());
     let batch = crate::outputs::plan_one(output, "the output", None, Some(input), None)?;
     let name = input_name(input);
+    if c.sparse_input {
+        let Source::File { path, .. } = &input.source else { bail!("internal: a .vdb input is a file") };
+        let file =
+            spin(format!("reading {name}"), || isoforge_io::read_sparse(path, c.grid.as_deref(), &input.limits))?;
+        if c.sparse_output {
+            let opts = isoforge_io::VdbWriteOptions {
+                name: file.name.clone(),
+                class: class_of(file.class.as_deref()),
+                value_type: match &file.grid {
+                    AnySparse::F32(_) => isoforge_io::read::vdb::VdbValueType::Float,
+                    AnySparse::F64(_) => isoforge_io::read::vdb::VdbValueType::Double,
+                },
+            };
+            spin(format!("writing {}", output.display()), || match &file.grid {
+                AnySparse::F32(g) => batch.write_sparse(output, g, &opts),
+                AnySparse::F64(g) => batch.write_sparse(output, g, &opts),
+            })?;
+            batch.commit()?;
+            eprintln!("{}: grid {:?}, {} leaves from {name}", output.display(), file.name, file.grid.stats().leaves);
+            return Ok(Outcome::Success);
+        }
+        let grid = isoforge_io::dense_region(path, &file, c.region, &input.limits)?;
+        spin(format!("writing {}", output.display()), || batch.write_volume(output, &grid))?;
+        batch.commit()?;
+        let d = grid.lattice().dims();
+        eprintln!(
+            "{}: {} x {} x {} {} samples of grid {:?} from {name}",
+            output.display(),
+            d[0],
+            d[1],
+            d[2],
+            grid.dtype(),
+            file.name
+        );
+        return Ok(Outcome::Success);
+    }
     let Loaded::Grid(grid) = load(input)? else { bail!("{name}: convert reads volume and image files, not fields") };
+    if let (true, Some(iso)) = (c.sparse_output, c.iso) {
+        let default_name = if c.class == isoforge_io::GridClass::LevelSet { "surface" } else { "density" };
+        // Integers beyond 2²⁴ and doubles keep their precision as doubles.
+        let value_type = match grid.dtype() {
+            DType::F64 | DType::U32 | DType::I32 => isoforge_io::read::vdb::VdbValueType::Double,
+            _ => isoforge_io::read::vdb::VdbValueType::Float,
+        };
+        let opts = isoforge_io::VdbWriteOptions {
+            name: c.grid.clone().unwrap_or_else(|| default_name.to_string()),
+            class: c.class,
+            value_type,
+        };
+        let leaves = spin(format!("writing {}", output.display()), || {
+            isoforge::with_grid!(&grid, g => {
+                let sparse = SparseGrid::from_dense_band(g, Iso::below(iso), c.band);
+                batch.write_sparse(output, &sparse, &opts).map(|()| sparse.num_leaves())
+            })
+        })?;
+        batch.commit()?;
+        eprintln!("{}: grid {:?}, {leaves} leaves of 8³ near iso {iso} from {name}", output.display(), opts.name);
+        return Ok(Outcome::Success);
+    }
     spin(format!("writing {}", output.display()), || batch.write_volume(output, &grid))?;
     batch.commit()?;
     let d = grid.lattice().dims();
     eprintln!("{}: {} x {} x {} {} samples from {name}", output.display(), d[0], d[1], d[2], grid.dtype());
     Ok(Outcome::Success)
+}
+
+/// The writer's class for a class read from a file.
+fn class_of(class: Option<&str>) -> isoforge_io::GridClass {
+    match class {
+        Some("level set") => isoforge_io::GridClass::LevelSet,
+        Some("fog volume") => isoforge_io::GridClass::FogVolume,
+        _ => isoforge_io::GridClass::Unknown,
+    }
 }
 
 pub fn render(c: &RenderConfig) -> Result<Outcome> {

@@ -47,10 +47,12 @@ pub use memory::keep_freed_memory;
 #[cfg(feature = "raw")]
 pub use read::raw::RawSpec;
 #[cfg(feature = "vdb")]
-pub use read::sparse::{read_sparse, SparseFile};
+pub use read::sparse::{dense_region, read_sparse, SparseFile};
 pub use read::stream::VolumeReader;
 #[cfg(feature = "tiff")]
 pub use read::tiff::{read_tiff_rgb, RgbVolume};
+#[cfg(feature = "vdb")]
+pub use write::vdb::{GridClass, VdbWriteOptions};
 
 use isoforge::grid::AnyGrid;
 use isoforge::mesh::Mesh;
@@ -180,6 +182,21 @@ pub fn input_files(path: &Path) -> Vec<PathBuf> {
 pub fn write_volume(path: &Path, grid: &AnyGrid) -> Result<()> {
     let batch = Batch::new();
     batch.write_volume(path, grid)?;
+    batch.commit()
+}
+
+/// Writes a sparse grid to `path` atomically as an OpenVDB file; see [`Batch::write_sparse`].
+///
+/// # Errors
+/// As [`Batch::write_sparse`] and [`Batch::commit`].
+#[cfg(feature = "vdb")]
+pub fn write_sparse<S: isoforge::grid::Sample>(
+    path: &Path,
+    grid: &isoforge::grid::SparseGrid<S>,
+    opts: &VdbWriteOptions,
+) -> Result<()> {
+    let batch = Batch::new();
+    batch.write_sparse(path, grid, opts)?;
     batch.commit()
 }
 
@@ -381,6 +398,22 @@ impl Batch {
         let img = render::render(mesh, colors, opts);
         let size = opts.size.map(|s| s.clamp(1, render::MAX_SIDE));
         self.write(path, |w| render::write_png(w, &img, size))
+    }
+
+    /// Writes a sparse grid as a one-grid OpenVDB file (see [`write::vdb`]).
+    ///
+    /// # Errors
+    /// [`Error::InvalidInput`] naming `path` when the grid or options cannot be written (checked
+    /// before any byte: [`write::vdb::check_vdb`]); as [`Batch::write`].
+    #[cfg(feature = "vdb")]
+    pub fn write_sparse<S: isoforge::grid::Sample>(
+        &self,
+        path: &Path,
+        grid: &isoforge::grid::SparseGrid<S>,
+        opts: &VdbWriteOptions,
+    ) -> Result<()> {
+        write::vdb::check_vdb(grid, opts).map_err(|e| Error::InvalidInput(format!("{}: {e}", path.display())))?;
+        self.write(path, |w| write::vdb::write_vdb(w, grid, opts))
     }
 
     /// Writes a volume, choosing the format by extension: `.nrrd` (gzip-encoded), `.nii`, `.nii.gz`.

@@ -32,6 +32,9 @@ pub struct SparseFile {
     pub active_points: u64,
     /// The other grids of the file (names), not read.
     pub others: Vec<String>,
+    /// The smallest and largest active points (inclusive), in the file's index space; `None`
+    /// when no point is active.
+    pub active_bounds: Option<[[i32; 3]; 2]>,
 }
 
 /// Points per node of the sparse grid (its leaves 8, its nodes 16 leaves).
@@ -78,11 +81,69 @@ pub fn sparse_from_vdb(path: &Path, file: VdbFile, name: Option<&str>) -> Result
     let g = grids.swap_remove(at);
     let others = names.into_iter().filter(|n| *n != g.name).collect();
     let active_points = active_points(&g);
+    let active_bounds = g.active_bounds();
     let grid = match &g.leaves {
         VdbLeaves::Float(l) => AnySparse::F32(convert(path, &g, l, |v| v)?),
         VdbLeaves::Double(l) => AnySparse::F64(convert(path, &g, l, |v| v)?),
     };
-    Ok(SparseFile { grid, name: g.name, class: g.class, active_points, others })
+    Ok(SparseFile { grid, name: g.name, class: g.class, active_points, others, active_bounds })
+}
+
+/// The samples of `region` (the file's index space, half-open `[lo, hi)` per axis; default: the
+/// active points' bounding box) of a sparse file's grid as a dense grid at the same world place.
+/// Points past the grid's leaves and tiles hold the background.
+///
+/// # Errors
+/// [`Error::InvalidInput`] for an empty region, or no region and no active point;
+/// [`Error::Limit`] when the region's samples exceed `limits` (checked before allocating).
+pub fn dense_region(
+    path: &Path,
+    file: &SparseFile,
+    region: Option<[[i64; 2]; 3]>,
+    limits: &Limits,
+) -> Result<isoforge::grid::AnyGrid> {
+    let region = match (region, file.active_bounds) {
+        (Some(r), _) => r,
+        (None, Some([lo, hi])) => [0, 1, 2].map(|a| [i64::from(lo[a]), i64::from(hi[a]) + 1]),
+        (None, None) => {
+            return Err(Error::InvalidInput(format!(
+                "{}: grid {}: no active point to bound the region: give one",
+                path.display(),
+                shown(&file.name)
+            )))
+        }
+    };
+    if let Some(a) = (0..3).find(|&a| region[a][0] >= region[a][1]) {
+        return Err(Error::InvalidInput(format!(
+            "{}: region axis {}: {}:{} holds no point (half-open ranges, start below end)",
+            path.display(),
+            ["x", "y", "z"][a],
+            region[a][0],
+            region[a][1]
+        )));
+    }
+    let size = match &file.grid {
+        AnySparse::F32(_) => 4u64,
+        AnySparse::F64(_) => 8,
+    };
+    let bytes = region.iter().try_fold(size, |acc, r| acc.checked_mul(r[1].abs_diff(r[0])));
+    if bytes.is_none_or(|b| b > limits.max_bytes) {
+        let d = region.map(|r| r[1].abs_diff(r[0]));
+        return Err(Error::Limit {
+            path: path.to_path_buf(),
+            what: format!("region of {} x {} x {} samples of {size} bytes", d[0], d[1], d[2]),
+            requested: bytes.unwrap_or(u64::MAX),
+            allowed: limits.max_bytes,
+        });
+    }
+    let io = file.grid.index_origin();
+    let lo = [0, 1, 2].map(|a| region[a][0] - i64::from(io[a]));
+    let hi = [0, 1, 2].map(|a| region[a][1] - i64::from(io[a]));
+    let err = |e: isoforge::Error| Error::InvalidInput(format!("{}: region {region:?}: {e}", path.display()));
+    Ok(match &file.grid {
+        AnySparse::F32(g) => isoforge::grid::AnyGrid::F32(g.dense_region(lo, hi).map_err(err)?),
+        AnySparse::F64(g) => isoforge::grid::AnyGrid::F64(g.dense_region(lo, hi).map_err(err)?),
+    })
 }
 
 /// The first few of `items`, and how many there are in all (a file may hold thousands of grids).

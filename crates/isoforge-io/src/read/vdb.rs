@@ -22,6 +22,8 @@
 //! Values are kept in the grid's own type ([`VdbLeaves::Float`] or [`VdbLeaves::Double`]):
 //! f32 leaves take half the memory of f64 ones, and f32 → f64 is exact whenever a caller wants
 //! doubles. Tiles, the background and [`VdbLookup::value_at`] give `f64` (exact for both).
+//!
+//! The writer of such files is [`crate::write::vdb`].
 
 mod blosc;
 mod input;

@@ -1,5 +1,5 @@
 //! Mesh writers: PLY (binary or ASCII), OBJ, STL (binary or ASCII), OFF, glTF; contour writers (SVG, GeoJSON,
-//! CSV). All go through [`write_atomic`](crate::write_atomic): a failed write leaves no file.
+//! CSV); sparse grids as OpenVDB files ([`vdb`]). All go through [`write_atomic`](crate::write_atomic): a failed write leaves no file.
 
 pub mod contour;
 mod copy;
@@ -15,6 +15,8 @@ pub mod stl;
 mod stream;
 #[cfg(any(feature = "obj", feature = "off", feature = "ply"))]
 mod text;
+#[cfg(feature = "vdb")]
+pub mod vdb;
 #[cfg(all(feature = "nrrd", feature = "nifti"))]
 pub mod volume;
 

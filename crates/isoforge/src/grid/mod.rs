@@ -18,4 +18,4 @@ pub use lattice::{Lattice, WorldSpace, IDENTITY};
 pub(crate) use resample::blend;
 pub use resample::{downsample_mean, upsample_trilinear};
 pub use sample::{as_bytes, as_bytes_mut, first_non_finite, DType, Sample, Threshold};
-pub use sparse::{AnySparse, SparseGrid, SparseNode, SparseStats};
+pub use sparse::{AnySparse, SparseGrid, SparseNode, SparseStats, SparseTile};

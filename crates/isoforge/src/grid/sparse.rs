@@ -83,6 +83,19 @@ pub struct SparseGrid<S> {
     leaf_values: Vec<S>,
 }
 
+/// A constant region of a [`SparseGrid`] whose value is not the background: `size³` points from
+/// `origin` (a multiple of `size`: [`LEAF`] for a node's child, [`NODE_POINTS`] for a root entry).
+/// Points of a tile past the lattice's end have no meaning.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct SparseTile<S> {
+    /// The point with the smallest coordinates.
+    pub origin: [u32; 3],
+    /// Points per edge.
+    pub size: u32,
+    /// The value of every point of the tile.
+    pub value: S,
+}
+
 /// What a sparse grid holds, for reports (`isoforge info`) and the memory figures of
 /// docs/BENCHMARKS.md.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
@@ -174,6 +187,82 @@ impl<S: Sample> SparseGrid<S> {
     #[inline]
     pub fn leaf_values(&self, n: usize) -> &[S] {
         &self.leaf_values[n * LEAF_SAMPLES..(n + 1) * LEAF_SAMPLES]
+    }
+
+    /// Every tile whose value is not the background, root entries first then each node's
+    /// children, in root order (what a writer stores besides the leaves; memory ∝ tiles).
+    pub fn tiles(&self) -> Vec<SparseTile<S>> {
+        let dims = self.lattice.dims();
+        let mut out = Vec::new();
+        for (coord, e) in &self.root {
+            let base = coord.map(|c| c * NODE_POINTS);
+            match *e {
+                Entry::Tile(value) => out.push(SparseTile { origin: base, size: NODE_POINTS, value }),
+                Entry::Node(n) => {
+                    for (c, child) in (0u32..).zip(self.nodes[n as usize].children.iter()) {
+                        let o = [
+                            base[0] + LEAF * (c % NODE),
+                            base[1] + LEAF * (c / NODE % NODE),
+                            base[2] + LEAF * (c / (NODE * NODE)),
+                        ];
+                        match *child {
+                            Child::Tile(value) if value != self.background && (0..3).all(|a| o[a] < dims[a]) => {
+                                out.push(SparseTile { origin: o, size: LEAF, value });
+                            }
+                            _ => {}
+                        }
+                    }
+                }
+            }
+        }
+        out
+    }
+
+    /// The samples of the points `lo .. hi` (half-open, lattice coordinates that may reach past
+    /// the lattice on any side: those points hold the background) as a dense grid placed where
+    /// these points lie in the world.
+    ///
+    /// # Errors
+    /// [`Error::InvalidInput`] for an empty box or one wider than 2³²−1 points on an axis;
+    /// [`Error::Limit`] above 2³¹ points (callers check their byte limits first).
+    pub fn dense_region(&self, lo: [i64; 3], hi: [i64; 3]) -> Result<DenseGrid<S>> {
+        let size = [0, 1, 2].map(|a| hi[a].saturating_sub(lo[a]));
+        if size.iter().any(|&d| d <= 0 || d > i64::from(u32::MAX)) {
+            return Err(Error::InvalidInput(format!(
+                "region {lo:?} .. {hi:?}: every axis must hold 1 to 2³²−1 points (half-open ranges)"
+            )));
+        }
+        let n = size.iter().map(|&d| d as u64).product::<u64>();
+        const MAX: u64 = 1 << 31;
+        if n > MAX {
+            return Err(Error::Limit { what: "dense points", requested: n, allowed: MAX });
+        }
+        let dims = size.map(|d| d as u32);
+        let src = &self.lattice;
+        let origin = src.to_world(lo.map(|v| v as f64));
+        let lattice = Lattice::with_geometry(dims, src.spacing(), origin)?
+            .with_direction(src.direction())?
+            .with_space(src.space());
+        let mut data = vec![self.background; n as usize];
+        // The part of the box inside the lattice, copied slab by slab.
+        let ld = src.dims().map(i64::from);
+        let (a, b) = ([0, 1, 2].map(|k| lo[k].clamp(0, ld[k])), [0, 1, 2].map(|k| hi[k].clamp(0, ld[k])));
+        if (0..3).all(|k| a[k] < b[k]) {
+            let mut slab = Vec::new();
+            let row = (b[0] - a[0]) as usize;
+            for z in a[2]..b[2] {
+                self.fill_box(
+                    [a[0] as u32, a[1] as u32, z as u32],
+                    [b[0] as u32, b[1] as u32, z as u32 + 1],
+                    &mut slab,
+                );
+                for (y, src_row) in (a[1]..b[1]).zip(slab.chunks_exact(row)) {
+                    let at = (((z - lo[2]) * size[1] + (y - lo[1])) * size[0] + (a[0] - lo[0])) as usize;
+                    data[at..at + row].copy_from_slice(src_row);
+                }
+            }
+        }
+        DenseGrid::new(lattice, data)
     }
 
     /// Counts and bytes (see [`SparseStats`]).

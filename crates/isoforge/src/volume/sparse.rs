@@ -14,6 +14,15 @@ impl<S: Sample> SparseGrid<S> {
     /// extreme sample (a tile never changes a cell's side). The background is the outside extreme.
     /// Blocks are judged from [`BlockBounds`] of the points around them.
     pub fn from_dense(grid: &DenseGrid<S>, iso: Iso) -> Self {
+        Self::from_dense_band(grid, iso, SURFACE_MARGIN)
+    }
+
+    /// [`from_dense`](SparseGrid::from_dense) keeping as leaves the blocks within `band` points of
+    /// a crossed cell (`band` below [`SURFACE_MARGIN`] counts as [`SURFACE_MARGIN`]: a walk must
+    /// read leaf samples only). A wider band keeps more of the field around the surface (for
+    /// offsets, gradients or a later iso near this one).
+    pub fn from_dense_band(grid: &DenseGrid<S>, iso: Iso, band: u32) -> Self {
+        let band = band.max(SURFACE_MARGIN);
         let dims = grid.lattice().dims();
         let bounds = BlockBounds::of(grid);
         let inside = |v: f64| iso.exact_offset(v) < 0.0;
@@ -24,8 +33,8 @@ impl<S: Sample> SparseGrid<S> {
         };
         let node = |coord: [u32; 3]| {
             SparseNode::blocks(coord, dims, outside_value, &mut |o: [u32; 3], out: &mut [S]| {
-                let lo = o.map(|v| v.saturating_sub(SURFACE_MARGIN));
-                let hi = [0, 1, 2].map(|a| (o[a] + LEAF - 1 + SURFACE_MARGIN).min(dims[a] - 1));
+                let lo = o.map(|v| v.saturating_sub(band));
+                let hi = [0, 1, 2].map(|a| (o[a] + LEAF - 1).saturating_add(band).min(dims[a] - 1));
                 let [min, max] = bounds.of_points(lo, hi);
                 match (inside(min) || inside(max), !inside(min) || !inside(max)) {
                     (true, true) => {
