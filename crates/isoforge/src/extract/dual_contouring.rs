@@ -169,20 +169,10 @@ impl Extractor for DualContouring {
         let d = *cell.values();
         let crossed = CASE_EDGES[cell.case() as usize];
         for axis in 0..3 {
-            // As surface nets: the cell's edge along `axis` at corner 0, its four cells at offsets
-            // 0 or −1 on the two other axes u, v (u × v = axis), counter-clockwise seen from +axis.
-            let e = CubeEdge(4 * axis as u8);
+            let (e, around) = super::surface_nets::around_edge(axis);
             if crossed & (1 << e.0) == 0 {
                 continue;
             }
-            let (u, v) = ((axis + 1) % 3, (axis + 2) % 3);
-            let offset = |du: i8, dv: i8| {
-                let mut o = [0i8; 3];
-                o[u] = du;
-                o[v] = dv;
-                o
-            };
-            let around = [offset(-1, -1), offset(0, -1), offset(0, 0), offset(-1, 0)];
             let mut q = [VertexId::NONE; 4];
             let mut p = [[0.0f32; 3]; 4];
             let found = around.iter().enumerate().all(|(i, &o)| match cell.placed_point(o, e) {

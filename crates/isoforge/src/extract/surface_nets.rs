@@ -44,21 +44,10 @@ impl Extractor for SurfaceNets {
         let d = *cell.values();
         let crossed = CASE_EDGES[cell.case() as usize];
         for axis in 0..3 {
-            // The cell's edge along `axis` at corner 0 (edge 4 · axis): its four cells lie at
-            // offsets 0 or −1 on the two other axes u, v (u × v = axis), in counter-clockwise
-            // order seen from the axis' positive side.
-            let e = CubeEdge(4 * axis as u8);
+            let (e, around) = around_edge(axis);
             if crossed & (1 << e.0) == 0 {
                 continue;
             }
-            let (u, v) = ((axis + 1) % 3, (axis + 2) % 3);
-            let offset = |du: i8, dv: i8| {
-                let mut o = [0i8; 3];
-                o[u] = du;
-                o[v] = dv;
-                o
-            };
-            let around = [offset(-1, -1), offset(0, -1), offset(0, 0), offset(-1, 0)];
             let mut q = [crate::mesh::VertexId::NONE; 4];
             // A missing cell: the edge lies on the lattice's boundary, no quad.
             if !around.iter().zip(q.iter_mut()).all(|(&o, slot)| cell.placed_vertex(o, e).map(|v| *slot = v).is_some())
@@ -73,4 +62,18 @@ impl Extractor for SurfaceNets {
             }
         }
     }
+}
+
+/// The cell's edge along `axis` at corner 0 (edge 4 · axis) and the offsets of the four cells
+/// around it: 0 or −1 on the two other axes u, v (u × v = axis), counter-clockwise seen from the
+/// axis' positive side — the cells whose vertices make a dual method's quad for that edge.
+pub(crate) fn around_edge(axis: usize) -> (CubeEdge, [[i8; 3]; 4]) {
+    let (u, v) = ((axis + 1) % 3, (axis + 2) % 3);
+    let offset = |du: i8, dv: i8| {
+        let mut o = [0i8; 3];
+        o[u] = du;
+        o[v] = dv;
+        o
+    };
+    (CubeEdge(4 * axis as u8), [offset(-1, -1), offset(0, -1), offset(0, 0), offset(-1, 0)])
 }
