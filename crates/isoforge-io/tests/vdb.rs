@@ -7,8 +7,6 @@
 
 #![cfg(feature = "vdb")]
 
-use std::alloc::{GlobalAlloc, Layout, System};
-use std::cell::Cell;
 use std::path::{Path, PathBuf};
 use std::time::{Duration, Instant};
 
@@ -16,38 +14,8 @@ use isoforge_io::read::vdb::{read_vdb, read_vdb_bytes, VdbFile, VdbGrid, VdbLeav
 use isoforge_io::{Error, Limits};
 use serde_json::Value as Json;
 
-/// The system allocator, recording the largest request of each thread.
-struct Largest;
-
-thread_local! {
-    static LARGEST: Cell<usize> = const { Cell::new(0) };
-}
-
-// SAFETY: every call is forwarded to `System` unchanged; the thread-local is const-initialised
-// and has no destructor, so touching it never allocates.
-unsafe impl GlobalAlloc for Largest {
-    unsafe fn alloc(&self, layout: Layout) -> *mut u8 {
-        LARGEST.with(|m| m.set(m.get().max(layout.size())));
-        System.alloc(layout)
-    }
-    unsafe fn dealloc(&self, ptr: *mut u8, layout: Layout) {
-        System.dealloc(ptr, layout)
-    }
-    unsafe fn realloc(&self, ptr: *mut u8, layout: Layout, new_size: usize) -> *mut u8 {
-        LARGEST.with(|m| m.set(m.get().max(new_size)));
-        System.realloc(ptr, layout, new_size)
-    }
-}
-
-#[global_allocator]
-static ALLOCATOR: Largest = Largest;
-
-/// The largest single allocation `f` makes on this thread.
-fn largest_allocation<T>(f: impl FnOnce() -> T) -> (usize, T) {
-    LARGEST.with(|m| m.set(0));
-    let r = f();
-    (LARGEST.with(|m| m.get()), r)
-}
+mod largest;
+use largest::largest_allocation;
 
 fn dir() -> PathBuf {
     PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("../../testdata/vdb")
