@@ -12,7 +12,7 @@
 //! The mesh has exactly the polygons and vertices a walk of the whole lattice makes in those cells
 //! (`chunks_with_halos_stitch_into_the_whole_mesh`), numbered by range instead of by row.
 
-use super::stitch::{stitch_keyed, KeyedMesh};
+use super::stitch::{stitch_parts, KeyedMesh};
 use super::{FlyingEdgesWalker, WalkStats, Walker};
 use crate::cube::CellRange;
 use crate::error::Result;
@@ -68,15 +68,7 @@ pub fn walk_ranges<S: Sample, X: Extractor + Sync>(
         Ok((KeyedMesh::from_builder(out)?, stats))
     };
     let parts = super::flying_edges::map_tasks(ranges.iter().collect(), &one);
-    let mut stats = WalkStats::default();
-    let mut meshes = Vec::with_capacity(parts.len());
-    for part in parts {
-        let (m, s) = part?;
-        stats.add(s);
-        meshes.push(m);
-    }
-    let mut stitched = stitch_keyed(&meshes)?;
-    drop(meshes);
+    let (mut stitched, stats) = stitch_parts(parts)?;
     stitched.keys.retain(|(_, k)| match record {
         KeyRecord::None => false,
         KeyRecord::All => true,

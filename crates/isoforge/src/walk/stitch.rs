@@ -43,6 +43,19 @@ pub fn stitch(parts: &[KeyedMesh]) -> Result<Mesh> {
     Ok(stitch_keyed(parts)?.mesh)
 }
 
+/// The parts of a walk done in pieces (each a piece's keyed mesh and counts, or its error), in
+/// order: the first error, or the pieces stitched ([`stitch_keyed`]) and their counts summed.
+pub(crate) fn stitch_parts(parts: Vec<Result<(KeyedMesh, super::WalkStats)>>) -> Result<(KeyedMesh, super::WalkStats)> {
+    let mut stats = super::WalkStats::default();
+    let mut meshes = Vec::with_capacity(parts.len());
+    for part in parts {
+        let (m, s) = part?;
+        stats.add(s);
+        meshes.push(m);
+    }
+    Ok((stitch_keyed(&meshes)?, stats))
+}
+
 /// [`stitch`], keeping the keys the parts recorded (renumbered, each once, in vertex order).
 ///
 /// # Errors

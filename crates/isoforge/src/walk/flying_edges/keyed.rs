@@ -21,7 +21,7 @@ use crate::grid::Sample;
 use crate::mesh::{KeyRecord, MeshBuilder, Normals};
 use crate::volume::{Iso, SampleSlabs};
 use crate::walk::cached::{CachedCell, LayerCaches};
-use crate::walk::stitch::{stitch_keyed, KeyedMesh};
+use crate::walk::stitch::{stitch_parts, KeyedMesh};
 use crate::walk::{wants_cell, Progress, WalkStats};
 
 /// Groups of cell layers: about this many, whatever the thread count (enough to balance a few
@@ -64,14 +64,7 @@ impl<X: Extractor + Sync> Passes<'_, Cells<'_>, X> {
             }
             Ok::<_, crate::Error>((KeyedMesh::from_builder(b)?, stats))
         });
-        let mut stats = WalkStats::default();
-        let mut meshes = Vec::with_capacity(parts.len());
-        for part in parts {
-            let (m, s) = part?;
-            stats.add(s);
-            meshes.push(m);
-        }
-        let stitched = stitch_keyed(&meshes)?;
+        let (stitched, stats) = stitch_parts(parts)?;
         let keys = stitched.keys.into_iter().filter(|(_, k)| self.records(k)).collect();
         out.set_assembled(stitched.mesh, keys);
         Ok(stats)
