@@ -102,6 +102,56 @@ pub enum Command {
     Render(RenderArgs),
     /// Serve an interactive viewer on 127.0.0.1: the classic demo fields, a volume, or a mesh.
     View(ViewArgs),
+    /// Turn a mesh (holes, flipped and duplicated faces, crossing pieces welcome) into a signed
+    /// distance volume: .vdb (sparse level set), .nrrd, .nii, .nii.gz (dense).
+    Voxelize(VoxelizeArgs),
+    /// Make a closed, manifold, oriented mesh of a broken one: voxelize it, then extract the
+    /// surface; prints the mesh report and the Hausdorff distance to the input.
+    Repair(RepairArgs),
+}
+
+/// What `voxelize` and `repair` read and how fine their lattice is.
+#[derive(Debug, Clone, ClapArgs)]
+pub struct VoxelArgs {
+    #[arg(value_name = "MESH", help = mesh_input_help())]
+    pub mesh: PathBuf,
+    /// Cells along the longest side of the mesh's box (default 128 unless --voxel-size).
+    #[arg(long, value_name = "N", allow_hyphen_values = true, conflicts_with = "voxel_size")]
+    pub resolution: Option<String>,
+    /// The lattice's spacing, in the mesh's units.
+    #[arg(long, value_name = "H", allow_hyphen_values = true)]
+    pub voxel_size: Option<String>,
+    /// Half-width of the band of exact distances, in cells (default 3).
+    #[arg(long, value_name = "W", allow_hyphen_values = true)]
+    pub band: Option<String>,
+    /// Largest mesh the reader and largest grid the voxelizer may allocate, in bytes (suffixes
+    /// K, M, G accepted).
+    #[arg(long, value_name = "BYTES", allow_hyphen_values = true)]
+    pub max_bytes: Option<String>,
+    /// Print JSON instead of text.
+    #[arg(long)]
+    pub json: bool,
+}
+
+#[derive(Debug, ClapArgs)]
+pub struct VoxelizeArgs {
+    #[command(flatten)]
+    pub voxel: VoxelArgs,
+    /// Output volume: .vdb (sparse), .nrrd, .nii, .nii.gz (dense).
+    #[arg(short = 'o', long = "output", value_name = "OUT")]
+    pub output: PathBuf,
+    /// What the samples hold: sdf (signed distance, negative inside) or occupancy (u8, 1 inside).
+    #[arg(long = "values", value_name = "KIND", default_value = "sdf")]
+    pub values: String,
+}
+
+#[derive(Debug, ClapArgs)]
+pub struct RepairArgs {
+    #[command(flatten)]
+    pub voxel: VoxelArgs,
+    /// Output mesh (.ply .obj .stl .off .glb .gltf).
+    #[arg(short = 'o', long = "output", value_name = "OUT")]
+    pub output: PathBuf,
 }
 
 /// Where the volume comes from (`extract -i INPUT`).

@@ -717,6 +717,97 @@ impl DemoConfig {
     }
 }
 
+/// What `voxelize` and `repair` share: the mesh, the lattice's fineness, the band, the limits.
+pub struct VoxelConfig {
+    pub mesh: PathBuf,
+    pub resolution: isoforge::voxelize::Resolution,
+    pub band: f64,
+    pub limits: Limits,
+    pub json: bool,
+}
+
+impl VoxelConfig {
+    fn from_args(a: &crate::args::VoxelArgs) -> Result<Self> {
+        use isoforge::voxelize::Resolution;
+        let resolution =
+            match (&a.resolution, &a.voxel_size) {
+                (Some(n), _) => {
+                    let cells = n.trim().parse::<u32>().ok().filter(|&c| (1..=65_536).contains(&c));
+                    Resolution::Cells(cells.ok_or_else(|| {
+                        anyhow!("--resolution {n:?}: expected a whole number of cells from 1 to 65536")
+                    })?)
+                }
+                (None, Some(h)) => {
+                    let v = h.trim().parse::<f64>().ok().filter(|v| v.is_finite() && *v > 0.0);
+                    Resolution::Spacing(v.ok_or_else(|| anyhow!("--voxel-size {h:?}: expected a positive length"))?)
+                }
+                (None, None) => Resolution::Cells(128),
+            };
+        let band = match a.band.as_deref() {
+            None => isoforge::voxelize::VoxelizeOptions::default().band,
+            Some(w) => w
+                .trim()
+                .parse::<f64>()
+                .ok()
+                .filter(|v| (1.0..=64.0).contains(v))
+                .ok_or_else(|| anyhow!("--band {w:?}: expected a number of cells from 1 to 64"))?,
+        };
+        Ok(VoxelConfig {
+            mesh: a.mesh.clone(),
+            resolution,
+            band,
+            limits: limits(a.max_bytes.as_deref())?,
+            json: a.json,
+        })
+    }
+}
+
+/// `isoforge voxelize`.
+pub struct VoxelizeConfig {
+    pub voxel: VoxelConfig,
+    pub output: PathBuf,
+    /// A `.vdb` output (sparse); dense otherwise.
+    pub sparse: bool,
+    pub values: isoforge::voxelize::Output,
+}
+
+impl VoxelizeConfig {
+    pub fn from_args(a: &crate::args::VoxelizeArgs) -> Result<Self> {
+        use isoforge_io::VolumeFormat;
+        let voxel = VoxelConfig::from_args(&a.voxel)?;
+        let values = match a.values.as_str() {
+            "sdf" => isoforge::voxelize::Output::Sdf,
+            "occupancy" => isoforge::voxelize::Output::Occupancy,
+            v => bail!("--values {v:?}: expected sdf or occupancy"),
+        };
+        let format = VolumeFormat::from_path(&a.output);
+        let sparse = match format {
+            Some(VolumeFormat::Vdb) => true,
+            Some(VolumeFormat::Nrrd | VolumeFormat::Nifti) => false,
+            _ => bail!("{}: voxelize writes .vdb, .nrrd, .nii or .nii.gz", a.output.display()),
+        };
+        if sparse && values == isoforge::voxelize::Output::Occupancy {
+            bail!("--values occupancy: a .vdb output holds signed distances (a level set); write occupancy as .nrrd or .nii");
+        }
+        Ok(VoxelizeConfig { voxel, output: a.output.clone(), sparse, values })
+    }
+}
+
+/// `isoforge repair`.
+pub struct RepairConfig {
+    pub voxel: VoxelConfig,
+    pub output: PathBuf,
+    pub format: MeshFormat,
+}
+
+impl RepairConfig {
+    pub fn from_args(a: &crate::args::RepairArgs) -> Result<Self> {
+        let voxel = VoxelConfig::from_args(&a.voxel)?;
+        let format = output_format(&a.output, false)?;
+        Ok(RepairConfig { voxel, output: a.output.clone(), format })
+    }
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;

@@ -1,4 +1,5 @@
-//! The `isoforge` command line: `extract`, `info`, `check`, `demo`, `contour`, `convert`, `render`, `view`.
+//! The `isoforge` command line: `extract`, `info`, `check`, `demo`, `contour`, `convert`, `render`, `view`,
+//! `voxelize`, `repair`.
 //!
 //! Exit codes: 0 success, 1 a requested check failed, 2 an error (printed as one line naming the
 //! file and the problem). A closed stdout (broken pipe) counts as success.
@@ -10,6 +11,7 @@ mod progress;
 mod report;
 mod run;
 mod view;
+mod voxel;
 
 use std::io::Write;
 use std::process::ExitCode;
@@ -73,6 +75,8 @@ fn main() -> ExitCode {
         Command::View(a) => config::ViewConfig::from_args(a, threads).and_then(|c| run::view(&c)),
         Command::Render(a) => config::RenderConfig::from_args(a, threads).and_then(|c| run::render(&c)),
         Command::Convert(a) => config::ConvertConfig::from_args(a).and_then(|c| run::convert(&c)),
+        Command::Voxelize(a) => config::VoxelizeConfig::from_args(a).and_then(|c| voxel::voxelize(&c)),
+        Command::Repair(a) => config::RepairConfig::from_args(a).and_then(|c| voxel::repair(&c)),
     };
     let _ = std::io::stdout().flush();
     match result {

@@ -33,6 +33,7 @@ pub mod mesh;
 pub mod pipeline;
 pub mod topo;
 pub mod volume;
+pub mod voxelize;
 pub mod walk;
 
 pub use error::{Error, Result};

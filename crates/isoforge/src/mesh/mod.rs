@@ -4,7 +4,9 @@
 //! Positions are `f32` world coordinates; normals (when present) are unit vectors pointing from
 //! inside (low values) to outside; polygons are wound counter-clockwise seen from outside.
 
+pub mod bvh;
 pub mod colormap;
+pub mod distance;
 mod sink;
 
 pub use sink::{ExternalError, MeshBatch, MeshSink, OwnedBatch, WriteBehind};
