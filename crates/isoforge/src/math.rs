@@ -1,7 +1,7 @@
 //! Small geometry types: `Vec3` for computation, `[f32; 3]` at API boundaries, [`Aabb`]; and the
 //! one [`UnionFind`] (cell corners in MC33, mesh vertices in `topo`).
 
-pub use glam::Vec3;
+pub use glam::{DVec3, Vec3};
 
 /// An axis-aligned box, `min` and `max` inclusive; empty when `min > max` on any axis.
 #[derive(Debug, Clone, Copy, PartialEq)]

@@ -256,6 +256,8 @@ pub fn voxelize(mesh: &Mesh, lattice: Lattice, opts: &VoxelizeOptions) -> Result
                     members[groups.find(n)].push(n as u16);
                 }
             }
+            // Points whose own winding number decided, and it was close to ½.
+            let mut undecided = Vec::new();
             for group in members.iter().filter(|g| !g.is_empty()) {
                 let stride = group.len().div_ceil(PROBES);
                 let mut agreed: Option<bool> = None;
@@ -270,9 +272,40 @@ pub fn voxelize(mesh: &Mesh, lattice: Lattice, opts: &VoxelizeOptions) -> Result
                     let n = n as usize;
                     let inside = match (clear, agreed) {
                         (true, Some(a)) => a,
-                        _ => winding.at(world(at(o, n))) > 0.5,
+                        _ => {
+                            let w = winding.at(world(at(o, n)));
+                            if (w - 0.5).abs() <= 0.25 {
+                                undecided.push(n);
+                            }
+                            w > 0.5
+                        }
                     };
                     out[n] = if inside { -dist[n] as f32 } else { dist[n] as f32 };
+                }
+            }
+            // A lone point whose winding number was close to ½ and whose six neighbours all
+            // took the other side is noise of the open surface around it (it would mesh as a
+            // closed speck of 8 triangles): it joins its neighbours. Neighbours in other
+            // blocks are asked directly.
+            for n in undecided {
+                let ijk = at(o, n);
+                let lone = (0..6).all(|k| {
+                    let (a, up) = (k / 2, k % 2 == 1);
+                    let mut q = ijk;
+                    if (!up && q[a] == 0) || (up && q[a] + 1 >= dims[a]) {
+                        return false;
+                    }
+                    q[a] = if up { q[a] + 1 } else { q[a] - 1 };
+                    let side = if (0..3).all(|b| q[b] >= o[b] && q[b] < hi[b]) {
+                        let m = ((q[0] - o[0]) + LEAF * ((q[1] - o[1]) + LEAF * (q[2] - o[2]))) as usize;
+                        out[m] < 0.0
+                    } else {
+                        winding.at(world(q)) > 0.5
+                    };
+                    side != (out[n] < 0.0)
+                });
+                if lone {
+                    out[n] = -out[n];
                 }
             }
             None
