@@ -732,9 +732,9 @@ impl VoxelConfig {
         let resolution =
             match (&a.resolution, &a.voxel_size) {
                 (Some(n), _) => {
-                    let cells = n.trim().parse::<u32>().ok().filter(|&c| (1..=65_536).contains(&c));
+                    let cells = n.trim().parse::<u32>().ok().filter(|&c| (1..=16_384).contains(&c));
                     Resolution::Cells(cells.ok_or_else(|| {
-                        anyhow!("--resolution {n:?}: expected a whole number of cells from 1 to 65536")
+                        anyhow!("--resolution {n:?}: expected a whole number of cells from 1 to 16384")
                     })?)
                 }
                 (None, Some(h)) => {

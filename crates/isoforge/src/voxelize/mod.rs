@@ -24,11 +24,14 @@ pub use winding::{solid_angle, Winding};
 use glam::DVec3;
 
 use crate::error::{Error, Result};
-use crate::grid::sparse::{SparseGrid, SparseNode, LEAF, LEAF_SAMPLES};
+use crate::grid::sparse::{SparseGrid, SparseNode, LEAF, LEAF_SAMPLES, NODE_POINTS};
 use crate::grid::Lattice;
 use crate::math::{Aabb, UnionFind};
 use crate::mesh::distance::{closest_point, distance_squared};
 use crate::mesh::Mesh;
+
+/// The most nodes of 128³ points a lattice may have (a 16,384³ lattice has 2²¹).
+const MAX_NODES: u64 = 1 << 22;
 
 /// Points of a group of same-side points that ask the winding number (see [`voxelize`]).
 const PROBES: usize = 8;
@@ -170,7 +173,14 @@ pub fn voxelize(mesh: &Mesh, lattice: Lattice, opts: &VoxelizeOptions) -> Result
     let h = spacing[0].min(spacing[1]).min(spacing[2]);
     let band = opts.band * h;
     let dims = lattice.dims();
-    let bins = Bins::new(&solid.triangles, &lattice, band);
+    let nodes: u64 = dims.iter().map(|&d| d.div_ceil(NODE_POINTS) as u64).product();
+    if nodes > MAX_NODES {
+        return Err(Error::InvalidInput(format!(
+            "a lattice of {} x {} x {} points is too large to voxelize ({nodes} nodes of 128³ points, at most {MAX_NODES})",
+            dims[0], dims[1], dims[2]
+        )));
+    }
+    let bins = Bins::new(&solid.triangles, &lattice, band, opts.max_bytes)?;
     let leaves = bins.blocks_touched() as u64;
     let leaf_bytes = leaves.saturating_mul((crate::grid::sparse::LEAF_SAMPLES * 4) as u64);
     if leaf_bytes > opts.max_bytes {
@@ -188,6 +198,15 @@ pub fn voxelize(mesh: &Mesh, lattice: Lattice, opts: &VoxelizeOptions) -> Result
         [o[0] + n % LEAF, o[1] + n / LEAF % LEAF, o[2] + n / (LEAF * LEAF)]
     };
     let node = |coord: [u32; 3]| {
+        if !bins.node_touched(coord) {
+            // No triangle near the node: one side, unless the winding number is undecided.
+            let centre =
+                world(coord.map(|c| c * NODE_POINTS)) + 0.5 * (NODE_POINTS - 1) as f64 * DVec3::from_array(spacing);
+            let w = winding.at(centre);
+            if (w - 0.5).abs() > 0.45 {
+                return SparseNode::tile(if w > 0.5 { -far } else { far });
+            }
+        }
         SparseNode::blocks(coord, dims, far, &mut |o: [u32; 3], out: &mut [f32]| {
             let hi = o.map(|v| v + LEAF);
             if !bins.touches(o) {
@@ -322,28 +341,42 @@ struct Bins {
     keys: Vec<u64>,
     /// Blocks per axis.
     blocks: [u64; 3],
+    /// Node keys (node coordinates, x fastest) of the blocks, sorted, each once.
+    nodes: Vec<u64>,
 }
 
 impl Bins {
-    fn new(triangles: &[[DVec3; 3]], lattice: &Lattice, band: f64) -> Self {
+    /// # Errors
+    /// When the (block, triangle) pairs would take more than `max_bytes` (counted first).
+    fn new(triangles: &[[DVec3; 3]], lattice: &Lattice, band: f64, max_bytes: u64) -> Result<Self> {
         let dims = lattice.dims();
         let blocks = dims.map(|d| d.div_ceil(LEAF) as u64);
-        let mut keys = Vec::new();
-        for t in triangles {
-            let mut b = Aabb::EMPTY;
-            for p in t {
-                b.add(p.to_array());
-            }
-            let lo = lattice.to_index(b.min.map(|v| v - band));
-            let hi = lattice.to_index(b.max.map(|v| v + band));
-            let range = [0, 1, 2].map(|a| {
-                let first = lo[a].ceil().max(0.0);
-                let last = hi[a].floor().min(dims[a] as f64 - 1.0);
-                (first as u64 / LEAF as u64, last as u64 / LEAF as u64, first <= last)
-            });
-            if range.iter().any(|r| !r.2) {
-                continue;
-            }
+        let ranges: Vec<[(u64, u64); 3]> = triangles
+            .iter()
+            .filter_map(|t| {
+                let mut b = Aabb::EMPTY;
+                for p in t {
+                    b.add(p.to_array());
+                }
+                let lo = lattice.to_index(b.min.map(|v| v - band));
+                let hi = lattice.to_index(b.max.map(|v| v + band));
+                let range = [0, 1, 2].map(|a| {
+                    let first = lo[a].ceil().max(0.0);
+                    let last = hi[a].floor().min(dims[a] as f64 - 1.0);
+                    (first as u64 / LEAF as u64, last as u64 / LEAF as u64, first <= last)
+                });
+                range.iter().all(|r| r.2).then(|| range.map(|r| (r.0, r.1)))
+            })
+            .collect();
+        let pairs: u128 = ranges.iter().map(|r| r.iter().map(|&(a, b)| (b - a + 1) as u128).product::<u128>()).sum();
+        if pairs.saturating_mul(8) > max_bytes as u128 {
+            return Err(Error::InvalidInput(format!(
+                "the triangles touch {pairs} blocks of 8³ points with the band, {} bytes to list, over the limit of {max_bytes}",
+                pairs.saturating_mul(8)
+            )));
+        }
+        let mut keys = Vec::with_capacity(pairs as usize);
+        for range in ranges {
             for z in range[2].0..=range[2].1 {
                 for y in range[1].0..=range[1].1 {
                     for x in range[0].0..=range[0].1 {
@@ -354,7 +387,26 @@ impl Bins {
         }
         keys.sort_unstable();
         keys.dedup();
-        Bins { keys, blocks }
+        let per_node = (NODE_POINTS / LEAF) as u64;
+        let node_axes = blocks.map(|b| b.div_ceil(per_node));
+        let mut nodes: Vec<u64> = keys
+            .iter()
+            .map(|&k| {
+                let b = [k % blocks[0], k / blocks[0] % blocks[1], k / (blocks[0] * blocks[1])];
+                let n = b.map(|v| v / per_node);
+                (n[2] * node_axes[1] + n[1]) * node_axes[0] + n[0]
+            })
+            .collect();
+        nodes.sort_unstable();
+        nodes.dedup();
+        Ok(Bins { keys, blocks, nodes })
+    }
+
+    /// True when a triangle is near the node at node coordinate `c`.
+    fn node_touched(&self, c: [u32; 3]) -> bool {
+        let per_node = (NODE_POINTS / LEAF) as u64;
+        let axes = self.blocks.map(|b| b.div_ceil(per_node));
+        self.nodes.binary_search(&((c[2] as u64 * axes[1] + c[1] as u64) * axes[0] + c[0] as u64)).is_ok()
     }
 
     /// How many blocks have a triangle near.
