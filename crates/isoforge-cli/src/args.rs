@@ -551,6 +551,7 @@ mod tests {
         "view",
         "shading",
         "mesh",
+        "values",
     ];
 
     // Issue 10: `--origin -10,0,0` was taken for an unknown option.

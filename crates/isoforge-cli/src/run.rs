@@ -487,7 +487,9 @@ pub fn extract(c: &ExtractConfig) -> Result<Outcome> {
             let outside = request::outside_value(isos[0].inside, range.min, range.max);
             Loaded::Grid(r.region.apply(g, outside).with_context(|| name.clone())?)
         }
-        Loaded::Field(_) if c.mask.is_some() => bail!("--mask applies to volume files"),
+        Loaded::Field(_) if c.mask.is_some() => {
+            bail!("--mask needs the volume from a file ({} is a built-in field)", input_name(&c.input))
+        }
         Loaded::Sparse(_) if !r.region.is_identity() || c.mask.is_some() => {
             bail!("--roi, --close, --space index and --mask apply to dense volume files, not to {name}")
         }

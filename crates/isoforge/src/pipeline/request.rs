@@ -140,24 +140,40 @@ fn number(text: &str, problem: &str) -> Result<f64, ParseError> {
     text.trim().parse::<f64>().ok().filter(|v| v.is_finite()).ok_or_else(|| ParseError::new(text, problem))
 }
 
-/// One iso value: a finite number.
+/// One iso value: a finite number that a double holds as written (`1e-400` underflows to 0 and
+/// is refused, not read as 0).
 ///
 /// # Errors
-/// Not a number, or not finite.
+/// Not a number, not finite, or a non-zero number that rounds to zero.
 pub fn parse_iso(s: &str) -> Result<f64, ParseError> {
     let v: f64 = s.trim().parse().map_err(|_| ParseError::new(s, "not a number"))?;
     if !v.is_finite() {
         return Err(ParseError::new(s, "must be a finite number"));
     }
+    // A zero whose mantissa has a digit other than 0 underflowed.
+    let mantissa = s.trim().split(['e', 'E']).next().unwrap_or("");
+    if v == 0.0 && mantissa.chars().any(|c| ('1'..='9').contains(&c)) {
+        return Err(ParseError::new(s, "is too small for a double (it would be read as 0)"));
+    }
     Ok(v)
 }
 
-/// A comma-separated list of iso values.
+/// A comma-separated list of iso values, each once (`100,1e2` is one value written twice).
 ///
 /// # Errors
-/// As [`parse_iso`], naming the bad element.
+/// As [`parse_iso`], naming the bad element; a value given twice, naming both spellings.
 pub fn parse_isos(list: &str) -> Result<Vec<f64>, ParseError> {
-    list.split(',').map(parse_iso).collect()
+    let parts: Vec<&str> = list.split(',').collect();
+    let isos: Vec<f64> = parts.iter().map(|p| parse_iso(p)).collect::<Result<_, _>>()?;
+    for (i, v) in isos.iter().enumerate() {
+        if let Some(j) = isos[..i].iter().position(|u| u == v) {
+            return Err(ParseError::new(
+                list,
+                format!("{:?} and {:?} are the same iso ({v}); give each once", parts[j].trim(), parts[i].trim()),
+            ));
+        }
+    }
+    Ok(isos)
 }
 
 impl FromStr for Inside {
@@ -240,8 +256,8 @@ pub struct Region {
 pub enum Roi {
     /// Half-open point index ranges; `None` bounds take the whole axis.
     Index([(Option<u32>, Option<u32>); 3]),
-    /// A world box, per axis `(lo, hi)`.
-    World([(f64, f64); 3]),
+    /// A world box, per axis `(lo, hi)`; `None` bounds take the lattice's extent.
+    World([(Option<f64>, Option<f64>); 3]),
 }
 
 /// Splits `a:b,c:d,e:f` into three `(lo, hi)` text pairs.
@@ -275,15 +291,28 @@ impl Roi {
         Ok(Roi::Index(r))
     }
 
-    /// `x0:x1,y0:y1,z0:z1`: a world box (finite numbers).
+    /// `x0:x1,y0:y1,z0:z1`: a world box (finite numbers, each range low to high); an empty bound
+    /// takes the lattice's extent, as in [`parse_index`](Roi::parse_index).
     ///
     /// # Errors
-    /// Not three ranges, a range without `:`, or a bound that is not a finite number.
+    /// Not three ranges, a range without `:`, a bound that is not a finite number, or a range
+    /// whose low bound is above its high one.
     pub fn parse_world(s: &str) -> Result<Roi, ParseError> {
-        let mut r = [(0.0, 0.0); 3];
-        for (out, (lo, hi)) in r.iter_mut().zip(split3(s)?) {
-            let num = |t: &str| number(t, "").map_err(|_| ParseError::new(s, format!("{t:?} is not a finite number")));
+        let mut r = [(None, None); 3];
+        for (a, (out, (lo, hi))) in r.iter_mut().zip(split3(s)?).enumerate() {
+            let num = |t: &str| -> Result<Option<f64>, ParseError> {
+                if t.trim().is_empty() {
+                    return Ok(None);
+                }
+                number(t, "").map(Some).map_err(|_| ParseError::new(s, format!("{t:?} is not a finite number")))
+            };
             *out = (num(lo)?, num(hi)?);
+            if let (Some(l), Some(h)) = *out {
+                if l > h {
+                    let axis = ["x", "y", "z"][a];
+                    return Err(ParseError::new(s, format!("{axis} range {l}:{h} is reversed (low bound first)")));
+                }
+            }
         }
         Ok(Roi::World(r))
     }
@@ -303,6 +332,9 @@ impl Roi {
         let (lo, hi) = match self {
             Roi::Index(r) => ([0, 1, 2].map(|a| r[a].0.unwrap_or(0)), [0, 1, 2].map(|a| r[a].1.unwrap_or(dims[a]))),
             Roi::World(r) => {
+                // Open bounds: the lattice's world box on that axis (a rotated lattice's too).
+                let (wlo, whi) = lattice.world_bounds();
+                let r: [(f64, f64); 3] = [0, 1, 2].map(|a| (r[a].0.unwrap_or(wlo[a]), r[a].1.unwrap_or(whi[a])));
                 let (mut lo, mut hi) = ([f64::INFINITY; 3], [f64::NEG_INFINITY; 3]);
                 for c in 0..8 {
                     let w = [0, 1, 2].map(|a| if c >> a & 1 == 1 { r[a].1 } else { r[a].0 });
@@ -556,6 +588,27 @@ mod tests {
         assert!(Roi::parse_index("a:b,:,:").unwrap_err().problem.contains("\"a\" is not a point index"));
         assert!(Roi::parse_index("-1:2,:,:").is_err());
         assert!(Roi::parse_world("0:1,0:1,nan:1").unwrap_err().problem.contains("not a finite number"));
+    }
+
+    #[test]
+    fn issue_50_one_rule_for_every_argument() {
+        // World ranges: reversed is an error like a reversed index range; empty bounds take the
+        // lattice's extent like --roi's.
+        let e = Roi::parse_world("40:30,0:1,0:1").unwrap_err();
+        assert!(e.problem.contains("x range 40:30 is reversed"), "{e}");
+        let l = Lattice::with_geometry([5, 6, 7], [1.0; 3], [10.0, 0.0, 0.0]).unwrap();
+        let open = Roi::parse_world(":,2:,:3").unwrap();
+        assert_eq!(open.point_box(&l).unwrap(), ([0, 2, 0], [5, 6, 4]));
+        assert_eq!(Roi::parse_world("11:,:,:").unwrap().point_box(&l).unwrap(), ([1, 0, 0], [5, 6, 7]));
+        // Isos: underflow is refused, not read as 0; a value given twice is refused, whatever
+        // its spelling; 0 itself is fine.
+        assert!(parse_iso("1e-400").unwrap_err().problem.contains("too small"));
+        assert!(parse_iso("-0.0001e-320").is_err());
+        assert_eq!(parse_iso("0e-400").unwrap(), 0.0);
+        assert_eq!(parse_iso("-0.0").unwrap(), 0.0);
+        let e = parse_isos("100,50,1e2").unwrap_err();
+        assert!(e.problem.contains("\"100\" and \"1e2\" are the same iso"), "{e}");
+        assert_eq!(parse_isos("1,2").unwrap(), vec![1.0, 2.0]);
     }
 
     #[test]

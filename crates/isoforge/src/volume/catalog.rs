@@ -98,6 +98,9 @@ pub fn parse(spec: &str) -> Result<Builtin> {
             v.parse().ok().filter(|v: &f64| v.is_finite()).ok_or_else(|| {
                 Error::InvalidInput(format!("field:{spec}: parameter {k}={v:?} is not a finite number"))
             })?;
+        if params.iter().any(|(p, _)| *p == k) {
+            return Err(Error::InvalidInput(format!("field:{spec}: parameter {k:?} given twice")));
+        }
         params.push((k, v));
     }
     let allowed: &[&str] = match name {
@@ -118,7 +121,7 @@ pub fn parse(spec: &str) -> Result<Builtin> {
             allowed.join(", ")
         )));
     }
-    let get = |k: &str, default: f64| params.iter().rev().find(|(p, _)| *p == k).map_or(default, |p| p.1);
+    let get = |k: &str, default: f64| params.iter().find(|(p, _)| *p == k).map_or(default, |p| p.1);
     let n = get("n", DEFAULT_POINTS as f64);
     if !((2.0..=4096.0).contains(&n) && n.fract() == 0.0) {
         return Err(Error::InvalidInput(format!("field:{spec}: n={n} must be a whole number from 2 to 4096")));
@@ -229,6 +232,13 @@ impl Classic {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn issue_50_a_parameter_given_twice_is_an_error() {
+        let e = parse("gyroid?n=64&n=128").unwrap_err().to_string();
+        assert!(e.contains("parameter \"n\" given twice"), "{e}");
+        assert!(parse("gyroid?n=64&periods=2").is_ok());
+    }
 
     #[test]
     fn parses_names_and_parameters() {
