@@ -248,6 +248,34 @@ def vdbs():
         seed("read_vdb", "tiny_cut_%d.vdb" % cut, 0, tiny[:cut])
 
 
+# ------------------------------------------------------------------------------------------
+# SOG (PolyMender's signed octree grids)
+
+def sog(dim, nodes, edge=2.0):
+    """A .sog file: magic, origin 0, `edge`, zero padding to byte 128, `dim`, the node bytes."""
+    head = b"SOG.Format 1.0\0" + struct.pack("<4f", 0.0, 0.0, 0.0, edge)
+    return head.ljust(128, b"\0") + struct.pack("<i", dim) + nodes
+
+
+def sogs():
+    """Small made trees (one empty node; a depth-1 tree with a leaf; a depth-2 one) in both
+    variants, and, when ../shared/data/sog is there, wisky.5.sog (39 KB) whole and cut inside
+    its header and its tree."""
+    leaf = lambda signs, v: bytes([2, signs]) + struct.pack("<3f", *v)
+    depth1 = b"\0" + leaf(0x7F, (0.5, 0.5, 0.5)) + b"\1\1" * 7
+    depth2 = b"\0" + b"\0" + leaf(0x7F, (0.25, 0.25, 0.25)) + b"\1\1" * 7 + b"\1\1" * 7
+    for name, body in [("empty", sog(1, b"\1\1")), ("depth1", sog(2, depth1)), ("depth2", sog(4, depth2, 2.0))]:
+        seed("read_sog", name + ".sog", 0, body)
+        seed("read_sog", "file_" + name + ".sog", 1, body)
+    shared = ROOT.parent / "shared" / "data" / "sog" / "wisky.5.sog"
+    if shared.is_file():
+        wisky = shared.read_bytes()
+        seed("read_sog", "wisky.5.sog", 0, wisky)
+        seed("read_sog", "file_wisky.5.sog", 1, wisky)
+        for cut in [20, 130, 200, 5000, len(wisky) - 5]:
+            seed("read_sog", "wisky_cut_%d.sog" % cut, 0, wisky[:cut])
+
+
 if __name__ == "__main__":
     shutil.rmtree(OUT, ignore_errors=True)
     volumes()
@@ -255,5 +283,6 @@ if __name__ == "__main__":
     meshes()
     dicoms()
     vdbs()
+    sogs()
     for d in sorted(OUT.iterdir()):
         print(f"{d.name}: {len(list(d.iterdir()))} seeds")

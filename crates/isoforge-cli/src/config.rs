@@ -307,8 +307,16 @@ impl ExtractConfig {
     pub fn from_args(a: &ExtractArgs, threads: Option<usize>) -> Result<Self> {
         let input = InputConfig::from_args(&a.input)?;
         let format = output_format(&a.output, a.ascii)?;
-        let isos = a.iso.as_deref().map(request::parse_isos).transpose().map_err(flag("--iso"))?.unwrap_or_default();
+        let mut isos =
+            a.iso.as_deref().map(request::parse_isos).transpose().map_err(flag("--iso"))?.unwrap_or_default();
         let labels = a.labels.as_deref().map(str::parse::<Labels>).transpose().map_err(flag("--labels"))?;
+        // A signed octree reads as its signs (−1 inside, +1 outside): its surface is at 0.
+        let sog = Some(isoforge_io::VolumeFormat::Sog);
+        if isos.is_empty()
+            && matches!(&input.source, Source::File { path, raw: None } if isoforge_io::VolumeFormat::from_path(path) == sog)
+        {
+            isos.push(0.0);
+        }
         if isos.is_empty() && labels.is_none() && matches!(input.source, Source::File { .. }) {
             bail!("--iso is required for volume files (see `isoforge info {}` for a suggestion)", a.input.input);
         }

@@ -1746,3 +1746,25 @@ fn issue_50_a_volume_of_one_slice_gives_no_surface() {
         fails(&args, "gives no surface", &out);
     }
 }
+
+/// Issues 46/47: a PolyMender `.sog` reads as its signs (−1 inside, +1 outside) and extracts at
+/// iso 0 without `--iso`; `info` describes it.
+#[test]
+fn sog_files_extract_as_their_sign_grid() {
+    let sog = PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("../../../shared/data/sog/wisky.5.sog");
+    if !sog.exists() {
+        eprintln!("skipping: {} is absent", sog.display());
+        return;
+    }
+    let dir = tempfile::tempdir().unwrap();
+    let out = dir.path().join("w.ply");
+    let o = isoforge(&["extract", "-i", p(&sog), "-o", p(&out)]);
+    assert_eq!(o.status.code(), Some(0), "{}", stderr(&o));
+    let mesh = isoforge_io::read_mesh(&out, &isoforge_io::Limits::default()).unwrap();
+    let r = isoforge::topo::check(&mesh);
+    assert!(r.is_watertight(), "{r:?}");
+    assert_eq!(r.genus(), Some(2));
+    let o = isoforge(&["info", p(&sog)]);
+    assert_eq!(o.status.code(), Some(0), "{}", stderr(&o));
+    assert!(String::from_utf8_lossy(&o.stdout).contains("33"), "{}", String::from_utf8_lossy(&o.stdout));
+}

@@ -26,6 +26,9 @@ pub enum VolumeFormat {
     Tiff,
     /// OpenVDB (`.vdb`): a sparse grid, read by [`read_sparse`](crate::read_sparse).
     Vdb,
+    /// PolyMender's signed octree grid (`.sog`): read as its signs, −1 inside and +1 outside, on
+    /// the `(dim + 1)³` points of its root cube (the tree itself: [`read_sog`](crate::read_sog)).
+    Sog,
 }
 
 /// A mesh file format.
@@ -56,7 +59,7 @@ fn lower_name(path: &Path) -> String {
 
 impl VolumeFormat {
     /// Every volume format, in the order help texts list them.
-    pub const ALL: [VolumeFormat; 10] = [
+    pub const ALL: [VolumeFormat; 11] = [
         VolumeFormat::Nrrd,
         VolumeFormat::Nifti,
         VolumeFormat::MetaImage,
@@ -66,6 +69,7 @@ impl VolumeFormat {
         VolumeFormat::Png,
         VolumeFormat::Tiff,
         VolumeFormat::Vdb,
+        VolumeFormat::Sog,
         VolumeFormat::Raw,
     ];
 
@@ -82,6 +86,7 @@ impl VolumeFormat {
             VolumeFormat::Png => &[".png"],
             VolumeFormat::Tiff => &[".tif", ".tiff"],
             VolumeFormat::Vdb => &[".vdb"],
+            VolumeFormat::Sog => &[".sog"],
         }
     }
 
@@ -104,6 +109,7 @@ impl VolumeFormat {
             VolumeFormat::Png => "PNG",
             VolumeFormat::Tiff => "TIFF",
             VolumeFormat::Vdb => "OpenVDB (sparse: float and double grids)",
+            VolumeFormat::Sog => "PolyMender signed octree (signs at iso 0)",
         }
     }
 }

@@ -46,6 +46,8 @@ pub use limits::Limits;
 pub use memory::keep_freed_memory;
 #[cfg(feature = "raw")]
 pub use read::raw::RawSpec;
+#[cfg(feature = "sog")]
+pub use read::sog::read_sog;
 #[cfg(feature = "vdb")]
 pub use read::sparse::{dense_region, read_sparse, SparseFile};
 pub use read::stream::VolumeReader;
@@ -111,12 +113,17 @@ pub fn open_volume(path: &Path, limits: &Limits) -> Result<VolumeReader> {
         Some(VolumeFormat::Png) => read::png::open_png(path, limits),
         #[cfg(feature = "tiff")]
         Some(VolumeFormat::Tiff) => read::tiff::open_tiff(path, limits),
+        #[cfg(feature = "sog")]
+        Some(VolumeFormat::Sog) => {
+            let tree = read::sog::read_sog(path, limits)?;
+            read::sog::sign_grid(path, &tree, limits)
+        }
         Some(VolumeFormat::Raw) => unsupported("raw volumes need their layout: pass --dims X,Y,Z and --dtype"),
         Some(VolumeFormat::Vdb) => unsupported("an OpenVDB file is sparse: read it with read_sparse"),
         #[allow(unreachable_patterns)]
         Some(f) => unsupported(&format!("{} support is not compiled in", f.name())),
         None => unsupported(
-            "unknown volume format (expected .nrrd, .nhdr, .nii, .nii.gz, .mha, .mhd, .mrc, .map, .ccp4, .vtk, .vti, .png, .tif, .tiff, or .raw with --dims/--dtype)",
+            "unknown volume format (expected .nrrd, .nhdr, .nii, .nii.gz, .mha, .mhd, .mrc, .map, .ccp4, .vtk, .vti, .png, .tif, .tiff, .sog, or .raw with --dims/--dtype)",
         ),
     }
 }
@@ -197,6 +204,17 @@ pub fn write_sparse<S: isoforge::grid::Sample>(
 ) -> Result<()> {
     let batch = Batch::new();
     batch.write_sparse(path, grid, opts)?;
+    batch.commit()
+}
+
+/// Writes a signed octree to `path` atomically as a `.sog` file; see [`Batch::write_sog`].
+///
+/// # Errors
+/// As [`Batch::write_sog`] and [`Batch::commit`].
+#[cfg(feature = "sog")]
+pub fn write_sog(path: &Path, tree: &isoforge::grid::SignedOctree) -> Result<()> {
+    let batch = Batch::new();
+    batch.write_sog(path, tree)?;
     batch.commit()
 }
 
@@ -414,6 +432,15 @@ impl Batch {
     ) -> Result<()> {
         write::vdb::check_vdb(grid, opts).map_err(|e| Error::InvalidInput(format!("{}: {e}", path.display())))?;
         self.write(path, |w| write::vdb::write_vdb(w, grid, opts))
+    }
+
+    /// Writes a signed octree as a PolyMender `.sog` file (see [`write::sog`]).
+    ///
+    /// # Errors
+    /// As [`Batch::write`].
+    #[cfg(feature = "sog")]
+    pub fn write_sog(&self, path: &Path, tree: &isoforge::grid::SignedOctree) -> Result<()> {
+        self.write(path, |w| write::sog::write_sog(w, tree))
     }
 
     /// Writes a volume, choosing the format by extension: `.nrrd` (gzip-encoded), `.nii`, `.nii.gz`.

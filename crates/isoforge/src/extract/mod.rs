@@ -11,6 +11,7 @@
 //! | [`SurfaceNets`] \[Gibson98\] | quads | no (dual: non-manifold where a cell holds two sheets) | yes | no | no |
 //! | [`DualContouring`] \[Ju02\] | triangles (quads on request) | no (surface nets' connectivity) | yes | no | yes: corners and creases whose planes meet inside the cell |
 //! | [`Masked`] | as the inner extractor, open at the mask's edge | | | | |
+//! | [`contour_octree`] \[Ju02\] (a [`SignedOctree`](crate::grid::SignedOctree)'s stored vertices) | quads | no (one vertex per cell) | yes, when the tree's signs agree | no | as the stored vertices |
 //!
 //! How walkers run extractors: [`place`](Extractor::place) (dual methods' own vertices) for every
 //! cell that needs it, then [`process`](Extractor::process) for every cell with a crossing. A
@@ -25,6 +26,7 @@ pub mod dual_contouring;
 pub mod marching_cubes;
 pub mod masked;
 pub mod mc33;
+pub mod octree_dual;
 pub mod qef;
 pub mod squares;
 pub mod surface_nets;
@@ -35,6 +37,7 @@ pub use dual_contouring::DualContouring;
 pub use marching_cubes::MarchingCubes;
 pub use masked::{Masked, PointMask};
 pub use mc33::MarchingCubes33;
+pub use octree_dual::{contour_octree, OctreeContour};
 pub use squares::{marching_squares, Polyline, Saddle};
 pub use surface_nets::SurfaceNets;
 pub use tetrahedra::{BodyCentredTables, BodyCentredTetrahedra, Decomposition, MarchingTetrahedra};
