@@ -5,7 +5,11 @@
 //! inside (low values) to outside; polygons are wound counter-clockwise seen from outside.
 
 pub mod colormap;
+pub mod decimate;
+#[cfg(test)]
+pub(crate) mod shapes;
 mod sink;
+pub mod smooth;
 
 pub use sink::{ExternalError, MeshBatch, MeshSink, OwnedBatch, WriteBehind};
 
