@@ -73,6 +73,7 @@ fn main() -> ExitCode {
         Command::View(a) => config::ViewConfig::from_args(a, threads).and_then(|c| run::view(&c)),
         Command::Render(a) => config::RenderConfig::from_args(a, threads).and_then(|c| run::render(&c)),
         Command::Convert(a) => config::ConvertConfig::from_args(a).and_then(|c| run::convert(&c)),
+        Command::Simplify(a) => config::SimplifyConfig::from_args(a, threads).and_then(|c| run::simplify(&c)),
     };
     let _ = std::io::stdout().flush();
     match result {

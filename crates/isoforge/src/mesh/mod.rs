@@ -6,6 +6,7 @@
 
 pub mod colormap;
 pub mod decimate;
+pub mod post;
 #[cfg(test)]
 pub(crate) mod shapes;
 mod sink;
