@@ -208,3 +208,109 @@ fn label_surfaces_are_smoothed_within_half_a_spacing() {
     assert!(err.contains("label 1: smoothed (sinc, 40 iterations, vertices kept within 1;"), "{err}");
     assert!(err.contains("label 4: smoothed"), "{err}");
 }
+
+/// Squared distance from `p` to triangle `t` (its plane where the foot falls inside, else its
+/// nearest side).
+fn distance2(p: [f64; 3], t: [[f64; 3]; 3]) -> f64 {
+    let sub = |a: [f64; 3], b: [f64; 3]| [a[0] - b[0], a[1] - b[1], a[2] - b[2]];
+    let dot = |a: [f64; 3], b: [f64; 3]| a[0] * b[0] + a[1] * b[1] + a[2] * b[2];
+    let cross =
+        |a: [f64; 3], b: [f64; 3]| [a[1] * b[2] - a[2] * b[1], a[2] * b[0] - a[0] * b[2], a[0] * b[1] - a[1] * b[0]];
+    let side = |a: [f64; 3], b: [f64; 3]| {
+        let (ab, ap) = (sub(b, a), sub(p, a));
+        let l = dot(ab, ab);
+        let s = if l > 0.0 { (dot(ap, ab) / l).clamp(0.0, 1.0) } else { 0.0 };
+        let d = sub(ap, ab.map(|x| x * s));
+        dot(d, d)
+    };
+    let [a, b, c] = t;
+    let n = cross(sub(b, a), sub(c, a));
+    let nn = dot(n, n);
+    // Inside when p's projection is on the inner side of all three edges.
+    let inside = nn > 0.0 && [(a, b), (b, c), (c, a)].iter().all(|&(u, v)| dot(cross(sub(v, u), sub(p, u)), n) >= 0.0);
+    if inside {
+        let h = dot(sub(p, a), n);
+        return h * h / nn;
+    }
+    side(a, b).min(side(b, c)).min(side(c, a))
+}
+
+/// The largest distance from a vertex of `from` to the surface of `to`, beyond `bound` only if
+/// some vertex is (a uniform grid of cells of side `bound` holding each triangle's box grown by
+/// `bound`: a vertex within `bound` of a triangle finds it in its own cell).
+fn vertices_within(from: &isoforge::mesh::Mesh, to: &isoforge::mesh::Mesh, bound: f64) -> f64 {
+    use std::collections::HashMap;
+    let cell = |x: f64| (x / bound).floor() as i64;
+    let pt = |m: &isoforge::mesh::Mesh, v: u32| m.positions[v as usize].map(f64::from);
+    let mut grid: HashMap<[i64; 3], Vec<u32>> = HashMap::new();
+    for (i, t) in to.triangles.iter().enumerate() {
+        let c = t.map(|v| pt(to, v));
+        let lo = [0, 1, 2].map(|a| cell(c[0][a].min(c[1][a]).min(c[2][a]) - bound));
+        let hi = [0, 1, 2].map(|a| cell(c[0][a].max(c[1][a]).max(c[2][a]) + bound));
+        for x in lo[0]..=hi[0] {
+            for y in lo[1]..=hi[1] {
+                for z in lo[2]..=hi[2] {
+                    grid.entry([x, y, z]).or_default().push(i as u32);
+                }
+            }
+        }
+    }
+    let mut worst: f64 = 0.0;
+    for v in 0..from.positions.len() as u32 {
+        let q = pt(from, v);
+        let d = grid
+            .get(&q.map(cell))
+            .into_iter()
+            .flatten()
+            .map(|&t| distance2(q, to.triangles[t as usize].map(|w| pt(to, w))))
+            .fold(f64::INFINITY, f64::min)
+            .sqrt();
+        worst = worst.max(d);
+    }
+    worst
+}
+
+/// The engine CT decimated at 0.5 of a spacing: topology kept (closed, manifold, genus,
+/// components), every extracted vertex within the bound of the decimated surface, and the
+/// boundary at the volume's faces kept.
+#[test]
+#[cfg_attr(debug_assertions, ignore = "release only (.ci/run): minutes in a debug build")]
+fn engine_ct_decimation_keeps_topology_and_error_bound() {
+    let vol =
+        PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("../../../shared/data/volumes/volvis_engine_256x256x128.nrrd");
+    if !vol.exists() {
+        eprintln!("skipping: {} is absent", vol.display());
+        return;
+    }
+    let dir = tempfile::tempdir().unwrap();
+    let (plain, simple) = (dir.path().join("engine.ply"), dir.path().join("simple.ply"));
+    let o = isoforge(&["extract", "-i", p(&vol), "--iso", "71.2", "-o", p(&plain)]);
+    assert_eq!(o.status.code(), Some(0), "{}", stderr(&o));
+    let o = isoforge(&["simplify", p(&plain), "-o", p(&simple), "--max-error", "0.5"]);
+    assert_eq!(o.status.code(), Some(0), "{}", stderr(&o));
+    eprintln!("{}", stderr(&o));
+    let limits = isoforge_io::Limits::default();
+    let (m0, m1) =
+        (isoforge_io::read_mesh(&plain, &limits).unwrap(), isoforge_io::read_mesh(&simple, &limits).unwrap());
+    let (r0, r1) = (isoforge::topo::check(&m0), isoforge::topo::check(&m1));
+    let topology = |r: &isoforge::topo::MeshReport| {
+        (
+            r.is_closed(),
+            r.is_manifold(),
+            r.is_oriented(),
+            r.genus(),
+            r.components.len(),
+            r.euler,
+            r.boundary_edges.count,
+        )
+    };
+    assert_eq!(topology(&r1), topology(&r0));
+    assert!(m1.triangles.len() * 2 < m0.triangles.len(), "{} → {}", m0.triangles.len(), m1.triangles.len());
+    let worst = vertices_within(&m0, &m1, 0.5);
+    eprintln!(
+        "engine: {} → {} triangles, extracted vertices within {worst:.4} of the decimated surface",
+        m0.triangles.len(),
+        m1.triangles.len()
+    );
+    assert!(worst <= 0.5 + 1e-6, "{worst}");
+}

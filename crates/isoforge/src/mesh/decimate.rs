@@ -235,22 +235,17 @@ impl Quadric {
 /// (flat or creased neighbourhoods), and the collapse goes to the best of the ends and midpoint.
 const SINGULAR: f64 = 1e-9;
 
-/// A candidate collapse in the queue: valid while both ends carry the stamps it was made with.
-#[derive(Debug, Clone, Copy)]
+/// A candidate collapse in the queue, 16 bytes: its cost (an `f32` ≥ 0, whose bits order as
+/// the numbers do), its ends, and the sum of their stamps when it was queued. Stamps only grow,
+/// so the sum is unchanged exactly when neither end changed: the candidate is still valid.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
 struct Candidate {
-    cost: f64,
+    cost: u32,
     a: u32,
     b: u32,
-    sa: u32,
-    sb: u32,
+    stamps: u32,
 }
 
-impl PartialEq for Candidate {
-    fn eq(&self, o: &Self) -> bool {
-        self.cmp(o) == Ordering::Equal
-    }
-}
-impl Eq for Candidate {}
 impl PartialOrd for Candidate {
     fn partial_cmp(&self, o: &Self) -> Option<Ordering> {
         Some(self.cmp(o))
@@ -259,7 +254,7 @@ impl PartialOrd for Candidate {
 impl Ord for Candidate {
     /// Reversed, so that `BinaryHeap` pops the cheapest; ties by vertex ids (deterministic).
     fn cmp(&self, o: &Self) -> Ordering {
-        o.cost.total_cmp(&self.cost).then_with(|| (o.a, o.b).cmp(&(self.a, self.b)))
+        (o.cost, o.a, o.b, o.stamps).cmp(&(self.cost, self.a, self.b, self.stamps))
     }
 }
 
@@ -498,8 +493,10 @@ impl Decimator {
 
     fn push(&mut self, a: u32, b: u32) {
         if let Some((cost, _)) = self.plan(a, b) {
-            let (sa, sb) = (self.stamp[a as usize], self.stamp[b as usize]);
-            self.heap.push(Candidate { cost, a, b, sa, sb });
+            let stamps = self.stamp[a as usize].wrapping_add(self.stamp[b as usize]);
+            // Costs are ≥ 0 (or NaN from overflowing coordinates: queued last).
+            let cost = if cost.is_nan() { u32::MAX } else { (cost as f32).to_bits() };
+            self.heap.push(Candidate { cost, a, b, stamps });
         }
     }
 
@@ -508,7 +505,7 @@ impl Decimator {
         while self.live_triangles > target {
             let Some(c) = self.heap.pop() else { break };
             let (a, b) = (c.a as usize, c.b as usize);
-            if !self.vertex_alive[a] || !self.vertex_alive[b] || self.stamp[a] != c.sa || self.stamp[b] != c.sb {
+            if !self.vertex_alive[a] || !self.vertex_alive[b] || self.stamp[a].wrapping_add(self.stamp[b]) != c.stamps {
                 continue;
             }
             if let Err(refusal) = self.try_collapse(c.a, c.b) {
@@ -587,6 +584,16 @@ impl Decimator {
                 let mut p = track.head[t as usize];
                 while p != NONE {
                     let q = track.points[p as usize];
+                    // Most vertices stay within the bound of their own triangle as it moves:
+                    // only the others look for the nearest new triangle.
+                    if t != shared[0] && t != shared[1] {
+                        let [u, v, w] = self.tris[t as usize].map(moved);
+                        if point_triangle_distance2(q, u, v, w) <= bound2 {
+                            reassigned.push((p, t));
+                            p = track.next[p as usize];
+                            continue;
+                        }
+                    }
                     let mut best = (f64::INFINITY, NONE);
                     for &c in &changed {
                         let [u, v, w] = self.tris[c as usize].map(moved);

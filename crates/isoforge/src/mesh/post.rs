@@ -98,9 +98,19 @@ impl PostStats {
         }
         if let Some((d, secs)) = &self.decimate {
             let error = d.error.map_or(String::new(), |e| format!(", input vertices within {e:.4} of the surface"));
+            let r = &d.refused;
             out.push(format!(
-                "decimated {} → {} triangles ({} collapses, {} vertices locked{error}) in {secs:.3} s",
-                d.triangles_before, d.triangles_after, d.collapses, d.locked
+                "decimated {} → {} triangles ({} collapses, {} vertices locked{error}; refused: {} link, {} \
+                 component, {} fold-over, {} shape, {} error) in {secs:.3} s",
+                d.triangles_before,
+                d.triangles_after,
+                d.collapses,
+                d.locked,
+                r.link,
+                r.component,
+                r.fold_over,
+                r.shape,
+                r.error
             ));
         }
         out
