@@ -77,7 +77,8 @@ def hausdorff(ref, out):
     """(two-sided Hausdorff, one-sided original → decimated) by MeshLib's exact point–surface distances."""
     import meshlib.mrmeshpy as mr
     a, b = mrmesh(*ref), mrmesh(*out)
-    one = mr.findMaxDistanceSqOneWay(mr.MeshPart(a), mr.MeshPart(b)) ** 0.5
+    # findMaxDistanceSqOneWay(A, B): the largest distance from a vertex of B to the surface of A.
+    one = mr.findMaxDistanceSqOneWay(mr.MeshPart(b), mr.MeshPart(a)) ** 0.5
     two = mr.findMaxDistanceSq(mr.MeshPart(a), mr.MeshPart(b)) ** 0.5
     return float(two), float(one)
 

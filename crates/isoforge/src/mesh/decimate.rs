@@ -15,13 +15,15 @@
 //! - error: with [`max_error`](DecimateOptions::max_error), every vertex of the input lies within
 //!   that distance of the output surface (each input vertex is assigned to a triangle within the
 //!   bound, and a collapse is refused unless every vertex assigned to the triangles it changes is
-//!   within the bound of one of the new ones: a one-sided Hausdorff bound, vertices to surface).
+//!   within the bound of one of the new ones), and every vertex of the output within that distance
+//!   of the input surface (a moved vertex must be near the input triangles around the vertices
+//!   assigned to its triangles). Points inside output triangles are not bounded: across a groove
+//!   narrower than the bound a triangle may span it.
 //!
 //! Quads are split into triangles first (the output is triangles); normals, when the input has
 //! them, are recomputed from the faces.
 
 use std::cmp::Ordering;
-use std::collections::BinaryHeap;
 
 use super::Mesh;
 use crate::error::{Error, Result};
@@ -252,22 +254,100 @@ impl PartialOrd for Candidate {
     }
 }
 impl Ord for Candidate {
-    /// Reversed, so that `BinaryHeap` pops the cheapest; ties by vertex ids (deterministic).
+    /// Reversed, so that the queue (greatest first) pops the cheapest; ties by vertex ids
+    /// (deterministic).
     fn cmp(&self, o: &Self) -> Ordering {
         (o.cost, o.a, o.b, o.stamps).cmp(&(self.cost, self.a, self.b, self.stamps))
+    }
+}
+
+/// A 4-ary heap, greatest first: half the depth of a binary heap, and a node's four children
+/// side by side (64 bytes), so a pop misses the cache about half as often on queues of millions
+/// of candidates (the binary heap's pops were half of the decimation's time on the engine CT).
+#[derive(Debug, Default)]
+struct Queue {
+    items: Vec<Candidate>,
+}
+
+impl Queue {
+    fn push(&mut self, c: Candidate) {
+        let mut i = self.items.len();
+        self.items.push(c);
+        while i > 0 {
+            let parent = (i - 1) / 4;
+            if self.items[parent] >= c {
+                break;
+            }
+            self.items[i] = self.items[parent];
+            i = parent;
+        }
+        self.items[i] = c;
+    }
+
+    fn pop(&mut self) -> Option<Candidate> {
+        let last = self.items.pop()?;
+        let n = self.items.len();
+        if n == 0 {
+            return Some(last);
+        }
+        let top = self.items[0];
+        let mut i = 0;
+        loop {
+            let first = 4 * i + 1;
+            if first >= n {
+                break;
+            }
+            let mut best = first;
+            for j in first + 1..(first + 4).min(n) {
+                if self.items[j] > self.items[best] {
+                    best = j;
+                }
+            }
+            if self.items[best] <= last {
+                break;
+            }
+            self.items[i] = self.items[best];
+            i = best;
+        }
+        self.items[i] = last;
+        Some(top)
     }
 }
 
 /// Marks "no point" / "no triangle" in the tracker's lists.
 const NONE: u32 = u32::MAX;
 
-/// Which input vertex is assigned to which live triangle: a singly linked list per triangle.
+/// Which input vertex is assigned to which live triangle: a singly linked list per triangle;
+/// and the input surface around each input vertex (its triangles, in compressed rows), where a
+/// moved vertex must stay within the bound.
 struct Tracker {
     bound: f64,
     points: Vec<[f64; 3]>,
     head: Vec<u32>,
     next: Vec<u32>,
     owner: Vec<u32>,
+    input_triangles: Vec<[u32; 3]>,
+    star_offsets: Vec<u32>,
+    star: Vec<u32>,
+}
+
+impl Tracker {
+    /// Whether `x` lies within the bound of the input surface near the input vertices `near`
+    /// (their own positions, then their triangles): a part of the input surface, so `true` is
+    /// exact, `false` conservative.
+    fn near_input(&self, x: [f64; 3], near: &[(u32, u32)]) -> bool {
+        let bound2 = self.bound * self.bound;
+        if near.iter().any(|&(p, _)| dot(sub(x, self.points[p as usize]), sub(x, self.points[p as usize])) <= bound2) {
+            return true;
+        }
+        near.iter().any(|&(p, _)| {
+            let (lo, hi) = (self.star_offsets[p as usize] as usize, self.star_offsets[p as usize + 1] as usize);
+            self.star[lo..hi].iter().any(|&t| {
+                let [a, b, c] = self.input_triangles[t as usize].map(|v| self.points[v as usize]);
+                point_triangle_distance2(x, a, b, c) <= bound2
+            })
+        })
+    }
 }
 
 impl Tracker {
@@ -305,7 +385,7 @@ struct Decimator {
     component_size: Vec<u32>,
     /// Triangles with a repeated vertex: kept as they are, outside every star.
     kept: Vec<[u32; 3]>,
-    heap: BinaryHeap<Candidate>,
+    heap: Queue,
     live_triangles: usize,
     collapses: usize,
     refused: Refusals,
@@ -384,7 +464,7 @@ impl Decimator {
             component,
             component_size,
             kept,
-            heap: BinaryHeap::new(),
+            heap: Queue::default(),
             live_triangles,
             collapses: 0,
             refused: Refusals::default(),
@@ -398,12 +478,19 @@ impl Decimator {
             }
         }
         if let Some(bound) = opts.max_error {
+            let mut star_offsets = vec![0u32; nv + 1];
+            for v in 0..nv {
+                star_offsets[v + 1] = star_offsets[v] + d.star[v].len() as u32;
+            }
             let mut t = Tracker {
                 bound,
                 points: d.pos.clone(),
                 head: vec![NONE; d.tris.len()],
                 next: vec![NONE; nv],
                 owner: vec![NONE; nv],
+                input_triangles: d.tris.clone(),
+                star: d.star.iter().flatten().copied().collect(),
+                star_offsets,
             };
             for v in 0..nv {
                 if let Some(&tri) = d.star[v].first() {
@@ -611,6 +698,12 @@ impl Decimator {
                     reassigned.push((p, best.1));
                     p = track.next[p as usize];
                 }
+            }
+            // The other direction at the moved vertex: it stays within the bound of the input
+            // surface (unless it is an input vertex that did not move).
+            let unmoved = !self.moved[ks] && x == self.pos[ks];
+            if !unmoved && !track.near_input(x, &reassigned) {
+                return Err(Refusal::Error);
             }
         }
 
@@ -876,12 +969,15 @@ mod tests {
                 let stats = decimate(&mut mesh, &DecimateOptions::max_error(bound)).unwrap();
                 let worst = vertices_to_surface(&original, &mesh);
                 println!(
-                    "{name} bound {bound}: {} → {} triangles, vertices to surface {worst:.3} (tracked {:.3})",
+                    "{name} bound {bound}: {} → {} triangles, vertices to surface {worst:.3} (tracked {:.3}), back {:.3}",
                     stats.triangles_before,
                     stats.triangles_after,
-                    stats.error.unwrap_or(-1.0)
+                    stats.error.unwrap_or(-1.0),
+                    vertices_to_surface(&mesh, &original)
                 );
                 assert!(worst <= bound * (1.0 + 1e-9), "{name} bound {bound}: {worst}");
+                let back = vertices_to_surface(&mesh, &original);
+                assert!(back <= bound * (1.0 + 1e-6), "{name} bound {bound}: output vertices {back} from the input");
                 assert!(stats.error.is_some_and(|e| e <= bound && worst <= e + 1e-9), "{stats:?}");
                 assert!(stats.triangles_after < stats.triangles_before / 2, "{name} bound {bound}: {stats:?}");
                 assert_eq!(topology(&topo::check(&mesh)), topology(&topo::check(&original)), "{name}");
@@ -947,6 +1043,31 @@ mod tests {
         assert!(decimate(&mut m, &DecimateOptions::reduction(1.5)).is_err());
         assert!(decimate(&mut m, &DecimateOptions::max_error(-1.0)).is_err());
         assert!(decimate(&mut m, &DecimateOptions::max_error(f64::NAN)).is_err());
+    }
+
+    /// The queue pops in order.
+    #[test]
+    fn queue_pops_the_cheapest_first() {
+        let mut q = Queue::default();
+        let mut seed = 7u64;
+        let mut costs = Vec::new();
+        for i in 0..5000u32 {
+            seed = seed.wrapping_mul(6364136223846793005).wrapping_add(1442695040888963407);
+            let cost = (seed >> 40) as u32;
+            costs.push((cost, i));
+            q.push(Candidate { cost, a: i, b: 0, stamps: 0 });
+            if i % 3 == 0 {
+                let c = q.pop().unwrap();
+                let k = costs.iter().position(|&x| x == *costs.iter().min().unwrap()).unwrap();
+                assert_eq!((c.cost, c.a), costs.swap_remove(k));
+            }
+        }
+        costs.sort_unstable();
+        for want in costs {
+            let c = q.pop().unwrap();
+            assert_eq!((c.cost, c.a), want);
+        }
+        assert!(q.pop().is_none());
     }
 
     /// The library's distance agrees with the test's.
