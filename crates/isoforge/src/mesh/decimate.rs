@@ -1,9 +1,9 @@
-//! Decimation: edge collapses ordered by the quadric error metric [Garland97], each one refused
+//! Decimation: edge collapses ordered by the quadric error metric \[Garland97\], each one refused
 //! unless it keeps the mesh's guarantees.
 //!
 //! **Guarantees** (each collapse is checked; a refused one is retried only after a collapse
 //! next to it changes its neighbourhood):
-//! - connectivity: no collapse violates the link condition [Dey99] (the common neighbours of the
+//! - connectivity: no collapse violates the link condition \[Dey99\] (the common neighbours of the
 //!   edge's ends are exactly the two vertices opposite it), so a manifold stays manifold and keeps
 //!   its genus; no closed component drops below 4 vertices (a tetrahedron), so none vanishes;
 //!   vertices on boundary or non-manifold edges, and those whose triangles form several fans,

@@ -1,6 +1,6 @@
 //! Smoothing: vertex positions filtered by the mesh's one-ring (umbrella) Laplacian, the
-//! connectivity untouched: Taubin's λ|μ steps [Taubin95] or the windowed-sinc Chebyshev filter
-//! [Taubin96] (VTK's `vtkWindowedSincPolyDataFilter`). Both are low-pass filters that leave the
+//! connectivity untouched: Taubin's λ|μ steps \[Taubin95\] or the windowed-sinc Chebyshev filter
+//! \[Taubin96\] (VTK's `vtkWindowedSincPolyDataFilter`). Both are low-pass filters that leave the
 //! lowest frequencies (the shape) in place, so unlike plain Laplacian smoothing they do not shrink.
 //!
 //! **Guarantees**: only positions change, so every property of the connectivity (closed,
@@ -297,9 +297,9 @@ pub fn smooth_with(mesh: &mut Mesh, ring: &OneRing, opts: &SmoothOptions) -> Res
 
 /// The windowed Chebyshev coefficients `c₀ … c_N` of the ideal low-pass filter with pass band
 /// `k_pb` in the variable `1 − k` (k ∈ [0, 2] the frequency), scaled so that they sum to 1: the
-/// filter passes k = 0 (translations) unchanged [Taubin96].
+/// filter passes k = 0 (translations) unchanged \[Taubin96\].
 ///
-/// The window is Blackman's, not the Hamming window of [Taubin96] and VTK: a closed surface's
+/// The window is Blackman's, not the Hamming window of \[Taubin96\] and VTK: a closed surface's
 /// volume follows the cube of the filter's gain on its lowest frequencies, and Hamming's
 /// pass-band ripple (0.4 % at 40 terms, pass band 0.1) grew a sphere's volume by 1 %; Blackman's
 /// is 0.04 %.
