@@ -6,6 +6,9 @@ use anyhow::{anyhow, bail, Context, Result};
 use isoforge::extract::Saddle;
 use isoforge::grid::DType;
 use isoforge::mesh::colormap::Colormap;
+use isoforge::mesh::decimate::DecimateOptions;
+use isoforge::mesh::post::PostProcess;
+use isoforge::mesh::smooth::SmoothOptions;
 use isoforge::pipeline::request::{self, AttributeSource, ColorBy, ParseError};
 use isoforge::pipeline::{Labels, Method, Options, Region, Request, Roi};
 use isoforge::topo::Guarantee;
@@ -14,7 +17,9 @@ use isoforge::volume::{Inside, Iso};
 use isoforge_io::write::contour::ContourFormat;
 use isoforge_io::{Limits, MeshFormat, RawSpec};
 
-use crate::args::{CheckArgs, ContourArgs, ConvertArgs, DemoArgs, ExtractArgs, InputArgs, RenderArgs};
+use crate::args::{
+    CheckArgs, ContourArgs, ConvertArgs, DemoArgs, ExtractArgs, InputArgs, PostArgs, RenderArgs, SimplifyArgs,
+};
 
 /// Where values come from.
 #[derive(Clone)]
@@ -66,6 +71,16 @@ pub struct ExtractConfig {
     pub repeat: u32,
     pub require: Vec<Guarantee>,
     pub max_memory: Option<u64>,
+}
+
+/// `isoforge simplify`.
+pub struct SimplifyConfig {
+    pub mesh: PathBuf,
+    pub output: PathBuf,
+    pub format: MeshFormat,
+    pub post: PostProcess,
+    pub limits: Limits,
+    pub threads: Option<usize>,
 }
 
 pub struct CheckConfig {
@@ -339,6 +354,7 @@ impl ExtractConfig {
             },
             attributes: attributes(a)?,
             color: color(a)?,
+            post: post(&a.post)?,
         };
         Ok(ExtractConfig {
             input,
@@ -695,6 +711,48 @@ impl ViewConfig {
         let request =
             Request { inside: Some(inside), options: Options { threads, ..Options::default() }, ..Request::default() };
         Ok(ViewConfig { port: a.port, shown, request })
+    }
+}
+
+/// `--smooth`, `--decimate`, `--max-error`.
+fn post(a: &PostArgs) -> Result<PostProcess> {
+    let smooth = a.smooth.as_deref().map(str::parse::<SmoothOptions>).transpose().map_err(flag("--smooth"))?;
+    let reduction = a.decimate.as_deref().map(|s| parse_number("--decimate", s)).transpose()?;
+    if let Some(r) = reduction {
+        if !(0.0..=1.0).contains(&r) {
+            bail!("--decimate {r}: the fraction of triangles to remove must lie in [0, 1] (0.9 keeps a tenth)");
+        }
+    }
+    let max_error = a.max_error.as_deref().map(|s| parse_number("--max-error", s)).transpose()?;
+    if let Some(e) = max_error {
+        if e < 0.0 {
+            bail!("--max-error {e}: must be ≥ 0 (a distance in world units)");
+        }
+    }
+    let decimate = (reduction.is_some() || max_error.is_some()).then(|| DecimateOptions {
+        reduction,
+        max_error,
+        ..DecimateOptions::default()
+    });
+    let post = PostProcess { smooth, decimate };
+    post.validate()?;
+    Ok(post)
+}
+
+impl SimplifyConfig {
+    pub fn from_args(a: &SimplifyArgs, threads: Option<usize>) -> Result<Self> {
+        let post = post(&a.post)?;
+        if post.is_identity() {
+            bail!("simplify: nothing to do (give --smooth, --decimate or --max-error)");
+        }
+        Ok(SimplifyConfig {
+            mesh: a.mesh.clone(),
+            output: a.output.clone(),
+            format: output_format(&a.output, a.ascii)?,
+            post,
+            limits: limits(a.max_bytes.as_deref())?,
+            threads,
+        })
     }
 }
 

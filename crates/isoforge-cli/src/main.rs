@@ -77,6 +77,7 @@ fn main() -> ExitCode {
         Command::Convert(a) => config::ConvertConfig::from_args(a).and_then(|c| run::convert(&c)),
         Command::Voxelize(a) => config::VoxelizeConfig::from_args(a).and_then(|c| voxel::voxelize(&c)),
         Command::Repair(a) => config::RepairConfig::from_args(a).and_then(|c| voxel::repair(&c)),
+        Command::Simplify(a) => config::SimplifyConfig::from_args(a, threads).and_then(|c| run::simplify(&c)),
     };
     let _ = std::io::stdout().flush();
     match result {

@@ -6,6 +6,7 @@ use std::time::Instant;
 use anyhow::{anyhow, bail, Context, Result};
 use isoforge::extract::Counting;
 use isoforge::grid::{AnyGrid, AnySparse, DType, Histogram, Sample, SparseGrid, IDENTITY};
+use isoforge::mesh::post::PostProcess;
 use isoforge::mesh::{ExternalError, MeshBatch, MeshSink, Normals};
 use isoforge::pipeline::{self, Extraction, Method, Options};
 use isoforge::topo::{self, CheckOptions, Guarantee, MeshReport, StreamCheck};
@@ -19,8 +20,8 @@ use serde_json::json;
 use isoforge::pipeline::request::{self, Attribute, AttributeSource, NoSurface};
 
 use crate::config::{
-    CheckConfig, ContourConfig, ConvertConfig, DemoConfig, ExtractConfig, InputConfig, Placement, RenderConfig, Source,
-    ViewConfig,
+    CheckConfig, ContourConfig, ConvertConfig, DemoConfig, ExtractConfig, InputConfig, Placement, RenderConfig,
+    SimplifyConfig, Source, ViewConfig,
 };
 use crate::progress::{spin, Task};
 use crate::report;
@@ -181,6 +182,9 @@ fn needs_memory(c: &ExtractConfig) -> Vec<&'static str> {
         (r.options.sparse == Some(true), "--sparse"),
         (r.options.follow.is_some(), "--follow"),
         (r.options.level > 0, "--level"),
+        (r.post.smooth.is_some(), "--smooth"),
+        (r.post.decimate.as_ref().is_some_and(|d| d.reduction.is_some()), "--decimate"),
+        (r.post.decimate.as_ref().is_some_and(|d| d.max_error.is_some()), "--max-error"),
     ]
     .into_iter()
     .filter_map(|(given, flag)| given.then_some(flag))
@@ -600,10 +604,17 @@ fn extract_labels(
     }
     let start = Instant::now();
     let task = Task::counting("meshing label");
-    let surfaces = pipeline::extract_labels_with_progress(&g, labels, &c.request.options, Some(&task))
+    let mut surfaces = pipeline::extract_labels_with_progress(&g, labels, &c.request.options, Some(&task))
         .with_context(|| format!("{name}: --labels"))?;
     task.finish();
     let seconds = start.elapsed().as_secs_f64();
+    // Label surfaces are smoothed within half a spacing, so neighbours still meet.
+    let post = pipeline::label_post(&c.request.post, g.lattice());
+    let mut post_lines = Vec::new();
+    for (label, e) in &mut surfaces {
+        let done = post_process(&mut e.mesh, &post, c.request.options.threads, name)?;
+        post_lines.extend(done.lines.iter().map(|l| format!("label {label}: {l}")));
+    }
     let writing = Task::start(format!("writing {}", c.output.display()));
     let mut report_rows = Vec::new();
     if matches!(c.format, MeshFormat::Glb | MeshFormat::Gltf) {
@@ -647,6 +658,7 @@ fn extract_labels(
     for f in failures {
         eprintln!("{f}");
     }
+    report_rows.extend(post_lines);
     eprintln!(
         "{}: {} label surfaces ({:.3} s)\n  {}",
         c.output.display(),
@@ -752,11 +764,12 @@ fn extract_one(
         task.finish();
     }
     // Quads (dual methods) stay quads: PLY, OBJ and OFF write them, STL and glTF split them.
-    let out = last.ok_or_else(|| anyhow!("internal: --repeat ran no extraction"))?;
+    let mut out = last.ok_or_else(|| anyhow!("internal: --repeat ran no extraction"))?;
     let seconds = runs.last().copied().unwrap_or_default();
     if let Some(none) = out.no_surface(iso) {
         bail!("{name}: {none}");
     }
+    let post = post_process(&mut out.mesh, &c.request.post, c.request.options.threads, name)?;
     let mut data = vertex_data(&c.request, &out.mesh, attributes);
     if let Some((v, lattice, index_space)) = rgb {
         let at = |p: [f32; 3]| {
@@ -775,6 +788,7 @@ fn extract_one(
     if let Some(t) = time_json {
         let body = json!({
             "seconds": seconds,
+            "post_seconds": post.seconds(),
             "runs": runs,
             "vertices": out.mesh.num_vertices(),
             "triangles": out.mesh.num_triangles(),
@@ -785,13 +799,14 @@ fn extract_one(
     let shown = output.unwrap_or(&c.output);
     // Said once the batch is committed: before that the file does not exist.
     done.borrow_mut().push(format!(
-        "{}: {} vertices, {} ({} method, iso {}, extraction {:.3} s)",
+        "{}: {} vertices, {} ({} method, iso {}, extraction {:.3} s){}",
         shown.display(),
         out.mesh.num_vertices(),
         polygon_counts(&out.mesh),
         c.request.options.method.name(),
         iso.value,
-        seconds
+        seconds,
+        post.text()
     ));
     if c.require.is_empty() {
         return Ok((Outcome::Success, out.mesh, data));
@@ -925,6 +940,59 @@ pub fn info(input: &InputConfig, json_out: bool) -> Result<Outcome> {
             println!("  {:>12.4} {:>12} {}", h.min + b as f64 * w, c, "#".repeat(bar));
         }
     }
+    Ok(Outcome::Success)
+}
+
+/// What `post_process` did: one line per step, and the seconds they took.
+struct PostDone {
+    lines: Vec<String>,
+    seconds: f64,
+}
+
+impl PostDone {
+    fn seconds(&self) -> f64 {
+        self.seconds
+    }
+
+    /// `; smoothed …; decimated …` for a summary line (empty when nothing was done).
+    fn text(&self) -> String {
+        self.lines.iter().map(|l| format!("; {l}")).collect()
+    }
+}
+
+/// `--smooth`, `--decimate`, `--max-error` on one mesh (the library's steps), with a spinner.
+fn post_process(
+    mesh: &mut isoforge::mesh::Mesh,
+    post: &PostProcess,
+    threads: Option<usize>,
+    name: &str,
+) -> Result<PostDone> {
+    if post.is_identity() {
+        return Ok(PostDone { lines: Vec::new(), seconds: 0.0 });
+    }
+    let stats = spin("smoothing and decimating", || pipeline::post_process(mesh, post, threads))
+        .with_context(|| name.to_string())?;
+    let seconds = stats.smooth.as_ref().map_or(0.0, |s| s.1) + stats.decimate.as_ref().map_or(0.0, |d| d.1);
+    Ok(PostDone { lines: stats.lines(post), seconds })
+}
+
+pub fn simplify(c: &SimplifyConfig) -> Result<Outcome> {
+    let batch = crate::outputs::plan_one(&c.output, "-o", Some(c.format), None, Some(&c.mesh))?;
+    let name = c.mesh.display().to_string();
+    let mut mesh = spin(format!("reading {name}"), || isoforge_io::read_mesh(&c.mesh, &c.limits))?;
+    let (v0, p0) = (mesh.num_vertices(), polygon_counts(&mesh));
+    let done = post_process(&mut mesh, &c.post, c.threads, &name)?;
+    spin(format!("writing {}", c.output.display()), || {
+        batch.write_mesh(&c.output, &mesh, &Default::default(), c.format)
+    })?;
+    batch.commit()?;
+    eprintln!(
+        "{}: {} vertices, {} (from {v0} vertices, {p0}){}",
+        c.output.display(),
+        mesh.num_vertices(),
+        polygon_counts(&mesh),
+        done.text()
+    );
     Ok(Outcome::Success)
 }
 

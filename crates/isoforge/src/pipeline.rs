@@ -23,6 +23,7 @@ use crate::extract::{
     MarchingTetrahedra, Masked, PointMask, SurfaceNets,
 };
 use crate::grid::{AnyGrid, AnySparse, DType, DenseGrid, Sample, SparseGrid};
+use crate::mesh::post::PostProcess;
 use crate::mesh::{KeyRecord, Mesh, MeshBuilder, MeshSink, WriteBehind};
 use crate::volume::catalog::Builtin;
 use crate::volume::{
@@ -594,6 +595,9 @@ pub fn extract_labels_with_progress(
         Labels::All => present.clone(),
         Labels::These(v) => v.clone(),
     };
+    for &l in wanted.iter().chain(&present) {
+        check_label(l)?;
+    }
     if wanted.len() > MAX_LABELS {
         return Err(Error::InvalidInput(format!("{} labels: at most {MAX_LABELS} surfaces in one run", wanted.len())));
     }
@@ -615,6 +619,44 @@ pub fn extract_labels_with_progress(
         p.advance(total, total);
     }
     Ok(out)
+}
+
+/// Label values are whole numbers that fit the `i32` of a mesh file's triangle labels: 1.5 and
+/// 1.7 would be meshed as two surfaces and written as one label 1.
+///
+/// # Errors
+/// [`Error::InvalidInput`] naming the value (`label value 1.5 is not an integer`).
+pub fn check_label(l: f64) -> Result<()> {
+    if l.fract() != 0.0 || !l.is_finite() {
+        return Err(Error::InvalidInput(format!(
+            "label value {l} is not an integer (a label volume holds whole numbers; for an intensity volume use --iso)"
+        )));
+    }
+    if l < i32::MIN as f64 || l > i32::MAX as f64 {
+        return Err(Error::InvalidInput(format!("label value {l} does not fit a 32-bit label")));
+    }
+    Ok(())
+}
+
+/// The post-processing of label surfaces: `post` with smoothing constrained to move no vertex
+/// farther than half the smallest spacing of `lattice` (the issue's "half a voxel"), so that
+/// neighbouring labels' surfaces, coincident before, stay close where they meet.
+pub fn label_post(post: &PostProcess, lattice: &crate::grid::Lattice) -> PostProcess {
+    let h = lattice.spacing().into_iter().fold(f64::INFINITY, f64::min);
+    post.constrained(0.5 * h)
+}
+
+/// Smooths and decimates `mesh` as `post` asks ([`PostProcess::apply`]) on a pool of `threads`
+/// workers (rayon's global pool when `None`), as extractions run.
+///
+/// # Errors
+/// As [`PostProcess::apply`].
+pub fn post_process(
+    mesh: &mut Mesh,
+    post: &PostProcess,
+    threads: Option<usize>,
+) -> Result<crate::mesh::post::PostStats> {
+    in_pool(threads, || post.apply(mesh))?
 }
 
 /// Label surfaces as one triangle mesh: the surfaces' vertices and triangles one after the
@@ -767,6 +809,36 @@ mod tests {
             }
         }
         assert!(extract_labels(&g, &Labels::These(vec![5.0]), &Options::default()).is_err());
+    }
+
+    /// Issue 49: label values that are not whole numbers are refused, naming the value (1.5 and
+    /// 1.7 were meshed apart and written as one label 1).
+    #[test]
+    fn issue_49_non_integer_labels_are_refused() {
+        let g: AnyGrid = DenseGrid::from_fn(Lattice::new([6, 4, 4]).unwrap(), |p| match p[0] {
+            0 | 1 => 0.0f32,
+            2 | 3 => 1.5,
+            _ => 1.7,
+        })
+        .into();
+        for labels in [Labels::All, Labels::These(vec![1.5])] {
+            let e = extract_labels(&g, &labels, &Options::default()).unwrap_err().to_string();
+            assert!(e.contains("label value 1.5 is not an integer"), "{e}");
+        }
+        assert!(check_label(3e9).unwrap_err().to_string().contains("does not fit"));
+        assert!(check_label(-7.0).is_ok());
+    }
+
+    /// Label surfaces are smoothed within half the smallest spacing.
+    #[test]
+    fn label_smoothing_is_constrained_to_half_a_spacing() {
+        use crate::mesh::smooth::{SmoothOptions, Smoother};
+        let l = Lattice::with_geometry([4, 4, 4], [0.5, 2.0, 1.0], [0.0; 3]).unwrap();
+        let post = PostProcess { smooth: Some(SmoothOptions::new(Smoother::Taubin)), decimate: None };
+        assert_eq!(label_post(&post, &l).smooth.unwrap().max_displacement, Some(0.25));
+        let tight = PostProcess { smooth: Some(SmoothOptions::new(Smoother::Taubin).constrained(0.1)), decimate: None };
+        assert_eq!(label_post(&tight, &l).smooth.unwrap().max_displacement, Some(0.1));
+        assert!(label_post(&PostProcess::default(), &l).is_identity());
     }
 
     /// `Options.threads` is honoured: the extraction runs on a pool of that many workers.

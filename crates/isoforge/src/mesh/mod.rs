@@ -6,8 +6,13 @@
 
 pub mod bvh;
 pub mod colormap;
+pub mod decimate;
 pub mod distance;
+pub mod post;
+#[cfg(test)]
+pub(crate) mod shapes;
 mod sink;
+pub mod smooth;
 
 pub use sink::{ExternalError, MeshBatch, MeshSink, OwnedBatch, WriteBehind};
 

@@ -14,6 +14,8 @@ use crate::error::{Error, Result};
 use crate::extract::PointMask;
 use crate::grid::{AnyGrid, Lattice, WorldSpace};
 use crate::mesh::colormap::Colormap;
+use crate::mesh::post::PostProcess;
+use crate::mesh::smooth::{SmoothOptions, Smoother};
 use crate::mesh::Normals;
 use crate::volume::texture::SolidTexture;
 use crate::volume::{Inside, Iso};
@@ -67,6 +69,9 @@ pub struct Request<V = ()> {
     pub attributes: Vec<(String, AttributeSource<V>)>,
     /// Vertex colours from one of the attributes.
     pub color: Option<ColorBy>,
+    /// Smoothing and decimation of each mesh after extraction (label surfaces: smoothing
+    /// constrained by [`label_post`](crate::pipeline::label_post)).
+    pub post: PostProcess,
 }
 
 impl<V> Request<V> {
@@ -231,7 +236,34 @@ impl FromStr for Labels {
             return Ok(Labels::All);
         }
         let v = s.split(',').map(|t| number(t, "is not a finite number")).collect::<Result<Vec<f64>, _>>()?;
+        if let Some(l) = v.iter().find(|l| crate::pipeline::check_label(**l).is_err()) {
+            return Err(ParseError::new(s, format!("label value {l} is not an integer")));
+        }
         Ok(Labels::These(v))
+    }
+}
+
+impl FromStr for SmoothOptions {
+    type Err = ParseError;
+    /// `taubin` or `sinc`, optionally followed by `:ITERATIONS` (`sinc:60`).
+    fn from_str(s: &str) -> Result<Self, ParseError> {
+        let (name, iterations) = match s.split_once(':') {
+            Some((n, i)) => (n, Some(i)),
+            None => (s, None),
+        };
+        let smoother = match name.trim() {
+            "taubin" => Smoother::Taubin,
+            "sinc" => Smoother::WindowedSinc,
+            _ => return Err(ParseError::new(s, "must be taubin or sinc, optionally followed by :ITERATIONS")),
+        };
+        let mut options = SmoothOptions::new(smoother);
+        if let Some(i) = iterations {
+            const MAX: u32 = SmoothOptions::MAX_ITERATIONS;
+            options.iterations = i.trim().parse().ok().filter(|n| (1..=MAX).contains(n)).ok_or_else(|| {
+                ParseError::new(s, format!("iterations {i:?} must be a whole number from 1 to {MAX}"))
+            })?;
+        }
+        Ok(options)
     }
 }
 
@@ -715,6 +747,8 @@ mod tests {
         assert_eq!(parse_isos("1,x").unwrap_err().text, "x");
         assert!(parse_iso("inf").unwrap_err().problem.contains("finite"));
         assert_eq!("3,4".parse::<Labels>().unwrap(), Labels::These(vec![3.0, 4.0]));
+        let e = "3,1.5".parse::<Labels>().unwrap_err().to_string();
+        assert!(e.contains("label value 1.5 is not an integer"), "{e}");
         let r: Request = Request { isos: vec![], inside: Some(Inside::Above), ..Request::default() };
         assert_eq!(r.isos_or(Iso::below(48.0)), vec![Iso { value: 48.0, inside: Inside::Above }]);
         let isos = [Iso::below(1.0), Iso::below(9.0)];
