@@ -103,7 +103,7 @@ pub enum Command {
     /// Serve an interactive viewer on 127.0.0.1: the classic demo fields, a volume, or a mesh.
     View(ViewArgs),
     /// Turn a mesh (holes, flipped and duplicated faces, crossing pieces welcome) into a signed
-    /// distance volume: .vdb (sparse level set), .nrrd, .nii, .nii.gz (dense).
+    /// distance volume: .vdb (sparse level set), .nrrd, .nii, .nii.gz (dense), or a .sog octree.
     Voxelize(VoxelizeArgs),
     /// Make a closed, manifold, oriented mesh of a broken one: voxelize it, then extract the
     /// surface; prints the mesh report and the Hausdorff distance to the input.
@@ -140,7 +140,8 @@ pub struct VoxelArgs {
 pub struct VoxelizeArgs {
     #[command(flatten)]
     pub voxel: VoxelArgs,
-    /// Output volume: .vdb (sparse), .nrrd, .nii, .nii.gz (dense).
+    /// Output volume: .vdb (sparse), .nrrd, .nii, .nii.gz (dense), .sog (PolyMender's signed
+    /// octree, a cube of 2^depth cells: --resolution rounded up to a power of two).
     #[arg(short = 'o', long = "output", value_name = "OUT")]
     pub output: PathBuf,
     /// What the samples hold: sdf (signed distance, negative inside) or occupancy (u8, 1 inside).

@@ -834,6 +834,8 @@ pub struct VoxelizeConfig {
     pub output: PathBuf,
     /// A `.vdb` output (sparse); dense otherwise.
     pub sparse: bool,
+    /// A `.sog` output (PolyMender's signed octree: a cube of 2^depth cells).
+    pub octree: bool,
     pub values: isoforge::voxelize::Output,
 }
 
@@ -847,15 +849,25 @@ impl VoxelizeConfig {
             v => bail!("--values {v:?}: expected sdf or occupancy"),
         };
         let format = VolumeFormat::from_path(&a.output);
-        let sparse = match format {
-            Some(VolumeFormat::Vdb) => true,
-            Some(VolumeFormat::Nrrd | VolumeFormat::Nifti) => false,
-            _ => bail!("{}: voxelize writes .vdb, .nrrd, .nii or .nii.gz", a.output.display()),
+        let (sparse, octree) = match format {
+            Some(VolumeFormat::Vdb) => (true, false),
+            Some(VolumeFormat::Sog) => (false, true),
+            Some(VolumeFormat::Nrrd | VolumeFormat::Nifti) => (false, false),
+            _ => bail!("{}: voxelize writes .vdb, .sog, .nrrd, .nii or .nii.gz", a.output.display()),
         };
+        if octree && values == isoforge::voxelize::Output::Occupancy {
+            bail!("--values occupancy: a .sog output holds signs and vertices; write occupancy as .nrrd or .nii");
+        }
+        if octree && voxel.resolution.cells().is_none_or(|n| n > 1024) {
+            bail!(
+                "{}: a .sog output needs --resolution N (cells, at most 1024; rounded up to a power of two)",
+                a.output.display()
+            );
+        }
         if sparse && values == isoforge::voxelize::Output::Occupancy {
             bail!("--values occupancy: a .vdb output holds signed distances (a level set); write occupancy as .nrrd or .nii");
         }
-        Ok(VoxelizeConfig { voxel, output: a.output.clone(), sparse, values })
+        Ok(VoxelizeConfig { voxel, output: a.output.clone(), sparse, octree, values })
     }
 }
 

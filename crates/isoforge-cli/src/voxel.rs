@@ -17,13 +17,22 @@ use crate::report;
 use crate::run::Outcome;
 
 /// Reads the mesh and voxelizes it; the seconds spent voxelizing.
-fn voxelized(c: &VoxelConfig) -> Result<(isoforge::mesh::Mesh, Voxelized, f64)> {
+/// With `octree`, the lattice is a cube of 2^depth cells (the resolution rounded up to a power
+/// of two), as a signed octree needs.
+fn voxelized(c: &VoxelConfig, octree: bool) -> Result<(isoforge::mesh::Mesh, Voxelized, f64)> {
     let name = c.mesh.display().to_string();
     let mesh = spin(format!("reading {name}"), || isoforge_io::read_mesh(&c.mesh, &c.limits))?;
     let with_name = |e: isoforge::Error| anyhow::anyhow!("{name}: {e}");
     // Room for the band and one more cell, so the surface never meets the lattice's faces.
     let margin = c.band.ceil() as u32 + 1;
-    let lattice = voxelize::lattice_for(&mesh, c.resolution, margin).map_err(with_name)?;
+    let lattice = match c.resolution.cells() {
+        Some(n) if octree => {
+            let depth = n.next_power_of_two().trailing_zeros().max(margin.next_power_of_two().trailing_zeros() + 2);
+            voxelize::lattice_for_octree(&mesh, depth, margin)
+        }
+        _ => voxelize::lattice_for(&mesh, c.resolution, margin),
+    }
+    .map_err(with_name)?;
     let opts = VoxelizeOptions { band: c.band, max_bytes: c.limits.max_bytes };
     let start = Instant::now();
     let d = lattice.dims();
@@ -72,7 +81,7 @@ fn summary_text(v: &Voxelized, seconds: f64) -> String {
 
 pub fn voxelize(c: &VoxelizeConfig) -> Result<Outcome> {
     let batch = crate::outputs::plan_one(&c.output, "-o", None, None, Some(&c.voxel.mesh))?;
-    let (_, v, seconds) = voxelized(&c.voxel)?;
+    let (_, v, seconds) = voxelized(&c.voxel, c.octree)?;
     let out = c.output.display().to_string();
     if c.sparse {
         let opts = VdbWriteOptions {
@@ -81,6 +90,10 @@ pub fn voxelize(c: &VoxelizeConfig) -> Result<Outcome> {
             value_type: isoforge_io::read::vdb::VdbValueType::Float,
         };
         spin(format!("writing {out}"), || batch.write_sparse(&c.output, &v.grid, &opts))?;
+    } else if c.octree {
+        let tree =
+            spin("building the signed octree", || v.to_signed_octree()).map_err(|e| anyhow::anyhow!("{out}: {e}"))?;
+        spin(format!("writing {out}"), || batch.write_sog(&c.output, &tree))?;
     } else {
         let dense = v.to_dense(c.values, c.voxel.limits.max_bytes).map_err(|e| anyhow::anyhow!("{out}: {e}"))?;
         spin(format!("writing {out}"), || batch.write_volume(&c.output, &dense))?;
@@ -100,7 +113,7 @@ pub fn voxelize(c: &VoxelizeConfig) -> Result<Outcome> {
 
 pub fn repair(c: &RepairConfig) -> Result<Outcome> {
     let batch = crate::outputs::plan_one(&c.output, "-o", Some(c.format), None, Some(&c.voxel.mesh))?;
-    let (input, v, seconds) = voxelized(&c.voxel)?;
+    let (input, v, seconds) = voxelized(&c.voxel, false)?;
     let start = Instant::now();
     let out = spin("extracting the repaired surface", || {
         pipeline::extract_sparse(&v.grid, Iso::below(0.0), &Options::default())

@@ -100,6 +100,14 @@ fn issue_46_an_open_cube_repairs_to_a_closed_box_and_voxelizes_with_its_geometry
     assert_eq!(o.status.code(), Some(0), "{}", String::from_utf8_lossy(&o.stderr));
     let f = isoforge_io::read_sparse(&vdb, None, &Limits::default()).unwrap();
     assert_eq!(f.class.as_deref(), Some("level set"));
+    // PolyMender's signed octree: 20 cells round up to depth 5; its contour is the closed box.
+    let sog = dir.path().join("cube.sog");
+    let o = isoforge(&["voxelize", p(&cube), "-o", p(&sog), "--resolution", "20"]);
+    assert_eq!(o.status.code(), Some(0), "{}", String::from_utf8_lossy(&o.stderr));
+    let tree = isoforge_io::read_sog(&sog, &Limits::default()).unwrap();
+    assert_eq!(tree.depth(), 5);
+    let r = isoforge::topo::check(&isoforge::extract::contour_octree(&tree).mesh);
+    assert!(r.is_closed() && r.is_oriented() && r.genus() == Some(0), "{r:?}");
 }
 
 #[test]
@@ -116,7 +124,9 @@ fn issue_46_bad_requests_exit_2_with_one_line_and_no_file() {
     let vdb = dir.path().join("out.vdb");
     fails(&["voxelize", c, "-o", p(&vdb), "--values", "occupancy"], "occupancy", &vdb);
     let ply = dir.path().join("out.ply");
-    fails(&["voxelize", c, "-o", p(&ply)], "voxelize writes .vdb, .nrrd", &ply);
+    fails(&["voxelize", c, "-o", p(&ply)], "voxelize writes .vdb, .sog, .nrrd", &ply);
+    let sog = dir.path().join("out.sog");
+    fails(&["voxelize", c, "-o", p(&sog), "--voxel-size", "0.1"], "needs --resolution", &sog);
     fails(&["repair", c, "-o", p(&out)], "unknown output format", &out);
     // A grid that does not fit the budget is refused before it is allocated, with the figures.
     fails(&["voxelize", c, "-o", p(&out), "--resolution", "1000", "--max-bytes", "10M"], "over the limit", &out);

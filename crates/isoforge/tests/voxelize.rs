@@ -188,3 +188,25 @@ fn issue_46_band_distances_are_exact() {
     assert!(checked > 1000);
     assert!(worst <= 1e-5, "worst relative distance error {worst}");
 }
+
+#[test]
+fn issue_46_a_signed_octree_written_from_a_mesh_contours_to_its_surface() {
+    let mesh = damage(&mesh_of(|p| torus(p, 0.7, 0.3), 40), 0.05, 0.05, 0.0, 3);
+    let lattice = voxelize::lattice_for_octree(&mesh, 6, 4).unwrap();
+    let h = lattice.spacing()[0];
+    assert_eq!(lattice.dims(), [65; 3]);
+    let v = voxelize::voxelize(&mesh, lattice, &VoxelizeOptions::default()).unwrap();
+    let tree = v.to_signed_octree().unwrap();
+    assert_eq!(tree.depth(), 6);
+    let out = isoforge::extract::contour_octree(&tree);
+    assert_eq!(out.open_edges, 0);
+    let r = isoforge::topo::check(&out.mesh);
+    assert!(r.is_closed() && r.is_oriented(), "{r:?}");
+    assert_eq!(r.genus(), Some(1));
+    // Within a cell of the mesh we voxelized, both ways (its holes are smaller than a cell).
+    let d = isoforge::topo::hausdorff(&out.mesh, &mesh);
+    assert!(d.max() <= h, "{d:?}, cell {h}");
+    // Not a cube of 2^depth cells: refused.
+    let l = voxelize::lattice_for(&mesh, Resolution::Cells(40), 4).unwrap();
+    assert!(voxelize::voxelize(&mesh, l, &VoxelizeOptions::default()).unwrap().to_signed_octree().is_err());
+}

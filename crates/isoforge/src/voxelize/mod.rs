@@ -45,6 +45,16 @@ pub enum Resolution {
     Spacing(f64),
 }
 
+impl Resolution {
+    /// The cell count, for [`Resolution::Cells`].
+    pub fn cells(self) -> Option<u32> {
+        match self {
+            Resolution::Cells(n) => Some(n),
+            Resolution::Spacing(_) => None,
+        }
+    }
+}
+
 /// What [`voxelize`] computes.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct VoxelizeOptions {
@@ -78,6 +88,59 @@ pub struct Voxelized {
 }
 
 impl Voxelized {
+    /// The grid as PolyMender's signed octree: signs at the points (inside ⇔ value < 0), and in
+    /// each cell whose corners differ the mean of its edges' linear zero crossings (the cell's
+    /// dual contouring vertex without normals). The lattice must be a cube of `2^depth` cells
+    /// ([`lattice_for_octree`]).
+    ///
+    /// # Errors
+    /// [`Error::InvalidInput`] for another lattice, or as [`SignedOctree::from_cells`](crate::grid::SignedOctree::from_cells).
+    pub fn to_signed_octree(&self) -> Result<crate::grid::SignedOctree> {
+        let l = self.grid.lattice();
+        let d = l.dims();
+        let cells = d[0].saturating_sub(1);
+        let s = l.spacing();
+        if d.iter().any(|&n| n != d[0]) || !cells.is_power_of_two() || cells < 2 || s.iter().any(|&v| v != s[0]) {
+            return Err(Error::InvalidInput(format!(
+                "a signed octree needs a cube of 2^depth cells with one spacing; the grid has {} x {} x {} points",
+                d[0], d[1], d[2]
+            )));
+        }
+        let depth = cells.trailing_zeros();
+        let o = l.origin();
+        let outside = |p: [u32; 3]| self.grid.get(p) >= 0.0;
+        let vertex = |c: [u32; 3]| -> Option<[f32; 3]> {
+            let v: [f32; 8] = std::array::from_fn(|k| self.grid.get([0, 1, 2].map(|a| c[a] + (k as u32 >> a & 1))));
+            if v.iter().all(|&x| x >= 0.0) || v.iter().all(|&x| x < 0.0) {
+                return None;
+            }
+            let (mut sum, mut n) = ([0.0f64; 3], 0.0);
+            for k in 0..8usize {
+                for a in 0..3 {
+                    let m = k | 1 << a;
+                    if m == k || (v[k] < 0.0) == (v[m] < 0.0) {
+                        continue;
+                    }
+                    let t = (v[k] / (v[k] - v[m])) as f64;
+                    for b in 0..3 {
+                        let at = (k >> b & 1) as f64 + if b == a { t } else { 0.0 };
+                        sum[b] += at;
+                    }
+                    n += 1.0;
+                }
+            }
+            // In the cell, a hair inside its faces (the file's vertices must lie in their cells).
+            Some([0, 1, 2].map(|b| (o[b] + s[0] * (c[b] as f64 + (sum[b] / n).clamp(1e-6, 1.0 - 1e-6))) as f32))
+        };
+        crate::grid::SignedOctree::from_cells(
+            depth,
+            o.map(|v| v as f32),
+            (s[0] * cells as f64) as f32,
+            &outside,
+            &vertex,
+        )
+    }
+
     /// The grid as a dense volume of `output`'s kind.
     ///
     /// # Errors
@@ -103,6 +166,31 @@ impl Voxelized {
             }
         })
     }
+}
+
+/// The cubic lattice of `2^depth` cells per axis covering `mesh` with `margin` cells around its
+/// box: the lattice of a [`SignedOctree`](crate::grid::SignedOctree) (see
+/// [`Voxelized::to_signed_octree`]).
+///
+/// # Errors
+/// [`Error::InvalidInput`] for an empty mesh, non-finite positions, a depth outside 1..=10 or
+/// one that leaves no cell inside the margins.
+pub fn lattice_for_octree(mesh: &Mesh, depth: u32, margin: u32) -> Result<Lattice> {
+    if !(1..=10).contains(&depth) {
+        return Err(Error::InvalidInput(format!("octree depth {depth} is not from 1 to 10")));
+    }
+    let cells = 1u32 << depth;
+    if cells <= 2 * margin + 1 {
+        return Err(Error::InvalidInput(format!(
+            "octree depth {depth} ({cells} cells) leaves no cell inside a margin of {margin}"
+        )));
+    }
+    let loose = lattice_for(mesh, Resolution::Cells(1), 0)?;
+    let (lo, hi) = loose.world_bounds();
+    let longest = (0..3).map(|a| hi[a] - lo[a]).fold(0.0, f64::max);
+    let h = if longest > 0.0 { longest / (cells - 2 * margin) as f64 } else { 1.0 };
+    let origin = [0, 1, 2].map(|a| 0.5 * (lo[a] + hi[a]) - 0.5 * cells as f64 * h);
+    Lattice::with_geometry([cells + 1; 3], [h; 3], origin)
 }
 
 /// The lattice covering `mesh` at `resolution`, with `margin` cells around its box (so the
