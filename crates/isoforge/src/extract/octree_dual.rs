@@ -4,7 +4,7 @@
 //! In: a [`SignedOctree`] (its leaves' vertices and the signs at its points). Out: a [`Mesh`] of
 //! quads, one per finest-level edge whose ends differ in sign, joining the vertices of the four
 //! leaf cells around it (the same quad as [`SurfaceNets`](super::SurfaceNets), built by the same
-//! [`around_edge`]), wound counter-clockwise seen from outside.
+//! `surface_nets::around_edge`), wound counter-clockwise seen from outside.
 
 use super::surface_nets::around_edge;
 use crate::grid::SignedOctree;
