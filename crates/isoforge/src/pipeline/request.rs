@@ -664,8 +664,8 @@ mod tests {
         assert_eq!(b("10.4:11.6,0:3,0:3").unwrap(), ([1, 0, 0], [4, 4, 4]));
         // A face through a point keeps it (within the tolerance).
         assert_eq!(b("10.5:11,0:3,0:3").unwrap(), ([1, 0, 0], [3, 4, 4]));
-        // Reversed bounds describe the same box.
-        assert_eq!(b("11:10.5,3:0,0:3").unwrap(), ([1, 0, 0], [3, 4, 4]));
+        // Reversed bounds are refused when parsed (issue 50), like reversed index ranges.
+        assert!(Roi::parse_world("11:10.5,3:0,0:3").is_err());
         // Beyond the lattice: clipped.
         assert_eq!(b("-100:100,-1:1.5,2:99").unwrap(), ([0, 0, 2], [6, 2, 4]));
         // Between two points, or entirely outside: empty.
