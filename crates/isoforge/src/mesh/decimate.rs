@@ -261,9 +261,9 @@ impl Ord for Candidate {
     }
 }
 
-/// A 4-ary heap, greatest first: half the depth of a binary heap, and a node's four children
-/// side by side (64 bytes), so a pop misses the cache about half as often on queues of millions
-/// of candidates (the binary heap's pops were half of the decimation's time on the engine CT).
+/// A 4-ary heap, greatest first: half the depth of a binary heap, a node's four children side
+/// by side (64 bytes). On the engine CT its pops still take about half of the decimation's time
+/// (cache misses), as the binary heap's did: 4.73 → 4.64 s for `--decimate 0.9`.
 #[derive(Debug, Default)]
 struct Queue {
     items: Vec<Candidate>,
