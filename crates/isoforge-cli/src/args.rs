@@ -598,6 +598,7 @@ mod tests {
         "shading",
         "mesh",
         "values",
+        "smooth",
     ];
 
     // Issue 10: `--origin -10,0,0` was taken for an unknown option.
