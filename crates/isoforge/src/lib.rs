@@ -29,6 +29,7 @@ pub mod error;
 pub mod extract;
 pub mod grid;
 pub mod math;
+pub mod mend;
 pub mod mesh;
 pub mod pipeline;
 pub mod topo;

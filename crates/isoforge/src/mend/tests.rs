@@ -1,0 +1,124 @@
+//! Repairs of analytic solids whose handles and tunnels have known sizes.
+
+use super::*;
+use crate::grid::{DenseGrid, Lattice};
+use crate::pipeline::{self, Options};
+use crate::volume::GridVolume;
+
+/// A grid of `f` on `n³` points spanning [−1, 1]³.
+fn grid(n: u32, f: impl Fn([f64; 3]) -> f64) -> DenseGrid<f32> {
+    let h = 2.0 / (n - 1) as f64;
+    let lattice = Lattice::with_geometry([n; 3], [h; 3], [-1.0; 3]).unwrap();
+    DenseGrid::from_fn(lattice, |ijk| f(ijk.map(|v| -1.0 + v as f64 * h)) as f32)
+}
+
+/// A torus around z: centre radius `big`, tube radius `r`, centred at `c` (signed distance).
+fn torus(p: [f64; 3], c: [f64; 3], big: f64, r: f64) -> f64 {
+    let [x, y, z] = [p[0] - c[0], p[1] - c[1], p[2] - c[2]];
+    (((x * x + y * y).sqrt() - big).powi(2) + z * z).sqrt() - r
+}
+
+fn genus(g: &DenseGrid<f32>, iso: Iso) -> i64 {
+    let out = pipeline::extract(&GridVolume::new(g), iso, &Options::default()).unwrap();
+    let r = crate::topo::check(&out.mesh);
+    assert!(r.is_closed() && r.is_manifold() && r.is_oriented(), "{r:?}");
+    r.genus().unwrap()
+}
+
+fn run(g: &DenseGrid<f32>, thin: f64, grow: f64) -> (DenseGrid<f32>, RepairReport) {
+    let mut g = g.clone();
+    let r = repair(&mut g, Iso::below(0.0), &RepairOptions { thin, grow }, false).unwrap();
+    (g, r)
+}
+
+#[test]
+fn a_torus_handle_is_cut_exactly_below_its_measured_size_at_every_resolution() {
+    for (n, r) in [(32, 0.2), (48, 0.12), (48, 0.2), (64, 0.08)] {
+        let g = grid(n, |p| torus(p, [0.0; 3], 0.55, r));
+        assert_eq!(genus(&g, Iso::below(0.0)), 1);
+        // Measured: the one handle's size, close to the tube's cross-section π r².
+        let (_, found) = run(&g, 1e9, 0.0);
+        assert_eq!(found.handles.len(), 1, "{found:?}");
+        let size = found.handles[0].size;
+        let disc = std::f64::consts::PI * r * r;
+        eprintln!("torus n {n} r {r}: handle {size:.5} = {:.3} π r²", size / disc);
+        assert!(size / disc > 0.75 && size / disc < 1.25, "n {n} r {r}: size {size} vs π r² {disc}");
+        // Just above it: cut, genus 0, few points changed; just below: untouched.
+        let (cut, report) = run(&g, size * 1.001, 0.0);
+        assert_eq!(report.cuts().count(), 1);
+        assert_eq!(genus(&cut, Iso::below(0.0)), 0, "n {n} r {r}");
+        assert!(
+            report.points_changed > 0 && report.points_changed < 4 * (size / (2.0 / (n - 1) as f64).powi(2)) as u64
+        );
+        let (kept, report) = run(&g, size * 0.999, 0.0);
+        assert_eq!(report.cuts().count(), 0);
+        assert_eq!(report.points_changed, 0);
+        assert_eq!(kept.data(), g.data());
+    }
+}
+
+#[test]
+fn a_torus_tunnel_is_filled_exactly_below_its_measured_size() {
+    for (n, big, r) in [(40, 0.5, 0.3), (56, 0.45, 0.3)] {
+        let g = grid(n, |p| torus(p, [0.0; 3], big, r));
+        let (_, found) = run(&g, 0.0, 1e9);
+        assert_eq!(found.tunnels.len(), 1, "{found:?}");
+        let size = found.tunnels[0].size;
+        let hole = std::f64::consts::PI * (big - r) * (big - r);
+        eprintln!("torus n {n} R {big} r {r}: tunnel {size:.5} = {:.3} π (R − r)²", size / hole);
+        assert!(size / hole > 0.75 && size / hole < 1.25, "tunnel {size} vs the hole's disc {hole}");
+        let (filled, report) = run(&g, 0.0, size * 1.001);
+        assert_eq!(report.fills().count(), 1);
+        assert_eq!(genus(&filled, Iso::below(0.0)), 0);
+        let (_, report) = run(&g, 0.0, size * 0.999);
+        assert_eq!(report.fills().count(), 0);
+    }
+}
+
+#[test]
+fn of_two_handles_only_the_thin_one_is_cut() {
+    // Two tori side by side, joined where they overlap: genus 2, tubes 0.07 and 0.2.
+    let g = grid(72, |p| torus(p, [-0.4, 0.0, 0.0], 0.33, 0.07).min(torus(p, [0.4, 0.0, 0.0], 0.33, 0.2)));
+    assert_eq!(genus(&g, Iso::below(0.0)), 2);
+    let (_, found) = run(&g, 1e9, 0.0);
+    assert_eq!(found.handles.len(), 2, "{found:?}");
+    let [thin, thick] = [found.handles[0].size, found.handles[1].size];
+    assert!(thin * 3.0 < thick, "{thin} {thick}");
+    let (out, report) = run(&g, (thin + thick) / 2.0, 0.0);
+    assert_eq!(report.cuts().count(), 1);
+    assert!(report.handles[0].performed && report.handles[0].at[0] < 0.0, "the thin torus is on the left");
+    assert_eq!(genus(&out, Iso::below(0.0)), 1);
+}
+
+#[test]
+fn a_label_mask_with_a_small_tunnel_is_repaired_changing_few_points() {
+    // A ball of label 1 (the object: inside above 0.5) drilled through by a thin hole.
+    let n = 64;
+    let g = grid(n, |p| {
+        let ball = p[0] * p[0] + p[1] * p[1] + p[2] * p[2] < 0.8 * 0.8;
+        let hole = p[0] * p[0] + p[1] * p[1] < 0.06 * 0.06;
+        (ball && !hole) as u8 as f64
+    });
+    let iso = Iso::above(0.5);
+    assert_eq!(genus(&g, iso), 1);
+    let mut out = g.clone();
+    let report = repair(&mut out, iso, &RepairOptions { thin: 0.0, grow: 0.05 }, false).unwrap();
+    assert_eq!(report.fills().count(), 1, "{report:?}");
+    assert_eq!(genus(&out, iso), 0);
+    let changed = out.data().iter().zip(g.data()).filter(|(a, b)| a != b).count();
+    assert_eq!(changed as u64, report.points_changed);
+    assert!((changed as f64) < 0.001 * (n * n * n) as f64, "{changed} points changed");
+    // Mirrored about 0.5: the flipped points are 1 now, the others untouched.
+    assert!(out.data().iter().all(|&v| v == 0.0 || v == 1.0));
+}
+
+#[test]
+fn nothing_to_repair_changes_nothing_and_bad_thresholds_are_refused() {
+    let g = grid(24, |p| p[0] * p[0] + p[1] * p[1] + p[2] * p[2] - 0.5);
+    let (out, report) = run(&g, 1e9, 1e9);
+    assert!(report.handles.is_empty() && report.tunnels.is_empty());
+    assert_eq!(out.data(), g.data());
+    let mut g2 = g.clone();
+    let e = repair(&mut g2, Iso::below(0.0), &RepairOptions { thin: f64::NAN, grow: 0.0 }, false).unwrap_err();
+    assert!(e.to_string().contains("finite"), "{e}");
+}
