@@ -108,6 +108,10 @@ pub enum Command {
     /// Make a closed, manifold, oriented mesh of a broken one: voxelize it, then extract the
     /// surface; prints the mesh report and the Hausdorff distance to the input.
     Repair(RepairArgs),
+    /// Cut the small handles and fill the small tunnels of a solid (TopoMender): a PolyMender
+    /// .sog, a mesh (voxelized first) or a volume at an iso; writes the repaired surface and
+    /// reports every handle and tunnel found with its size.
+    TopoRepair(TopoRepairArgs),
     /// Smooth and/or decimate a mesh file (the steps of `extract --smooth --decimate
     /// --max-error`), writing the result in any mesh format.
     Simplify(SimplifyArgs),
@@ -156,6 +160,48 @@ pub struct RepairArgs {
     /// Output mesh (.ply .obj .stl .off .glb .gltf).
     #[arg(short = 'o', long = "output", value_name = "OUT")]
     pub output: PathBuf,
+}
+
+#[derive(Debug, ClapArgs)]
+pub struct TopoRepairArgs {
+    /// The solid: a PolyMender signed octree (.sog), a mesh (.ply .obj .stl .off: voxelized
+    /// with --resolution), or a volume (with --iso; inside is below the iso unless --inside
+    /// above).
+    #[arg(value_name = "INPUT")]
+    pub input: PathBuf,
+    /// Cut every handle whose narrowest cross-section is smaller than this area (squared model
+    /// units); 0 or less cuts none (TopoMender's ThinThresh).
+    #[arg(long, value_name = "AREA", allow_hyphen_values = true)]
+    pub thin: String,
+    /// Fill every tunnel whose narrowest spanning disc is smaller than this area (squared model
+    /// units); 0 or less fills none (TopoMender's GrowThresh).
+    #[arg(long, value_name = "AREA", allow_hyphen_values = true)]
+    pub grow: String,
+    /// The repaired surface (.ply .obj .stl .off .glb .gltf).
+    #[arg(short = 'o', long = "output", value_name = "OUT")]
+    pub output: PathBuf,
+    /// Also write the skeletons, TopoMender's .skt records.
+    #[arg(long, value_name = "OUT.skt")]
+    pub skeleton: Option<PathBuf>,
+    /// Also write the repaired grid: .sog (a cube of 2^depth cells), .nrrd, .nii or .nii.gz.
+    #[arg(long = "grid-out", value_name = "OUT")]
+    pub grid_out: Option<PathBuf>,
+    /// The iso of a volume input (a .sog's is 0; a mesh's distances are cut at 0).
+    #[arg(long, value_name = "V", allow_hyphen_values = true)]
+    pub iso: Option<String>,
+    /// Which side of the iso is the solid: below (value < iso, default) or above (a scan's or a
+    /// label mask's object).
+    #[arg(long, value_name = "SIDE")]
+    pub inside: Option<String>,
+    /// Cells along the longest side of a mesh input's box (default 128).
+    #[arg(long, value_name = "N", allow_hyphen_values = true)]
+    pub resolution: Option<String>,
+    /// Largest input the readers may allocate, in bytes (suffixes K, M, G accepted).
+    #[arg(long, value_name = "BYTES", allow_hyphen_values = true)]
+    pub max_bytes: Option<String>,
+    /// Print JSON instead of text.
+    #[arg(long)]
+    pub json: bool,
 }
 
 /// Smoothing and decimation after extraction (`extract`, `simplify`): smoothing first, then
@@ -575,6 +621,8 @@ mod tests {
     /// Options whose values are names, paths or lists of names (not numbers).
     const NOT_NUMERIC: &[&str] = &[
         "input",
+        "skeleton",
+        "grid_out",
         "grid",
         "grid_class",
         "output",

@@ -886,6 +886,106 @@ impl RepairConfig {
     }
 }
 
+/// What `topo-repair` reads.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum SolidInput {
+    /// A PolyMender signed octree: its signs at iso 0.
+    Sog,
+    /// A mesh, voxelized into signed distances on this many cells along its longest side.
+    Mesh(u32),
+    /// A volume at an iso.
+    Volume,
+}
+
+/// `isoforge topo-repair`.
+pub struct TopoRepairConfig {
+    pub input: PathBuf,
+    pub kind: SolidInput,
+    pub iso: isoforge::volume::Iso,
+    pub options: isoforge::mend::RepairOptions,
+    pub output: PathBuf,
+    pub format: MeshFormat,
+    pub skeleton: Option<PathBuf>,
+    pub grid_out: Option<PathBuf>,
+    pub limits: Limits,
+    pub json: bool,
+}
+
+impl TopoRepairConfig {
+    pub fn from_args(a: &crate::args::TopoRepairArgs) -> Result<Self> {
+        use isoforge::volume::{Inside, Iso};
+        use isoforge_io::VolumeFormat;
+        let area = |flag: &str, v: &str| {
+            v.trim().parse::<f64>().ok().filter(|x| x.is_finite()).ok_or_else(|| {
+                anyhow!("{flag} {v:?}: expected an area in squared model units (a finite number; 0 or less skips)")
+            })
+        };
+        let options = isoforge::mend::RepairOptions { thin: area("--thin", &a.thin)?, grow: area("--grow", &a.grow)? };
+        let kind =
+            if MeshFormat::from_path(&a.input).is_some() {
+                let n =
+                    match a.resolution.as_deref() {
+                        None => 128,
+                        Some(n) => n.trim().parse::<u32>().ok().filter(|c| (2..=512).contains(c)).ok_or_else(|| {
+                            anyhow!("--resolution {n:?}: expected a whole number of cells from 2 to 512")
+                        })?,
+                    };
+                SolidInput::Mesh(n)
+            } else if VolumeFormat::from_path(&a.input) == Some(VolumeFormat::Sog) {
+                SolidInput::Sog
+            } else {
+                SolidInput::Volume
+            };
+        if kind != SolidInput::Volume {
+            if a.iso.is_some() || a.inside.is_some() {
+                bail!(
+                    "--iso and --inside apply to volume inputs ({} holds signs: inside is below 0)",
+                    a.input.display()
+                );
+            }
+        } else if a.resolution.is_some() {
+            bail!("--resolution applies to mesh inputs ({} is a volume)", a.input.display());
+        }
+        let iso = match (kind, a.iso.as_deref()) {
+            (SolidInput::Volume, None) => bail!("{}: a volume needs --iso V (the solid's boundary)", a.input.display()),
+            (SolidInput::Volume, Some(v)) => v
+                .trim()
+                .parse::<f64>()
+                .ok()
+                .filter(|x| x.is_finite())
+                .ok_or_else(|| anyhow!("--iso {v:?}: expected a finite number"))?,
+            _ => 0.0,
+        };
+        let inside = match a.inside.as_deref() {
+            None => Inside::Below,
+            Some(s) => s.parse::<Inside>().map_err(|_| anyhow!("--inside {s:?}: expected below or above"))?,
+        };
+        if let Some(p) = &a.skeleton {
+            if !p.to_string_lossy().to_ascii_lowercase().ends_with(".skt") {
+                bail!("{}: --skeleton writes TopoMender's .skt records; name the file .skt", p.display());
+            }
+        }
+        if let Some(p) = &a.grid_out {
+            if !matches!(VolumeFormat::from_path(p), Some(VolumeFormat::Sog | VolumeFormat::Nrrd | VolumeFormat::Nifti))
+            {
+                bail!("{}: --grid-out writes .sog, .nrrd, .nii or .nii.gz", p.display());
+            }
+        }
+        Ok(TopoRepairConfig {
+            input: a.input.clone(),
+            kind,
+            iso: Iso { value: iso, inside },
+            options,
+            output: a.output.clone(),
+            format: output_format(&a.output, false)?,
+            skeleton: a.skeleton.clone(),
+            grid_out: a.grid_out.clone(),
+            limits: limits(a.max_bytes.as_deref())?,
+            json: a.json,
+        })
+    }
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;

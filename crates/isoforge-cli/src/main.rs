@@ -10,6 +10,7 @@ mod outputs;
 mod progress;
 mod report;
 mod run;
+mod topo_repair;
 mod view;
 mod voxel;
 
@@ -78,6 +79,7 @@ fn main() -> ExitCode {
         Command::Voxelize(a) => config::VoxelizeConfig::from_args(a).and_then(|c| voxel::voxelize(&c)),
         Command::Repair(a) => config::RepairConfig::from_args(a).and_then(|c| voxel::repair(&c)),
         Command::Simplify(a) => config::SimplifyConfig::from_args(a, threads).and_then(|c| run::simplify(&c)),
+        Command::TopoRepair(a) => config::TopoRepairConfig::from_args(a).and_then(|c| topo_repair::topo_repair(&c)),
     };
     let _ = std::io::stdout().flush();
     match result {

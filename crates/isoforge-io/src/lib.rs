@@ -443,6 +443,15 @@ impl Batch {
         self.write(path, |w| write::sog::write_sog(w, tree))
     }
 
+    /// Writes TopoMender's skeleton file (see [`write::skt`]) for a root cube of `2^depth` cells.
+    ///
+    /// # Errors
+    /// As [`Batch::write`].
+    #[cfg(feature = "sog")]
+    pub fn write_skt(&self, path: &Path, records: &[isoforge::mend::SkeletonRecord], depth: u32) -> Result<()> {
+        self.write(path, |w| write::skt::write_skt(w, records, depth))
+    }
+
     /// Writes a volume, choosing the format by extension: `.nrrd` (gzip-encoded), `.nii`, `.nii.gz`.
     ///
     /// # Errors

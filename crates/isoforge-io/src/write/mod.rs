@@ -1,5 +1,5 @@
 //! Mesh writers: PLY (binary or ASCII), OBJ, STL (binary or ASCII), OFF, glTF; contour writers (SVG, GeoJSON,
-//! CSV); sparse grids as OpenVDB files ([`vdb`]), signed octrees as SOG files (`sog`). All go through [`write_atomic`](crate::write_atomic): a failed write leaves no file.
+//! CSV); sparse grids as OpenVDB files ([`vdb`]), signed octrees as SOG files (`sog`), TopoMender's skeletons (`skt`). All go through [`write_atomic`](crate::write_atomic): a failed write leaves no file.
 
 pub mod contour;
 mod copy;
@@ -10,6 +10,8 @@ pub mod obj;
 pub mod off;
 #[cfg(feature = "ply")]
 pub mod ply;
+#[cfg(feature = "sog")]
+pub mod skt;
 #[cfg(feature = "sog")]
 pub mod sog;
 #[cfg(feature = "stl")]

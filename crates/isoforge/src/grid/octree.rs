@@ -135,6 +135,65 @@ impl SignedOctree {
         b.finish()
     }
 
+    /// The tree of the values `value` gives on `lattice` (a cube of `2^depth` cells with one
+    /// spacing): outside where `value ≥ 0`; a crossed cell's vertex is `keep`'s when `keep` has
+    /// a leaf there with the same signs, else the mean of its edges' linear crossings (kept a hair
+    /// inside the cell).
+    ///
+    /// # Errors
+    /// [`Error::InvalidInput`] when the lattice is not such a cube; as
+    /// [`SignedOctree::from_cells`].
+    pub fn from_values(
+        lattice: &Lattice,
+        value: &dyn Fn([u32; 3]) -> f32,
+        keep: Option<&SignedOctree>,
+    ) -> Result<Self> {
+        let d = lattice.dims();
+        let cells = d[0].saturating_sub(1);
+        let s = lattice.spacing();
+        if d.iter().any(|&n| n != d[0]) || !cells.is_power_of_two() || cells < 2 || s.iter().any(|&v| v != s[0]) {
+            return Err(Error::InvalidInput(format!(
+                "a signed octree needs a cube of 2^depth cells with one spacing; the grid has {} x {} x {} points",
+                d[0], d[1], d[2]
+            )));
+        }
+        let depth = cells.trailing_zeros();
+        let keep = keep.filter(|t| t.depth() == depth);
+        let o = lattice.origin();
+        let outside = |p: [u32; 3]| value(p) >= 0.0;
+        let vertex = |c: [u32; 3]| -> Option<[f32; 3]> {
+            let v: [f32; 8] = std::array::from_fn(|k| value([0, 1, 2].map(|a| c[a] + (k as u32 >> a & 1))));
+            if v.iter().all(|&x| x >= 0.0) || v.iter().all(|&x| x < 0.0) {
+                return None;
+            }
+            if let Some(leaf) = keep.and_then(|t| t.leaf_at(c)) {
+                let same =
+                    (0..8u32).all(|k| leaf.corner_outside([k & 1, k >> 1 & 1, k >> 2 & 1]) == (v[k as usize] >= 0.0));
+                if same {
+                    return Some(leaf.vertex);
+                }
+            }
+            let (mut sum, mut n) = ([0.0f64; 3], 0.0);
+            for k in 0..8usize {
+                for a in 0..3 {
+                    let m = k | 1 << a;
+                    if m == k || (v[k] < 0.0) == (v[m] < 0.0) {
+                        continue;
+                    }
+                    let t = (v[k] / (v[k] - v[m])) as f64;
+                    for b in 0..3 {
+                        let at = (k >> b & 1) as f64 + if b == a { t } else { 0.0 };
+                        sum[b] += at;
+                    }
+                    n += 1.0;
+                }
+            }
+            // In the cell, a hair inside its faces (the file's vertices must lie in their cells).
+            Some([0, 1, 2].map(|b| (o[b] + s[0] * (c[b] as f64 + (sum[b] / n).clamp(1e-6, 1.0 - 1e-6))) as f32))
+        };
+        Self::from_cells(depth, o.map(|v| v as f32), (s[0] * cells as f64) as f32, &outside, &vertex)
+    }
+
     /// Builds the tree of a sign function as PolyMender does: a finest-level cell is a leaf when
     /// `vertex` gives it a vertex, and every other node whose cube holds no leaf is empty.
     ///

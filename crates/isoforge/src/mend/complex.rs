@@ -146,6 +146,13 @@ impl CellComplex {
         self.present[i] = 0;
     }
 
+    /// Whether element `i` lies on the grid's outer layer.
+    #[inline]
+    pub fn on_border(&self, i: usize) -> bool {
+        let x = self.coords(i);
+        (0..3).any(|a| x[a] == 0 || x[a] + 1 == self.dims[a])
+    }
+
     /// The dimension of element `i` (its odd coordinates).
     #[inline]
     pub fn dimension(&self, i: usize) -> u32 {

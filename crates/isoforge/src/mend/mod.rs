@@ -2,27 +2,38 @@
 //! found on skeletons.
 //!
 //! In: a grid and an iso (a SOG's sign grid, a voxelized mesh's distances, a scan or a label
-//! mask) naming a solid. Out: the grid with the fewest points flipped so that every handle whose
-//! narrowest cross-section is below `thin` is cut there and every tunnel whose narrowest
-//! spanning disc is below `grow` is filled there, and a [`RepairReport`] of what was found.
+//! mask) naming a solid. Out: the grid with few points flipped so that every handle whose
+//! smallest cutting membrane is below `thin` is cut there and every tunnel whose smallest
+//! spanning membrane is below `grow` is filled there, and a [`RepairReport`] of what was found.
 //!
 //! ```text
-//!   points ─▶ CellComplex ─thin─▶ skeleton ─max spanning tree─▶ loops ─size < thin─▶ cut
-//!   (solid)   (closed: all         (areas retracted             (one per handle,    (flip the
-//!              points in it)        onto edges)                  its narrowest edge)  footprint)
+//!   points ─▶ CellComplex ─thin─▶ skeleton ─max spanning tree─▶ loops ─▶ membranes ─size < thin─▶ cut
+//!   (solid)   (closed: all         (collapses,                 (one per    (pulled back    (flip its
+//!              points in it)        recorded)                   handle)     along a loop)   points)
 //!   the same on the dual of the outside ─▶ tunnels ─size < grow─▶ fill
 //! ```
 //!
 //! Vocabulary (the doubled grid of [`complex`]): *elements* are points, edges, faces and cells;
 //! a *free pair* is an element with one coface that has none; *thinning* removes free pairs;
-//! the *skeleton* is what remains; a *loop* is a skeleton edge a maximum spanning tree leaves
-//! out; its *footprint* is the edges that retracted onto it — the cross-section a cut removes,
-//! or (on the dual) the disc of faces a fill adds.
+//! the *skeleton* is what remains; a *loop* is a skeleton edge a maximum spanning tree (weighted
+//! by the solid's thickness around each edge, [`distance`]) leaves out, one per handle; the
+//! *membrane* of a skeleton edge is what retracted onto it: the support of its indicator
+//! cochain pulled back through the collapses (an edge collapsed with a face takes the sum mod 2
+//! of the face's other edges) — a set of edges crossing every loop through it once. Its *size* is
+//! its area, each edge counting its dual quad (TopoMender's weights: dual-quad areas plus what
+//! retracted onto the edge); a loop's size is its smallest membrane along its cycle (64 edges
+//! sampled). A cut takes one point of each membrane edge out of the solid; a fill (on the dual)
+//! puts the four points of each primal face its membrane crosses in. A change is kept only when
+//! the solid lost exactly one loop: its Euler characteristic up by one, its components and the
+//! outside's unchanged; otherwise a ball around the membrane's edge is tried, else the loop is
+//! reported and left.
 //!
 //! The solid is the iso's inside ([`Iso`]: `value < iso`, or `value > iso` when inside is
-//! above; ties outside), whose complex is closed; the outside's is the dual. The surface MC33
-//! extracts at the same iso has these complexes' topology on sign-like data (ties outside keep
-//! the inside 6-connected, as the closed complex is).
+//! above; ties outside), whose complex is closed; the outside's is the dual, its border layer
+//! kept whole (it stands for everything beyond the grid, so no membrane ends on it). The
+//! surface MC33 extracts at the same iso has these complexes' topology on sign-like data (ties
+//! outside keep the inside 6-connected, as the closed complex is), and flipped points are pushed
+//! far enough past the iso that it cuts and joins where they do.
 //!
 //! The complex lives on the grid's finest points (TopoMender works on the octree's cells; the
 //! areas are the same, the memory is not): a box one point larger than the solid's bounds, at
@@ -32,6 +43,8 @@ pub mod complex;
 pub mod distance;
 pub mod skeleton;
 pub mod thin;
+
+use std::collections::HashSet;
 
 pub use complex::CellComplex;
 pub use distance::squared_distance_to_absent;
@@ -130,8 +143,8 @@ impl RepairReport {
 }
 
 /// Cuts the small handles and fills the small tunnels of the solid inside `iso` in `grid`: every
-/// flipped point's value is mirrored about the iso (`2·iso − v`, nudged to the right side), so
-/// the rest of the surface does not move. With `skeleton`, the report
+/// flipped point's value goes past the iso by twice its neighbours' largest distance from it (so
+/// MC33 cuts and joins where the complex does), and the rest of the grid is untouched. With `skeleton`, the report
 /// lists the skeletons' edges.
 ///
 /// # Errors
@@ -195,7 +208,11 @@ pub fn repair(grid: &mut DenseGrid<f32>, iso: Iso, opts: &RepairOptions, skeleto
         report.tunnels = ops;
         report.rounds[1] = rounds;
     }
-    // Mirror the flipped points' values about the iso.
+    // Each flipped point goes past the iso by twice the largest distance from it among its 26
+    // neighbours' values (as they were): the trilinear interpolant MC33 follows then separates
+    // (or joins) exactly where the complex does.
+    let before = grid.data().to_vec();
+    let dims = lattice.dims();
     let data = grid.data_mut();
     for (k, (&now, &was)) in inside.iter().zip(&original).enumerate() {
         if now == was {
@@ -206,19 +223,25 @@ pub fn repair(grid: &mut DenseGrid<f32>, iso: Iso, opts: &RepairOptions, skeleto
             continue;
         }
         report.points_changed += 1;
-        let v = &mut data[lattice.linear(p.map(|v| v as u32))];
-        *v = mirrored(*v, iso, now);
+        let mut reach = 0f64;
+        for o in 0..27 {
+            let q = [p[0] + o % 3 - 1, p[1] + o / 3 % 3 - 1, p[2] + o / 9 - 1];
+            if (0..3).all(|a| q[a] >= 0 && q[a] < dims[a] as i64) {
+                reach = reach.max((f64::from(before[lattice.linear(q.map(|v| v as u32))]) - iso.value).abs());
+            }
+        }
+        data[lattice.linear(p.map(|v| v as u32))] = pushed(iso, now, reach);
     }
     Ok(report)
 }
 
-/// `v` reflected about the iso, then moved one float at a time to the side `inside` asks for.
-fn mirrored(v: f32, iso: Iso, inside: bool) -> f32 {
-    let mut m = (2.0 * iso.value - v as f64) as f32;
-    let below = iso.inside == Inside::Below;
+/// A value `2·reach` (at least a hair) past the iso, on the side `inside` asks for.
+fn pushed(iso: Iso, inside: bool, reach: f64) -> f32 {
+    let towards_below = inside == (iso.inside == Inside::Below);
+    let step = (2.0 * reach).max(iso.value.abs() * 1e-6).max(1e-6);
+    let mut m = (if towards_below { iso.value - step } else { iso.value + step }) as f32;
     while (iso.offset(m as f64) < 0.0) != inside {
-        // Towards the inside when it is wanted, else away from it.
-        m = if below == inside { m.next_down() } else { m.next_up() };
+        m = if towards_below { m.next_down() } else { m.next_up() };
     }
     m
 }
@@ -260,7 +283,10 @@ fn run_pass(
     };
     let spacing = frame.lattice.spacing();
     let d2 = squared_distance_to_absent(&c, spacing.map(|h| h / 2.0));
-    let t = thin(&mut c);
+    let whole = c.clone();
+    // The dual's border layer stands for everything beyond the lattice: kept whole, so a
+    // membrane cannot end on it (a tunnel is filled across its hole, not out to the box).
+    let t = thin(&mut c, pass == Pass::Dual);
     // The surface lies between the last point of a side and the first of the other: half a
     // spacing beyond the solid's complex and short of the outside's, on average (measured on
     // tori: without this, handles come out at 0.5–0.75 of π r², tunnels at 1.2–1.3 of π (R − r)²).
@@ -279,66 +305,94 @@ fn run_pass(
         let b = shift(x);
         [0, 1, 2].map(|a| b[a] + 2 * frame.lo[a])
     };
-    let reach = 2.0 * spacing.iter().copied().fold(0.0, f64::max);
+    let reach = 3.0 * spacing.iter().copied().fold(0.0, f64::max);
+    let area = [spacing[1] * spacing[2], spacing[0] * spacing[2], spacing[0] * spacing[1]];
     let mut loops: Vec<&SkeletonEdge> = edges.iter().filter(|e| e.closes_loop && e.weight.is_finite()).collect();
     loops.sort_by(|a, b| a.weight.total_cmp(&b.weight).then(a.element.cmp(&b.element)));
-    let euler = |inside: &[bool]| CellComplex::of_solid(frame.n, inside).euler();
-    let mut chi = if loops.iter().any(|e| e.weight < threshold) { euler(inside) } else { 0 };
     let mut ops = Vec::new();
-    let mut done = std::collections::HashSet::new();
+    let mut done = HashSet::new();
     for e in loops {
-        let x = c.coords(e.element);
-        let at = frame.world(to_input(x));
-        let mut op = Operation { kind, size: e.weight, at, performed: false, points_changed: 0 };
-        if e.weight < threshold {
-            let b = shift(x);
-            let axis = (0..3).find(|&a| x[a] % 2 == 1).expect("an edge");
-            let radius = 2.0 * (d2[e.element] as f64).sqrt() + reach;
-            let centre = b.map(|v| v as f64 / 2.0);
-            // A cross-section across the edge's axis first, then across the others: the first
-            // that removes exactly one loop (the solid's Euler characteristic up by one) stays.
-            for plane in [axis, (axis + 1) % 3, (axis + 2) % 3] {
-                let flipped = match pass {
-                    // The solid's section through the edge's lower point leaves it.
-                    Pass::Closed => {
-                        let (mut p, mut q) = (b, b);
-                        p[axis] -= 1;
-                        q[axis] += 1;
-                        flood_plane(inside, frame, plane, &[p, q], centre, radius, true)
+        // The loop's membranes: for edges along its cycle, the edges of the whole complex that
+        // retracted onto each (the pulled-back cochain); the smallest is the handle's size.
+        // (Only edges that bound no face left by thinning: their indicators are cocycles.)
+        let candidates = fundamental_cycle(&edges, e, |x| c.present_cofaces(x).0 == 0, 64);
+        let bits = pull_back(&whole, &t.pairs, &candidates);
+        let mut areas = vec![0.0; candidates.len()];
+        for (i, &b) in bits.iter().enumerate() {
+            if b != 0 {
+                let a = area[whole.axis(i).expect("membranes are made of edges")];
+                for (k, s) in areas.iter_mut().enumerate() {
+                    if b >> k & 1 == 1 {
+                        *s += a;
                     }
-                    // The outside's section through the face the dual edge crosses joins the
-                    // solid (a face beyond the box has nothing to fill).
-                    Pass::Dual => {
-                        let corners: Vec<[i64; 3]> = (0..8)
-                            .map(|k| {
-                                [0, 1, 2].map(|a| {
-                                    b[a] + if b[a] % 2 == 0 {
-                                        0
-                                    } else if k >> a & 1 == 0 {
-                                        -1
-                                    } else {
-                                        1
-                                    }
-                                })
-                            })
-                            .collect();
-                        flood_plane(inside, frame, plane, &corners, centre, radius, false)
-                    }
-                };
-                if flipped.is_empty() {
-                    continue;
                 }
-                let after = euler(inside);
-                if after == chi + 1 {
-                    chi = after;
-                    op.performed = true;
-                    done.insert(e.element);
-                    op.points_changed = flipped.len() as u64;
+            }
+        }
+        let best = (0..candidates.len()).min_by(|&a, &b| areas[a].total_cmp(&areas[b])).expect("a loop has its edge");
+        let x = c.coords(candidates[best]);
+        let at = frame.world(to_input(x));
+        let mut op = Operation { kind, size: areas[best], at, performed: false, points_changed: 0 };
+        if op.size < threshold {
+            let components = components(inside, frame.n);
+            let membrane: Vec<[i64; 3]> =
+                (0..bits.len()).filter(|&i| bits[i] >> best & 1 == 1).map(|i| shift(whole.coords(i))).collect();
+            // Which points make the membrane: a cut takes each edge's lower point (else its
+            // upper, else both) out of the solid; a fill puts the four points of each primal
+            // face the dual edges cross into it.
+            let ends = |lower: bool, upper: bool| -> Vec<[i64; 3]> {
+                let mut v = Vec::new();
+                for m in &membrane {
+                    let odd: Vec<usize> = (0..3).filter(|&a| m[a] % 2 != 0).collect();
+                    for k in 0..1usize << odd.len() {
+                        let mut p = *m;
+                        for (bit, &a) in odd.iter().enumerate() {
+                            p[a] += if k >> bit & 1 == 1 { 1 } else { -1 };
+                        }
+                        let up = odd.iter().enumerate().all(|(bit, _)| k >> bit & 1 == 1);
+                        if pass == Pass::Dual || (up && upper) || (!up && lower) {
+                            v.push(p);
+                        }
+                    }
+                }
+                v
+            };
+            let tries: Vec<Vec<[i64; 3]>> = match pass {
+                Pass::Closed => vec![ends(true, false), ends(false, true), ends(true, true)],
+                Pass::Dual => vec![ends(true, true)],
+            };
+            let mut flipped = Vec::new();
+            for points in tries {
+                flipped = try_flip(inside, frame, pass, &points, components);
+                if !flipped.is_empty() {
                     break;
                 }
-                for k in flipped {
-                    inside[k] = !inside[k];
-                }
+            }
+            if flipped.is_empty() {
+                // A ball around the membrane's edge: it empties (or fills) the core first (a
+                // cavity: refused), then opens it and severs the loop.
+                let b = shift(x);
+                let starts: Vec<[i64; 3]> = (0..8)
+                    .map(|k| {
+                        [0, 1, 2].map(|a| {
+                            b[a] + if b[a] % 2 == 0 {
+                                0
+                            } else if k >> a & 1 == 0 {
+                                -1
+                            } else {
+                                1
+                            }
+                        })
+                    })
+                    .collect();
+                let radius = 3.0 * (d2[candidates[best]] as f64).sqrt() + reach;
+                let from = pass == Pass::Closed;
+                flipped =
+                    grow_section(inside, frame, None, &starts, b.map(|v| v as f64 / 2.0), radius, from, components);
+            }
+            if !flipped.is_empty() {
+                op.performed = true;
+                op.points_changed = flipped.len() as u64;
+                done.insert(candidates[best]);
             }
         }
         ops.push(op);
@@ -353,6 +407,99 @@ fn run_pass(
         }));
     }
     (ops, t.rounds)
+}
+
+/// The skeleton edges of the cycle loop edge `e` closes through the spanning tree (`e` first),
+/// those `usable`, at most `most` of them, evenly spread.
+fn fundamental_cycle(
+    edges: &[SkeletonEdge],
+    e: &SkeletonEdge,
+    usable: impl Fn(usize) -> bool,
+    most: usize,
+) -> Vec<usize> {
+    let mut next: std::collections::HashMap<usize, Vec<(usize, usize)>> = Default::default();
+    for t in edges.iter().filter(|t| !t.closes_loop) {
+        next.entry(t.ends[0]).or_default().push((t.ends[1], t.element));
+        next.entry(t.ends[1]).or_default().push((t.ends[0], t.element));
+    }
+    // Breadth first from one end of `e` to the other through the tree.
+    let mut came: std::collections::HashMap<usize, (usize, usize)> = Default::default();
+    let mut queue = std::collections::VecDeque::from([e.ends[0]]);
+    came.insert(e.ends[0], (usize::MAX, usize::MAX));
+    while let Some(p) = queue.pop_front() {
+        if p == e.ends[1] {
+            break;
+        }
+        for &(q, via) in next.get(&p).map(Vec::as_slice).unwrap_or(&[]) {
+            if let std::collections::hash_map::Entry::Vacant(v) = came.entry(q) {
+                v.insert((p, via));
+                queue.push_back(q);
+            }
+        }
+    }
+    let mut path = vec![e.element];
+    let mut p = e.ends[1];
+    while let Some(&(from, via)) = came.get(&p) {
+        if via == usize::MAX {
+            break;
+        }
+        path.push(via);
+        p = from;
+    }
+    path.retain(|&x| x == e.element || usable(x));
+    if path.len() <= most {
+        return path;
+    }
+    (0..most).map(|k| path[k * path.len() / most]).collect()
+}
+
+/// The cochains of the whole complex that thinning's collapses, played backwards, give the
+/// indicator cochains of `candidates` (at most 64 skeleton edges; bit `k` for the `k`-th): an
+/// edge collapsed with a face takes the sum (mod 2) of the face's other edges, an edge collapsed
+/// away from a point takes 0. Each is a cocycle whose support — a membrane of edges — crosses
+/// every loop through its candidate once: removing it cuts them there.
+fn pull_back(whole: &CellComplex, pairs: &[(u32, u32)], candidates: &[usize]) -> Vec<u64> {
+    assert!(candidates.len() <= 64);
+    let mut bits = vec![0u64; whole.len()];
+    for (k, &c) in candidates.iter().enumerate() {
+        bits[c] |= 1 << k;
+    }
+    for &(s, t) in pairs.iter().rev() {
+        let (s, t) = (s as usize, t as usize);
+        if whole.dimension(s) == 1 {
+            bits[s] = whole.faces(t).filter(|&(f, _)| f != s).fold(0, |acc, (f, _)| acc ^ bits[f]);
+        }
+    }
+    bits
+}
+
+/// Flips the given points (doubled box coordinates; beyond the box ignored) to the other side
+/// (out of the solid for a cut, in for a fill) and keeps them when the solid has lost exactly
+/// one loop (Euler characteristic up by one, components of both sides as `before`); otherwise
+/// puts them back. The indices flipped.
+fn try_flip(inside: &mut [bool], frame: &Frame, pass: Pass, points: &[[i64; 3]], before: (usize, usize)) -> Vec<usize> {
+    let n = frame.n;
+    let from = pass == Pass::Closed;
+    let chi = CellComplex::of_solid(n, inside).euler();
+    let mut flipped = Vec::new();
+    for p in points {
+        let q = p.map(|v| v.div_euclid(2));
+        if p.iter().any(|v| v % 2 != 0) || (0..3).any(|a| q[a] < 0 || q[a] >= n[a] as i64) {
+            continue;
+        }
+        let k = (q[0] + n[0] as i64 * (q[1] + n[1] as i64 * q[2])) as usize;
+        if inside[k] == from {
+            inside[k] = !from;
+            flipped.push(k);
+        }
+    }
+    if !flipped.is_empty() && CellComplex::of_solid(n, inside).euler() == chi + 1 && components(inside, n) == before {
+        return flipped;
+    }
+    for k in flipped {
+        inside[k] = from;
+    }
+    Vec::new()
 }
 
 /// The squared radius of the largest ball around an element near `e` (within two doubled
@@ -380,53 +527,149 @@ fn local_thickness(c: &CellComplex, d2: &[f32], e: usize, spacing: [f64; 3]) -> 
     best
 }
 
-/// Flips the points of the plane across `axis` that hold `from`, reachable from `starts`
-/// (doubled box coordinates of points) through in-plane neighbours holding `from`, within
-/// `radius` (world units) of `centre` (box point coordinates); the indices flipped.
-fn flood_plane(
-    inside: &mut [bool],
-    frame: &Frame,
-    axis: usize,
-    starts: &[[i64; 3]],
-    centre: [f64; 3],
-    radius: f64,
-    from: bool,
-) -> Vec<usize> {
-    let n = frame.n.map(|v| v as i64);
-    let h = frame.lattice.spacing();
-    let within = |p: [i64; 3]| {
-        (0..3).all(|a| p[a] >= 0 && p[a] < n[a])
-            && (0..3).filter(|&a| a != axis).map(|a| ((p[a] as f64 - centre[a]) * h[a]).powi(2)).sum::<f64>()
-                <= radius * radius
-    };
-    let index = |p: [i64; 3]| (p[0] + n[0] * (p[1] + n[1] * p[2])) as usize;
-    let mut stack: Vec<[i64; 3]> = Vec::new();
-    let mut flipped = Vec::new();
-    for s in starts {
-        if s.iter().any(|v| v % 2 != 0) {
-            continue;
-        }
-        let p = s.map(|v| v / 2);
-        if within(p) && inside[index(p)] == from {
-            inside[index(p)] = !from;
-            flipped.push(index(p));
-            stack.push(p);
-        }
-    }
-    while let Some(p) = stack.pop() {
-        for a in (0..3).filter(|&a| a != axis) {
-            for d in [-1, 1] {
-                let mut q = p;
-                q[a] += d;
-                if within(q) && inside[index(q)] == from {
-                    inside[index(q)] = !from;
-                    flipped.push(index(q));
-                    stack.push(q);
+/// The solid's components (points joined by edges) and the outside's (points joined through
+/// any shared cell: the open complement's connectivity) on the box.
+fn components(inside: &[bool], n: [usize; 3]) -> (usize, usize) {
+    let mut sets = crate::math::UnionFind::new(inside.len());
+    let index = |p: [usize; 3]| p[0] + n[0] * (p[1] + n[1] * p[2]);
+    for z in 0..n[2] {
+        for y in 0..n[1] {
+            for x in 0..n[0] {
+                let i = index([x, y, z]);
+                // Half of the 26 neighbours (the later ones), the 3 along the axes for the solid.
+                for o in NEXT {
+                    let q = [x as i64 + o[0], y as i64 + o[1], z as i64 + o[2]];
+                    if (0..3).any(|a| q[a] < 0 || q[a] >= n[a] as i64) {
+                        continue;
+                    }
+                    let j = index(q.map(|v| v as usize));
+                    let axial = o.iter().filter(|&&v| v != 0).count() == 1;
+                    if inside[i] == inside[j] && (!inside[i] || axial) {
+                        sets.union(i, j);
+                    }
                 }
             }
         }
     }
-    flipped
+    let (mut solid, mut outside) = (0, 0);
+    for i in 0..inside.len() {
+        if sets.find(i) == i {
+            if inside[i] {
+                solid += 1;
+            } else {
+                outside += 1;
+            }
+        }
+    }
+    (solid, outside)
+}
+
+/// The 13 neighbour offsets after a point in x-fastest order.
+const NEXT: [[i64; 3]; 13] = [
+    [1, 0, 0],
+    [-1, 1, 0],
+    [0, 1, 0],
+    [1, 1, 0],
+    [-1, -1, 1],
+    [0, -1, 1],
+    [1, -1, 1],
+    [-1, 0, 1],
+    [0, 0, 1],
+    [1, 0, 1],
+    [-1, 1, 1],
+    [0, 1, 1],
+    [1, 1, 1],
+];
+
+/// Σ (−1)^dim over the elements around point `p` whose points are all in the solid, `p`
+/// counted in: what the solid's Euler characteristic gains with `p` (or loses without it).
+fn star_euler(inside: &[bool], n: [usize; 3], p: [i64; 3]) -> i64 {
+    let at = |q: [i64; 3]| {
+        (0..3).all(|a| q[a] >= 0 && q[a] < n[a] as i64)
+            && (q == p || inside[(q[0] + n[0] as i64 * (q[1] + n[1] as i64 * q[2])) as usize])
+    };
+    let mut sum = 0;
+    for o in 0..27 {
+        let o = [o % 3 - 1, o / 3 % 3 - 1, o / 9 - 1];
+        let axes: Vec<usize> = (0..3).filter(|&a| o[a] != 0).collect();
+        let all = (0..1 << axes.len()).all(|k| {
+            let mut q = p;
+            for (bit, &a) in axes.iter().enumerate() {
+                q[a] += if k >> bit & 1 == 1 { o[a] } else { 0 };
+            }
+            at(q)
+        });
+        if all {
+            sum += if axes.len().is_multiple_of(2) { 1 } else { -1 };
+        }
+    }
+    sum
+}
+
+/// Flips points holding `from` in the plane across `axis` at `level` (`section`; a ball when
+/// `None`), nearest to `centre` first, spreading from `starts` (doubled box coordinates; those
+/// at points) through neighbours in the section within `radius` (world units), until the solid has lost exactly one loop: its Euler characteristic
+/// up by one with its components and the outside's as `before`. The indices flipped; none
+/// (everything put back) when no such section is found.
+#[allow(clippy::too_many_arguments)]
+fn grow_section(
+    inside: &mut [bool],
+    frame: &Frame,
+    section: Option<(usize, i64)>,
+    starts: &[[i64; 3]],
+    centre: [f64; 3],
+    radius: f64,
+    from: bool,
+    before: (usize, usize),
+) -> Vec<usize> {
+    use std::cmp::Reverse;
+    use std::collections::{BinaryHeap, HashSet};
+    let n = frame.n;
+    let h = frame.lattice.spacing();
+    let (axis, level) = section.unwrap_or((3, 0));
+    let gap =
+        |p: [i64; 3]| (0..3).filter(|&a| a != axis).map(|a| ((p[a] as f64 - centre[a]) * h[a]).powi(2)).sum::<f64>();
+    let index = |p: [i64; 3]| (p[0] + n[0] as i64 * (p[1] + n[1] as i64 * p[2])) as usize;
+    let usable = |inside: &[bool], p: [i64; 3]| {
+        (0..3).all(|a| p[a] >= 0 && p[a] < n[a] as i64) && inside[index(p)] == from && gap(p) <= radius * radius
+    };
+    let mut heap = BinaryHeap::new();
+    let mut seen = HashSet::new();
+    for s in starts.iter().filter(|s| s.iter().all(|v| v % 2 == 0)) {
+        let p = s.map(|v| v / 2);
+        if (axis == 3 || p[axis] == level) && usable(inside, p) && seen.insert(p) {
+            heap.push((Reverse(gap(p).to_bits()), p));
+        }
+    }
+    let mut flipped = Vec::new();
+    let mut chi = 0;
+    while let Some((_, p)) = heap.pop() {
+        let k = index(p);
+        if from {
+            chi -= star_euler(inside, n, p);
+            inside[k] = false;
+        } else {
+            inside[k] = true;
+            chi += star_euler(inside, n, p);
+        }
+        flipped.push(k);
+        if chi == 1 && components(inside, n) == before {
+            return flipped;
+        }
+        for a in (0..3).filter(|&a| a != axis) {
+            for d in [-1, 1] {
+                let mut q = p;
+                q[a] += d;
+                if usable(inside, q) && seen.insert(q) {
+                    heap.push((Reverse(gap(q).to_bits()), q));
+                }
+            }
+        }
+    }
+    for k in flipped {
+        inside[k] = from;
+    }
+    Vec::new()
 }
 
 #[cfg(test)]

@@ -1,12 +1,11 @@
 //! The skeleton a thinning leaves, as a weighted graph, and its loops: the edges a maximum
 //! spanning tree leaves out.
 //!
-//! Points are the graph's nodes and edges its edges, each weighted by its `size` (the area of
-//! the disc the solid holds around it); an edge that still bounds a face (thinning can stop at a
-//! 2D sheet) weighs infinity, so it is never taken for a loop. A maximum spanning tree (Kruskal, heaviest
-//! first, ties by element) keeps the thickest path between any two points; every edge it leaves
-//! out closes one independent cycle — a handle of the complex — and is the thinnest edge of
-//! that cycle, so its weight is the handle's size: the area of its narrowest cross-section.
+//! Points are the graph's nodes and edges its edges, each weighted by `size` (the area of the
+//! disc the solid holds around it); an edge that still bounds a face (thinning can stop at a 2D
+//! sheet) weighs infinity, so it is never taken for a loop. A maximum spanning tree (Kruskal,
+//! heaviest first, ties by element) keeps the thickest path between any two points; every edge
+//! it leaves out closes one independent cycle — a handle of the complex — at its thinnest.
 
 use std::collections::HashMap;
 
@@ -77,7 +76,7 @@ mod tests {
             .collect();
         let mut c = CellComplex::of_solid([n; 3], &solid);
         let d2 = squared_distance_to_absent(&c, [0.5; 3]);
-        thin(&mut c);
+        thin(&mut c, false);
         let edges = spanning_loops(&c, |e| std::f64::consts::PI * d2[e] as f64);
         let mut loops: Vec<f64> = edges.iter().filter(|e| e.closes_loop).map(|e| e.weight).collect();
         loops.sort_by(f64::total_cmp);

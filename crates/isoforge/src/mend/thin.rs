@@ -11,23 +11,26 @@
 use super::complex::CellComplex;
 
 /// What a thinning did.
-#[derive(Debug, Clone, Copy, Default, PartialEq, Eq)]
+#[derive(Debug, Clone, Default, PartialEq, Eq)]
 pub struct Thinning {
     /// Rounds run.
     pub rounds: u32,
-    /// Pairs collapsed.
-    pub collapses: u64,
+    /// The pairs collapsed `(σ, τ)`, in order: played backwards they pull a cochain of the
+    /// thinned complex back onto the whole ([`super::pull_back`]).
+    pub pairs: Vec<(u32, u32)>,
 }
 
-/// Thins `c` until no free pair remains.
-pub fn thin(c: &mut CellComplex) -> Thinning {
+/// Thins `c` until no free pair remains; with `keep_border`, elements on the grid's outer layer
+/// are never removed.
+pub fn thin(c: &mut CellComplex, keep_border: bool) -> Thinning {
     let n = c.len();
     let mut frontier: Vec<u32> = (0..n).filter(|&i| c.contains(i) && c.dimension(i) < 3).map(|i| i as u32).collect();
     let mut t = Thinning::default();
     let mut queued = vec![false; n];
     let mut next = Vec::new();
     loop {
-        let free: Vec<u32> = frontier.iter().copied().filter(|&s| free_coface(c, s as usize).is_some()).collect();
+        let free: Vec<u32> =
+            frontier.iter().copied().filter(|&s| free_coface(c, s as usize, keep_border).is_some()).collect();
         for &s in &frontier {
             queued[s as usize] = false;
         }
@@ -37,10 +40,10 @@ pub fn thin(c: &mut CellComplex) -> Thinning {
         t.rounds += 1;
         for s in free {
             let s = s as usize;
-            let Some(tau) = free_coface(c, s) else { continue };
+            let Some(tau) = free_coface(c, s, keep_border) else { continue };
             c.remove(s);
             c.remove(tau);
-            t.collapses += 1;
+            t.pairs.push((s as u32, tau as u32));
             // Whatever may have become free: the faces of tau (fewer cofaces, maybe maximal
             // now) and their faces (a maximal coface now).
             for (r, _) in c.faces(tau) {
@@ -61,8 +64,8 @@ pub fn thin(c: &mut CellComplex) -> Thinning {
 /// The coface `s` collapses with, when `s` is present with exactly one present coface and that
 /// coface has none.
 #[inline]
-fn free_coface(c: &CellComplex, s: usize) -> Option<usize> {
-    if !c.contains(s) {
+fn free_coface(c: &CellComplex, s: usize, keep_border: bool) -> Option<usize> {
+    if !c.contains(s) || keep_border && c.on_border(s) {
         return None;
     }
     let (count, tau) = c.present_cofaces(s);
@@ -95,13 +98,13 @@ mod tests {
             })
             .collect();
         let mut c = CellComplex::of_solid([n; 3], &solid);
-        thin(&mut c);
+        thin(&mut c, false);
         assert_eq!(c.counts(), [1, 0, 0, 0]);
 
         let solid = ring(n, 3, 1, 12, 3);
         let mut c = CellComplex::of_solid([n; 3], &solid);
         assert_eq!(c.euler(), 0);
-        let t = thin(&mut c);
+        let t = thin(&mut c, false);
         let k = c.counts();
         assert_eq!((k[2], k[3]), (0, 0), "{k:?}");
         assert_eq!(k[0], k[1], "one cycle: {k:?}");

@@ -96,49 +96,7 @@ impl Voxelized {
     /// # Errors
     /// [`Error::InvalidInput`] for another lattice, or as [`SignedOctree::from_cells`](crate::grid::SignedOctree::from_cells).
     pub fn to_signed_octree(&self) -> Result<crate::grid::SignedOctree> {
-        let l = self.grid.lattice();
-        let d = l.dims();
-        let cells = d[0].saturating_sub(1);
-        let s = l.spacing();
-        if d.iter().any(|&n| n != d[0]) || !cells.is_power_of_two() || cells < 2 || s.iter().any(|&v| v != s[0]) {
-            return Err(Error::InvalidInput(format!(
-                "a signed octree needs a cube of 2^depth cells with one spacing; the grid has {} x {} x {} points",
-                d[0], d[1], d[2]
-            )));
-        }
-        let depth = cells.trailing_zeros();
-        let o = l.origin();
-        let outside = |p: [u32; 3]| self.grid.get(p) >= 0.0;
-        let vertex = |c: [u32; 3]| -> Option<[f32; 3]> {
-            let v: [f32; 8] = std::array::from_fn(|k| self.grid.get([0, 1, 2].map(|a| c[a] + (k as u32 >> a & 1))));
-            if v.iter().all(|&x| x >= 0.0) || v.iter().all(|&x| x < 0.0) {
-                return None;
-            }
-            let (mut sum, mut n) = ([0.0f64; 3], 0.0);
-            for k in 0..8usize {
-                for a in 0..3 {
-                    let m = k | 1 << a;
-                    if m == k || (v[k] < 0.0) == (v[m] < 0.0) {
-                        continue;
-                    }
-                    let t = (v[k] / (v[k] - v[m])) as f64;
-                    for b in 0..3 {
-                        let at = (k >> b & 1) as f64 + if b == a { t } else { 0.0 };
-                        sum[b] += at;
-                    }
-                    n += 1.0;
-                }
-            }
-            // In the cell, a hair inside its faces (the file's vertices must lie in their cells).
-            Some([0, 1, 2].map(|b| (o[b] + s[0] * (c[b] as f64 + (sum[b] / n).clamp(1e-6, 1.0 - 1e-6))) as f32))
-        };
-        crate::grid::SignedOctree::from_cells(
-            depth,
-            o.map(|v| v as f32),
-            (s[0] * cells as f64) as f32,
-            &outside,
-            &vertex,
-        )
+        crate::grid::SignedOctree::from_values(self.grid.lattice(), &|p| self.grid.get(p), None)
     }
 
     /// The grid as a dense volume of `output`'s kind.
