@@ -25,7 +25,11 @@ fn solid(c: &TopoRepairConfig) -> Result<(DenseGrid<f32>, Option<SignedOctree>)>
     Ok(match c.kind {
         SolidInput::Sog => {
             let tree = spin(format!("reading {name}"), || isoforge_io::read_sog(&c.input, &c.limits))?;
-            (tree.to_sign_grid().map_err(with_name)?, Some(tree))
+            // Signs as −1 inside and +3 outside: MC33 then has the cell complex's topology
+            // (TopoMender's), which ±1 does not (isoforge::mend::sign_like).
+            let mut g = tree.to_sign_grid().map_err(with_name)?;
+            g.data_mut().iter_mut().for_each(|v| *v = mend::sign_like(c.iso, *v < 0.0, 1.0));
+            (g, Some(tree))
         }
         SolidInput::Mesh(cells) => {
             let mesh = spin(format!("reading {name}"), || isoforge_io::read_mesh(&c.input, &c.limits))?;
@@ -84,7 +88,7 @@ fn summary(
         "cuts": ops(&r.handles, true), "fills": ops(&r.tunnels, true),
         "handles_kept": ops(&r.handles, false), "tunnels_kept": ops(&r.tunnels, false),
         "points_changed": r.points_changed, "fraction_changed": r.points_changed as f64 / points.max(1) as f64,
-        "box_points": r.box_points, "thinning_rounds": r.rounds, "repair_seconds": seconds,
+        "box_points": r.box_points, "thinning_rounds": r.rounds, "stuck_elements": r.stuck, "repair_seconds": seconds,
         "closed": after.is_closed(), "manifold": after.is_manifold(), "oriented": after.is_oriented(),
     })
 }
@@ -122,6 +126,16 @@ fn text(j: &Value) -> String {
         "points changed:",
         format!("{} ({:.5} % of the grid)", j["points_changed"], 100.0 * j["fraction_changed"].as_f64().unwrap_or(0.0)),
     );
+    if j["stuck_elements"].as_array().is_some_and(|v| v.iter().any(|x| x.as_u64() != Some(0))) {
+        line(
+            &mut s,
+            "note:",
+            format!(
+                "thinning stopped at {} faces/cells (solid, outside): a loop held there is not measured",
+                j["stuck_elements"]
+            ),
+        );
+    }
     line(&mut s, "surface:", format!("closed {}, manifold {}, oriented {}", j["closed"], j["manifold"], j["oriented"]));
     line(&mut s, "time:", format!("{:.3} s repairing", j["repair_seconds"].as_f64().unwrap_or(0.0)));
     s

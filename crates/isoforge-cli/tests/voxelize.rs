@@ -2,29 +2,14 @@
 //! solid, its volume files read back with the mesh's geometry, and bad requests exit 2 with one
 //! line, leaving no file (and an existing one untouched).
 
+mod common;
+
 use std::path::Path;
-use std::process::{Command, Output};
+
+use common::{fails, isoforge, p};
 
 use isoforge::grid::AnyGrid;
 use isoforge_io::Limits;
-
-fn isoforge(args: &[&str]) -> Output {
-    Command::new(env!("CARGO_BIN_EXE_isoforge")).args(args).output().expect("run isoforge")
-}
-
-fn p(path: &Path) -> &str {
-    path.to_str().unwrap()
-}
-
-/// Exit 2 with a one-line error holding `needle`, and no file at `out`.
-fn fails(args: &[&str], needle: &str, out: &Path) {
-    let o = isoforge(args);
-    let err = String::from_utf8_lossy(&o.stderr).into_owned();
-    assert_eq!(o.status.code(), Some(2), "{args:?}: {err}");
-    assert!(err.contains(needle), "{args:?}: expected {needle:?} in {err:?}");
-    assert_eq!(err.trim_end().lines().count(), 1, "{args:?}: {err}");
-    assert!(!out.exists(), "{args:?}: left {}", out.display());
-}
 
 /// A unit cube as OBJ, its top face missing (two triangles) and one side face flipped.
 fn open_cube(dir: &Path) -> std::path::PathBuf {

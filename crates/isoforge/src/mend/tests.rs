@@ -107,11 +107,13 @@ fn a_label_mask_with_a_small_tunnel_is_repaired_changing_few_points() {
     let report = repair(&mut out, iso, &RepairOptions { thin: 0.0, grow: 0.05 }, false).unwrap();
     assert_eq!(report.fills().count(), 1, "{report:?}");
     assert_eq!(genus(&out, iso), 0);
-    let changed = out.data().iter().zip(g.data()).filter(|(a, b)| a != b).count();
+    let side = |v: f32| iso.offset(v as f64) < 0.0;
+    let changed = out.data().iter().zip(g.data()).filter(|(a, b)| side(**a) != side(**b)).count();
     assert_eq!(changed as u64, report.points_changed);
     assert!((changed as f64) < 0.001 * (n * n * n) as f64, "{changed} points changed");
-    // The flipped points are past 0.5 by twice their neighbours' reach (0.5): 1.5.
-    assert!(out.data().iter().all(|&v| v == 0.0 || v == 1.0 || v == 1.5));
+    // Only points near the fill moved, each to its side's sign-like value.
+    let moved = out.data().iter().zip(g.data()).filter(|(a, b)| a != b).count();
+    assert!(moved < 150 * changed.max(1), "{moved}");
 }
 
 #[test]
@@ -123,4 +125,34 @@ fn nothing_to_repair_changes_nothing_and_bad_thresholds_are_refused() {
     let mut g2 = g.clone();
     let e = repair(&mut g2, Iso::below(0.0), &RepairOptions { thin: f64::NAN, grow: 0.0 }, false).unwrap_err();
     assert!(e.to_string().contains("finite"), "{e}");
+}
+
+#[test]
+fn on_sign_like_data_the_mc33_surface_has_the_complex_topology() {
+    // χ of a closed surface bounding a solid is twice the solid's: random lattices of −1 inside
+    // and 3 outside (outside on the border) against the closed complex of their inside points.
+    // (With ±1, 253 of these 300 differ: the trilinear interpolant joins through saddles.)
+    let mut seed = 7u64;
+    let mut bad = Vec::new();
+    for case in 0..300 {
+        let n = 7u32;
+        let lattice = Lattice::with_geometry([n; 3], [1.0; 3], [0.0; 3]).unwrap();
+        let g = DenseGrid::from_fn(lattice, |p| {
+            seed = seed.wrapping_mul(6364136223846793005).wrapping_add(1442695040888963407);
+            let border = p.iter().any(|&v| v == 0 || v == n - 1);
+            if !border && (seed >> 33) % 5 < 3 {
+                -1.0
+            } else {
+                3.0
+            }
+        });
+        let solid: Vec<bool> = g.data().iter().map(|&v| v < 0.0).collect();
+        let chi = CellComplex::of_solid([n as usize; 3], &solid).euler();
+        let out = pipeline::extract(&GridVolume::new(&g), Iso::below(0.0), &Options::default()).unwrap();
+        let r = crate::topo::check(&out.mesh);
+        if r.euler != 2 * chi {
+            bad.push((case, r.euler, 2 * chi));
+        }
+    }
+    assert!(bad.is_empty(), "{} of 300 differ: {:?}", bad.len(), &bad[..bad.len().min(10)]);
 }

@@ -1,0 +1,125 @@
+//! `isoforge topo-repair` (issue 47): a torus volume loses its handle exactly when asked, the
+//! report and the side files say what was done, the real SOG files repair as TopoMender did,
+//! and bad requests exit 2 with one line and no file.
+
+mod common;
+
+use std::path::{Path, PathBuf};
+
+use common::{fails, isoforge, p};
+use isoforge::grid::{AnyGrid, DenseGrid, Lattice};
+use serde_json::Value;
+
+/// A torus's signed distance (centre radius 0.55, tube `r`) on 48³ points over [−1, 1]³.
+fn torus_volume(dir: &Path, r: f64) -> PathBuf {
+    let n = 48u32;
+    let h = 2.0 / (n - 1) as f64;
+    let lattice = Lattice::with_geometry([n; 3], [h; 3], [-1.0; 3]).unwrap();
+    let g = DenseGrid::from_fn(lattice, |ijk| {
+        let [x, y, z] = ijk.map(|v| -1.0 + v as f64 * h);
+        ((((x * x + y * y).sqrt() - 0.55).powi(2) + z * z).sqrt() - r) as f32
+    });
+    let path = dir.join("torus.nrrd");
+    isoforge_io::write_volume(&path, &AnyGrid::F32(g)).unwrap();
+    path
+}
+
+/// `topo-repair` with `args`.
+fn tr<'a>(args: &[&'a str]) -> Vec<&'a str> {
+    [&["topo-repair"][..], args].concat()
+}
+
+fn json(args: &[&str]) -> Value {
+    let o = isoforge(args);
+    assert_eq!(o.status.code(), Some(0), "{args:?}: {}", String::from_utf8_lossy(&o.stderr));
+    serde_json::from_slice(&o.stdout).unwrap()
+}
+
+#[test]
+fn a_torus_handle_is_cut_below_the_threshold_and_kept_above_it() {
+    let dir = tempfile::tempdir().unwrap();
+    let vol = torus_volume(dir.path(), 0.15);
+    let out = dir.path().join("out.ply");
+    let skt = dir.path().join("out.skt");
+    let grid = dir.path().join("out.nrrd");
+    let base = [p(&vol), "--iso", "0", "--grow", "0", "-o", p(&out), "--json"];
+    let found = json(&tr(&[&base[..], &["--thin", "1e9", "--skeleton", p(&skt), "--grid-out", p(&grid)]].concat()));
+    assert_eq!(found["genus_before"], 1);
+    assert_eq!(found["genus_after"], 0);
+    assert_eq!(found["handles_found"], 1);
+    let cuts = found["cuts"].as_array().unwrap();
+    assert_eq!(cuts.len(), 1);
+    let size = cuts[0]["size"].as_f64().unwrap();
+    let disc = std::f64::consts::PI * 0.15 * 0.15;
+    assert!(size > 0.7 * disc && size < 1.2 * disc, "{size} vs π r² {disc}");
+    assert!(found["closed"].as_bool().unwrap() && found["manifold"].as_bool().unwrap());
+    // The skeleton: records of 21 bytes, the solid's pass ended by 0xff, one of them cut.
+    let bytes = std::fs::read(&skt).unwrap();
+    assert_eq!(bytes.len() % 21, 1);
+    assert_eq!(*bytes.last().unwrap(), 0xff);
+    assert_eq!(bytes.chunks(21).filter(|r| r.len() == 21 && r[0] == 1).count(), 1);
+    // The repaired grid reads back with the points the report counts changed.
+    let AnyGrid::F32(g) = isoforge_io::read_volume(&grid, &isoforge_io::Limits::default()).unwrap() else { panic!() };
+    let AnyGrid::F32(was) = isoforge_io::read_volume(&vol, &isoforge_io::Limits::default()).unwrap() else { panic!() };
+    let changed = g.data().iter().zip(was.data()).filter(|(a, b)| a != b).count();
+    assert_eq!(changed as u64, found["points_changed"].as_u64().unwrap());
+    // Just below its size: kept.
+    let kept = json(&tr(&[&base[..], &["--thin", &format!("{}", size * 0.999)]].concat()));
+    assert_eq!(kept["genus_after"], 1);
+    assert_eq!(kept["handles_kept"].as_array().unwrap().len(), 1);
+    assert_eq!(kept["points_changed"], 0);
+}
+
+#[test]
+fn wisky_loses_its_two_handles_as_in_topomender() {
+    let sog = Path::new(env!("CARGO_MANIFEST_DIR")).join("../../../shared/data/sog/wisky.5.sog");
+    if !sog.exists() {
+        eprintln!("skipped: {} is absent", sog.display());
+        return;
+    }
+    let dir = tempfile::tempdir().unwrap();
+    let out = dir.path().join("wisky.obj");
+    let sog_out = dir.path().join("wisky.sog");
+    // TopoMender wisky.5.sog 1 0: two handles cut, genus 2 → 0.
+    let j = json(&tr(&[p(&sog), "--thin", "1", "--grow", "0", "-o", p(&out), "--grid-out", p(&sog_out), "--json"]));
+    assert_eq!(j["genus_before"], 2);
+    assert_eq!(j["genus_after"], 0);
+    assert_eq!(j["cuts"].as_array().unwrap().len(), 2);
+    assert!(j["cuts"].as_array().unwrap().iter().all(|c| c["size"].as_f64().unwrap() < 1.0));
+    // The repaired SOG contours to the same genus.
+    let c = json(&["check", p(&out), "--json"]);
+    assert_eq!(c["genus"], 0);
+    let again_out = dir.path().join("again.ply");
+    let again = json(&tr(&[p(&sog_out), "--thin", "0", "--grow", "0", "-o", p(&again_out), "--json"]));
+    assert_eq!(again["genus_before"], 0);
+}
+
+#[test]
+fn bad_requests_are_refused_in_one_line() {
+    let dir = tempfile::tempdir().unwrap();
+    let vol = torus_volume(dir.path(), 0.15);
+    let out = dir.path().join("out.ply");
+    fails(&tr(&[p(&vol), "--iso", "0", "--thin", "x", "--grow", "0", "-o", p(&out)]), "--thin \"x\"", &out);
+    fails(&tr(&[p(&vol), "--iso", "0", "--thin", "1", "--grow", "inf", "-o", p(&out)]), "--grow", &out);
+    fails(&tr(&[p(&vol), "--thin", "1", "--grow", "0", "-o", p(&out)]), "a volume needs --iso", &out);
+    fails(
+        &tr(&[p(&vol), "--iso", "0", "--thin", "1", "--grow", "0", "-o", p(&out), "--skeleton", "s.txt"]),
+        ".skt",
+        &out,
+    );
+    fails(
+        &tr(&[p(&vol), "--iso", "0", "--thin", "1", "--grow", "0", "-o", p(&out), "--grid-out", "g.vdb"]),
+        "--grid-out",
+        &out,
+    );
+    let sog = dir.path().join("bad.sog");
+    std::fs::write(&sog, b"not a sog file at all, just text").unwrap();
+    fails(&tr(&[p(&sog), "--thin", "1", "--grow", "0", "-o", p(&out)]), "bad.sog", &out);
+    fails(
+        &tr(&[p(&sog), "--iso", "0", "--thin", "1", "--grow", "0", "-o", p(&out)]),
+        "--iso and --inside apply to volume",
+        &out,
+    );
+    let missing = dir.path().join("missing.nrrd");
+    fails(&tr(&[p(&missing), "--iso", "0", "--thin", "1", "--grow", "0", "-o", p(&out)]), "missing.nrrd", &out);
+}
