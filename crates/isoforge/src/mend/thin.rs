@@ -16,7 +16,7 @@ pub struct Thinning {
     /// Rounds run.
     pub rounds: u32,
     /// The pairs collapsed `(σ, τ)`, in order: played backwards they pull a cochain of the
-    /// thinned complex back onto the whole ([`super::pull_back`]).
+    /// thinned complex back onto the whole (the membranes of [`super::repair`]).
     pub pairs: Vec<(u32, u32)>,
 }
 
