@@ -1,0 +1,93 @@
+"""isoforge: isosurface extraction, with scikit-image's ``marching_cubes`` as a drop-in."""
+
+import numpy as np
+
+from ._isoforge import extract_array
+
+__all__ = ["marching_cubes"]
+
+
+def marching_cubes(volume, level=None, *, spacing=(1.0, 1.0, 1.0), gradient_direction="descent",
+                   step_size=1, allow_degenerate=True, method="lewiner", mask=None, threads=None):
+    """Marching cubes with ``skimage.measure.marching_cubes``'s arguments and results.
+
+    Returns ``(verts, faces, normals, values)``: vertices in array index order ``(i0, i1, i2)``
+    times ``spacing``; ``method='lorensen'`` is classic marching cubes, ``'lewiner'`` is isoforge's
+    MC33 (the topology of the trilinear interpolant). The object is ``volume > level`` for
+    ``gradient_direction='descent'``. Integer volumes are not converted to float32.
+    """
+    if method == "lorensen":
+        name = "mc"
+    elif method == "lewiner":
+        name = "mc33"
+    else:
+        raise ValueError("method should be either 'lewiner' or 'lorensen'")
+    if not isinstance(volume, np.ndarray) or volume.ndim != 3:
+        raise ValueError("Input volume should be a 3D numpy array.")
+    if min(volume.shape) < 2:
+        raise ValueError("Input array must be at least 2x2x2.")
+    if volume.dtype.kind not in "uif" or volume.dtype.itemsize > 8:
+        volume = volume.astype(np.float32)
+    vmin, vmax = volume.min(), volume.max()
+    if level is None:
+        level = 0.5 * (float(vmin) + float(vmax))
+    else:
+        level = float(level)
+        if level < vmin or level > vmax:
+            raise ValueError("Surface level must be within volume data range.")
+    if len(spacing) != 3:
+        raise ValueError("`spacing` must consist of three floats.")
+    step_size = int(step_size)
+    if step_size < 1:
+        raise ValueError("step_size must be at least one.")
+    if gradient_direction not in ("descent", "ascent"):
+        raise ValueError(f"Incorrect input {gradient_direction} in `gradient_direction`, see docstring.")
+    if mask is not None:
+        if mask.shape != volume.shape:
+            raise ValueError("volume and mask must have the same shape.")
+        raise NotImplementedError("mask: not yet supported by isoforge.marching_cubes")
+    sampled = volume[::step_size, ::step_size, ::step_size] if step_size > 1 else volume
+    step = np.asarray([float(s) * step_size for s in spacing])
+    verts, faces, normals = extract_array(sampled, level, tuple(step), name, True, threads)
+    if len(verts) == 0:
+        raise RuntimeError("No surface found at the given iso value.")
+    values = _vertex_values(sampled, verts / step)
+    if gradient_direction == "ascent":
+        faces = faces[:, ::-1]
+    else:
+        # skimage's normals point towards lower values for 'descent' (they are the gradient,
+        # flipped with the faces); isoforge's point outside the object (values > level).
+        pass
+    if not allow_degenerate:
+        verts, faces = _drop_degenerate(verts, faces)
+    return verts, np.ascontiguousarray(faces), normals, values
+
+
+def _vertex_values(volume, index):
+    """skimage's ``values``: the largest value range (max - min of the 8 corners) among the cells
+    that share each vertex's edge."""
+    v = volume.astype(np.float64, copy=False)
+    corners = [v[a:v.shape[0] - 1 + a, b:v.shape[1] - 1 + b, c:v.shape[2] - 1 + c]
+               for a in (0, 1) for b in (0, 1) for c in (0, 1)]
+    spread = np.maximum.reduce(corners) - np.minimum.reduce(corners)
+    cells = np.asarray(spread.shape)
+    rounded = np.round(index)
+    on_point = np.abs(index - rounded) < 1e-4
+    base = np.where(on_point, rounded, np.floor(index)).astype(np.int64)
+    best = np.zeros(len(index))
+    for offset in np.ndindex(2, 2, 2):
+        o = np.asarray(offset)
+        c = base - o
+        ok = np.all((o == 0) | on_point, axis=1) & np.all((c >= 0) & (c < cells), axis=1)
+        c = np.clip(c, 0, cells - 1)
+        best = np.where(ok, np.maximum(best, spread[c[:, 0], c[:, 1], c[:, 2]]), best)
+    return best.astype(np.float32)
+
+
+def _drop_degenerate(verts, faces):
+    p = verts[faces]
+    keep = ~(np.all(p[:, 0] == p[:, 1], axis=1) | np.all(p[:, 1] == p[:, 2], axis=1)
+             | np.all(p[:, 0] == p[:, 2], axis=1))
+    faces = faces[keep]
+    used, inverse = np.unique(faces, return_inverse=True)
+    return verts[used], inverse.reshape(-1, 3)
