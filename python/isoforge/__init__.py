@@ -2,9 +2,9 @@
 
 import numpy as np
 
-from ._isoforge import extract_array
+from ._isoforge import contour_array, extract_array
 
-__all__ = ["marching_cubes"]
+__all__ = ["find_contours", "marching_cubes"]
 
 
 def marching_cubes(volume, level=None, *, spacing=(1.0, 1.0, 1.0), gradient_direction="descent",
@@ -91,3 +91,33 @@ def _drop_degenerate(verts, faces):
     faces = faces[keep]
     used, inverse = np.unique(faces, return_inverse=True)
     return verts[used], inverse.reshape(-1, 3)
+
+
+def find_contours(image, level=None, fully_connected="low", positive_orientation="low", *, mask=None):
+    """Marching squares with ``skimage.measure.find_contours``'s arguments and results.
+
+    Returns a list of ``(n, 2)`` arrays of ``(row, col)`` points; a closed contour repeats its
+    first point at its end.
+    """
+    image = np.asarray(image)
+    if image.ndim != 2:
+        raise ValueError("Only 2D arrays are supported.")
+    if fully_connected not in ("low", "high"):
+        raise ValueError('Parameters "fully_connected" must be either "high" or "low".')
+    if positive_orientation not in ("low", "high"):
+        raise ValueError('Parameters "positive_orientation" must be either "high" or "low".')
+    if mask is not None:
+        raise NotImplementedError("mask: not yet supported by isoforge.find_contours")
+    image = np.asarray(image, dtype=np.float64)
+    if level is None:
+        level = (np.nanmin(image) + np.nanmax(image)) / 2.0
+    out = []
+    for points, closed in contour_array(image, float(level), fully_connected == "low"):
+        if closed and len(points):
+            points = np.vstack([points, points[:1]])
+        # isoforge runs counter-clockwise around low values with rows up, which is clockwise in
+        # (row, col); skimage's 'low' is counter-clockwise around low values in (row, col).
+        if positive_orientation == "low":
+            points = points[::-1]
+        out.append(np.ascontiguousarray(points))
+    return out

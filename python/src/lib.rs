@@ -6,11 +6,12 @@
 //! library's lattice `[n2, n1, n0]` (x fastest) and vertices come back as `(z, y, x)` =
 //! `(i0, i1, i2)`.
 
+use isoforge::extract::{marching_squares, Saddle};
 use isoforge::grid::{AnyGrid, DenseGrid, Lattice, Sample};
 use isoforge::mesh::Normals;
 use isoforge::pipeline::{extract_grid, Method, Options};
 use isoforge::volume::Iso;
-use numpy::{PyArray1, PyArrayMethods, PyReadonlyArray3, PyUntypedArray, PyUntypedArrayMethods};
+use numpy::{PyArray1, PyArrayMethods, PyReadonlyArray2, PyReadonlyArray3, PyUntypedArray, PyUntypedArrayMethods};
 use pyo3::exceptions::{PyMemoryError, PyValueError};
 use pyo3::prelude::*;
 
@@ -91,9 +92,38 @@ fn extract_array<'py>(
     Ok((verts.into_any(), faces.into_any(), nrm.into_any()))
 }
 
+/// The isolines of a 2D image at `level` (inside ⇔ value < level): a list of `(points (n, 2)
+/// float64 as (row, col), closed)`; saddles join the inside corners when `join_inside`, the
+/// outside ones otherwise. Counter-clockwise around the inside with rows pointing up.
+#[pyfunction]
+fn contour_array<'py>(
+    py: Python<'py>,
+    image: PyReadonlyArray2<'py, f64>,
+    level: f64,
+    join_inside: bool,
+) -> PyResult<Vec<(Bound<'py, PyAny>, bool)>> {
+    let s = image.shape();
+    let dims = [s[1], s[0]].map(|d| u32::try_from(d).unwrap_or(u32::MAX));
+    if dims.iter().zip([s[1], s[0]]).any(|(&d, n)| d as usize != n) {
+        return Err(PyValueError::new_err(format!("image: shape {s:?} is too large")));
+    }
+    let values: Vec<f64> = image.as_array().iter().copied().collect();
+    let saddle = if join_inside { Saddle::JoinInside } else { Saddle::JoinOutside };
+    let lines = py.detach(|| marching_squares(dims, &values, Iso::below(level), saddle));
+    lines
+        .into_iter()
+        .map(|l| {
+            let n = l.points.len();
+            let rc: Vec<f64> = l.points.iter().flat_map(|p| [p[1], p[0]]).collect();
+            Ok((PyArray1::from_vec(py, rc).reshape([n, 2])?.into_any(), l.closed))
+        })
+        .collect()
+}
+
 /// The native part of `isoforge`.
 #[pymodule]
 fn _isoforge(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add_function(wrap_pyfunction!(extract_array, m)?)?;
+    m.add_function(wrap_pyfunction!(contour_array, m)?)?;
     Ok(())
 }
