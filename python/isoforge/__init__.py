@@ -48,10 +48,9 @@ def marching_cubes(volume, level=None, *, spacing=(1.0, 1.0, 1.0), gradient_dire
         raise NotImplementedError("mask: not yet supported by isoforge.marching_cubes")
     sampled = volume[::step_size, ::step_size, ::step_size] if step_size > 1 else volume
     step = np.asarray([float(s) * step_size for s in spacing])
-    verts, faces, normals = extract_array(sampled, level, tuple(step), name, True, threads)
+    verts, faces, normals, values = extract_array(sampled, level, tuple(step), name, True, threads)
     if len(verts) == 0:
         raise RuntimeError("No surface found at the given iso value.")
-    values = _vertex_values(sampled, verts / step)
     if gradient_direction == "ascent":
         faces = faces[:, ::-1]
     else:
@@ -61,28 +60,6 @@ def marching_cubes(volume, level=None, *, spacing=(1.0, 1.0, 1.0), gradient_dire
     if not allow_degenerate:
         verts, faces = _drop_degenerate(verts, faces)
     return verts, np.ascontiguousarray(faces), normals, values
-
-
-def _vertex_values(volume, index):
-    """skimage's ``values``: the largest value range (max - min of the 8 corners) among the cells
-    that share each vertex's edge. Only those cells are read (a whole-volume table of ranges cost
-    20x the extraction)."""
-    cells = np.asarray(volume.shape) - 1
-    rounded = np.round(index)
-    on_point = np.abs(index - rounded) < 1e-4
-    base = np.where(on_point, rounded, np.floor(index)).astype(np.int64)
-    best = np.zeros(len(index))
-    for offset in np.ndindex(2, 2, 2):
-        o = np.asarray(offset)
-        ok = np.all((o == 0) | on_point, axis=1)
-        c = base[ok] - o
-        inside = np.all((c >= 0) & (c < cells), axis=1)
-        rows = np.flatnonzero(ok)[inside]
-        c = c[inside]
-        corners = [volume[c[:, 0] + i, c[:, 1] + j, c[:, 2] + k] for i in (0, 1) for j in (0, 1) for k in (0, 1)]
-        spread = np.maximum.reduce(corners).astype(np.float64) - np.minimum.reduce(corners)
-        best[rows] = np.maximum(best[rows], spread)
-    return best.astype(np.float32)
 
 
 def _drop_degenerate(verts, faces):

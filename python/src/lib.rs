@@ -57,8 +57,42 @@ fn any_grid(volume: &Bound<'_, PyUntypedArray>, spacing: [f64; 3]) -> PyResult<A
     )))
 }
 
+/// scikit-image's per-vertex `values`: the largest range (max − min of the 8 corners) among the
+/// cells sharing the vertex's edge (a vertex on a point: its cells).
+fn spreads<S: Sample>(g: &DenseGrid<S>, positions: &[[f32; 3]]) -> Vec<f32> {
+    let (dims, spacing) = (g.lattice().dims(), g.lattice().spacing());
+    positions
+        .iter()
+        .map(|p| {
+            let idx = [0, 1, 2].map(|a| p[a] as f64 / spacing[a]);
+            let on_point = idx.map(|x| (x - x.round()).abs() < 1e-4);
+            let base = [0, 1, 2].map(|a| if on_point[a] { idx[a].round() } else { idx[a].floor() } as i64);
+            let mut best = 0.0f64;
+            for o in 0..8u32 {
+                let off = [o & 1, (o >> 1) & 1, (o >> 2) & 1].map(i64::from);
+                if (0..3).any(|a| off[a] == 1 && !on_point[a]) {
+                    continue;
+                }
+                let c = [0, 1, 2].map(|a| base[a] - off[a]);
+                if (0..3).any(|a| c[a] < 0 || c[a] >= i64::from(dims[a]) - 1) {
+                    continue;
+                }
+                let (mut lo, mut hi) = (f64::INFINITY, f64::NEG_INFINITY);
+                for k in 0..8u32 {
+                    let q = [0, 1, 2].map(|a| (c[a] + i64::from((k >> a) & 1)) as u32);
+                    let v = g.get(q).to_f64();
+                    lo = lo.min(v);
+                    hi = hi.max(v);
+                }
+                best = best.max(hi - lo);
+            }
+            best as f32
+        })
+        .collect()
+}
+
 /// `(vertices (n, 3) float32 as (i0, i1, i2) × spacing, triangles (m, 3) int64, normals (n, 3)
-/// float32)` of the surface at `level` with inside ⇔ value > level; the GIL is released during
+/// float32, values (n,) float32 as scikit-image's)` of the surface at `level` with inside ⇔ value > level; the GIL is released during
 /// the extraction.
 #[pyfunction]
 #[pyo3(signature = (volume, level, spacing, method, normals, threads=None))]
@@ -71,7 +105,7 @@ fn extract_array<'py>(
     method: &str,
     normals: bool,
     threads: Option<usize>,
-) -> PyResult<(Bound<'py, PyAny>, Bound<'py, PyAny>, Bound<'py, PyAny>)> {
+) -> PyResult<(Bound<'py, PyAny>, Bound<'py, PyAny>, Bound<'py, PyAny>, Bound<'py, PyAny>)> {
     let method = Method::parse(method).ok_or_else(|| PyValueError::new_err(format!("method {method:?}: unknown")))?;
     let grid = any_grid(volume, spacing)?;
     let opts = Options {
@@ -83,13 +117,15 @@ fn extract_array<'py>(
     let mut ex = py.detach(|| extract_grid(&grid, Iso::above(level), &opts, None)).map_err(library_error)?;
     ex.mesh.triangulate();
     let m = ex.mesh;
+    let values = py.detach(|| isoforge::with_grid!(&grid, g => spreads(g, &m.positions)));
     let swap = |p: &[[f32; 3]]| -> Vec<f32> { p.iter().flat_map(|v| [v[2], v[1], v[0]]).collect() };
     let n = m.positions.len();
     let verts = PyArray1::from_vec(py, swap(&m.positions)).reshape([n, 3])?;
     let nrm = PyArray1::from_vec(py, swap(&m.normals)).reshape([m.normals.len(), 3])?;
     let tris: Vec<i64> = m.triangles.iter().flat_map(|t| t.map(i64::from)).collect();
     let faces = PyArray1::from_vec(py, tris).reshape([m.triangles.len(), 3])?;
-    Ok((verts.into_any(), faces.into_any(), nrm.into_any()))
+    let values = PyArray1::from_vec(py, values);
+    Ok((verts.into_any(), faces.into_any(), nrm.into_any(), values.into_any()))
 }
 
 /// The isolines of a 2D image at `level` (inside ⇔ value < level): a list of `(points (n, 2)
