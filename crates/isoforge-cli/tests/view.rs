@@ -477,3 +477,47 @@ fn issue_10_abandoned_requests_are_dropped() {
         std::thread::sleep(Duration::from_millis(50));
     }
 }
+
+#[test]
+fn issue_50_half_open_connections_do_not_lock_others_out() {
+    // Issue 50: clients that send a request line and nothing more held every worker slot.
+    let v = Viewer::start(&[]);
+    let half: Vec<TcpStream> = (0..300)
+        .map(|_| {
+            let mut s = TcpStream::connect(&v.addr).unwrap();
+            let _ = s.write_all(b"GET /api/info HTTP/1.1\r\n");
+            s
+        })
+        .collect();
+    for path in ["/api/info", "/", "/main.js"] {
+        let t = Instant::now();
+        assert_eq!(v.get(path).0, 200, "{path}");
+        assert!(t.elapsed() < Duration::from_secs(1), "{path} took {:?}", t.elapsed());
+    }
+    drop(half);
+}
+
+#[test]
+fn issue_50_malformed_input_is_closed_at_once() {
+    let v = Viewer::start(&[]);
+    let lf = format!("GET /api/info HTTP/1.1\nHost: {}\n\n", v.addr);
+    let hello = [0x16u8, 0x03, 0x01, 0x00, 0xa5, 0x01, 0x00, 0x00, 0xa1, 0x03, 0x03];
+    for (name, raw) in [("LF-only", lf.as_bytes()), ("ClientHello", &hello[..])] {
+        let t = Instant::now();
+        assert_eq!(v.raw(raw).0, 400, "{name}");
+        assert!(t.elapsed() < Duration::from_secs(1), "{name} closed after {:?}", t.elapsed());
+    }
+    // An empty connection (closed without a byte) is closed at once.
+    let t = Instant::now();
+    let mut s = TcpStream::connect(&v.addr).unwrap();
+    s.shutdown(std::net::Shutdown::Write).unwrap();
+    s.set_read_timeout(Some(Duration::from_secs(5))).unwrap();
+    let mut out = Vec::new();
+    let _ = s.read_to_end(&mut out);
+    assert!(out.is_empty() && t.elapsed() < Duration::from_secs(1), "{out:?} after {:?}", t.elapsed());
+    // An absurd value is named, not echoed digit by digit.
+    let (code, body) = v.get("/api/mesh?t=1e300");
+    let body = String::from_utf8_lossy(&body).into_owned();
+    assert_eq!(code, 400, "{body}");
+    assert!(body.len() < 200 && body.contains("1e300"), "{body}");
+}

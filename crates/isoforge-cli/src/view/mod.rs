@@ -328,11 +328,11 @@ impl Viewer {
                     Classic::parse(name).ok_or_else(|| anyhow!("field={name:?}: metaballs, lines or height"))?;
                 let n = number(params, "n")?.unwrap_or(40.0);
                 if !(MIN_N as f64..=MAX_N as f64).contains(&n) || n.fract() != 0.0 {
-                    bail!("n={n}: a whole number from {MIN_N} to {MAX_N}");
+                    bail!("n={n:e}: a whole number from {MIN_N} to {MAX_N}");
                 }
                 let t = number(params, "t")?.unwrap_or(isoforge::volume::catalog::DEFAULT_TIME as f64);
                 if !(-1e6..=1e6).contains(&t) {
-                    bail!("t={t}: out of range");
+                    bail!("t={t:e}: out of range (at most 1e6 in magnitude)");
                 }
                 q.demo = Some(Demo { field, n: n as u32, t: t as f32 });
             }
