@@ -121,6 +121,34 @@ pub enum Body {
     Owned(Vec<u8>),
     /// A static file of the page.
     Static(&'static [u8]),
+    /// Written straight to the connection as it is made (an export), without `Content-Length`: the
+    /// close ends it. Held memory is what the writer holds, not the whole body.
+    Stream(Writer),
+}
+
+/// Writes a streamed body; an error stops it (the client went away or stopped reading).
+pub type Writer = Box<dyn FnOnce(&mut dyn Write) -> std::io::Result<()> + Send>;
+
+/// A body writer that holds the client to [`Limits::min_read_rate`] from its start.
+struct Paced<'a> {
+    stream: &'a mut TcpStream,
+    start: Instant,
+    written: u64,
+    limits: &'a Limits,
+}
+
+impl Write for Paced<'_> {
+    fn write(&mut self, buf: &[u8]) -> std::io::Result<usize> {
+        let allowed =
+            Duration::from_secs_f64((self.written + buf.len() as u64) as f64 / self.limits.min_read_rate.max(1) as f64);
+        write_all_by(self.stream, buf, self.start + self.limits.io_timeout + allowed, self.limits)?;
+        self.written += buf.len() as u64;
+        Ok(buf.len())
+    }
+
+    fn flush(&mut self) -> std::io::Result<()> {
+        Ok(())
+    }
 }
 
 impl Response {
@@ -339,7 +367,7 @@ fn refuse_now(mut stream: TcpStream, status: u16, message: String) {
     }
     let Body::Owned(body) = &r.body else { return };
     let mut out = Vec::new();
-    let _ = write_head(&mut out, &r, body.len());
+    let _ = write_head(&mut out, &r, Some(body.len()));
     out.extend_from_slice(body);
     let _ = stream.write(&out);
     let _ = stream.shutdown(Shutdown::Write);
@@ -380,13 +408,33 @@ fn connection(head: Head, limits: &Limits, stats: &Stats, handler: &Handler, hos
             (Response::error(status, message), false)
         }
     };
-    let (response, head_only) = response;
+    let (mut response, head_only) = response;
+    if let Body::Stream(_) = response.body {
+        let Body::Stream(writer) = std::mem::replace(&mut response.body, Body::Static(b"")) else { return };
+        let written = write_head(&mut stream, &response, None).and_then(|()| {
+            if head_only {
+                return Ok(());
+            }
+            let paced = Paced { stream: &mut stream, start: Instant::now(), written: 0, limits };
+            let mut w = std::io::BufWriter::with_capacity(256 * 1024, paced);
+            writer(&mut w)?;
+            w.flush()
+        });
+        if written.is_ok() {
+            stats.served.fetch_add(1, Ordering::Relaxed);
+            close_gently(stream);
+        } else {
+            stats.abandoned.fetch_add(1, Ordering::Relaxed);
+        }
+        return;
+    }
     let body: &[u8] = match &response.body {
         Body::Owned(b) => b,
         Body::Static(b) => b,
+        Body::Stream(_) => &[],
     };
     let budget = limits.io_timeout + Duration::from_secs_f64(body.len() as f64 / limits.min_read_rate.max(1) as f64);
-    let written = write_head(&mut stream, &response, body.len()).and_then(|()| {
+    let written = write_head(&mut stream, &response, Some(body.len())).and_then(|()| {
         if head_only {
             Ok(())
         } else {
@@ -515,9 +563,10 @@ fn read_by(stream: &mut TcpStream, buf: &mut [u8], deadline: Instant, limits: &L
     }
 }
 
-fn write_head(stream: &mut impl Write, r: &Response, len: usize) -> std::io::Result<()> {
+fn write_head(stream: &mut impl Write, r: &Response, len: Option<usize>) -> std::io::Result<()> {
+    let len = len.map(|n| format!("Content-Length: {n}\r\n")).unwrap_or_default();
     let mut head = format!(
-        "HTTP/1.1 {} {}\r\nContent-Type: {}\r\nContent-Length: {len}\r\nConnection: close\r\n\
+        "HTTP/1.1 {} {}\r\nContent-Type: {}\r\n{len}Connection: close\r\n\
          Cache-Control: no-store\r\nX-Content-Type-Options: nosniff\r\nCross-Origin-Resource-Policy: same-origin\r\n",
         r.status,
         reason(r.status),

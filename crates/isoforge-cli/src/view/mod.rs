@@ -497,20 +497,25 @@ impl Viewer {
     fn export_reply(&self, params: &[(String, String)], req: &Request) -> Result<Response, Failure> {
         let q = self.query(params, &["format"])?;
         let mesh = self.full_mesh(&q, req)?;
-        let data = isoforge_io::MeshData::default();
-        let mut bytes = Vec::new();
-        let (written, mime, file) = match get(params, "format").unwrap_or("ply") {
-            "ply" => (isoforge_io::write::ply::write_ply(&mut bytes, &mesh, false), "application/octet-stream", "ply"),
-            "obj" => (isoforge_io::write::obj::write_obj(&mut bytes, &mesh), "text/plain; charset=utf-8", "obj"),
-            "stl" => (isoforge_io::write::stl::write_stl(&mut bytes, &mesh), "application/octet-stream", "stl"),
-            "glb" => {
-                let named = [isoforge_io::NamedMesh { name: "isosurface", mesh: &mesh, data: &data }];
-                (isoforge_io::write::gltf::write_glb(&mut bytes, &named), "model/gltf-binary", "glb")
-            }
+        let (mime, file) = match get(params, "format").unwrap_or("ply") {
+            "ply" => ("application/octet-stream", "ply"),
+            "obj" => ("text/plain; charset=utf-8", "obj"),
+            "stl" => ("application/octet-stream", "stl"),
+            "glb" => ("model/gltf-binary", "glb"),
             f => return Err(Failure::Bad(anyhow!("format={f:?}: ply, obj, stl or glb"))),
         };
-        written.map_err(|e| anyhow!("export: {e}"))?;
-        let mut r = Response::ok(mime, Body::Owned(bytes));
+        // Streamed to the client as it is written: the body is never whole in memory.
+        let writer: http::Writer = Box::new(move |w: &mut dyn std::io::Write| match file {
+            "ply" => isoforge_io::write::ply::write_ply(w, &mesh, false),
+            "obj" => isoforge_io::write::obj::write_obj(w, &mesh),
+            "stl" => isoforge_io::write::stl::write_stl(w, &mesh),
+            _ => {
+                let data = isoforge_io::MeshData::default();
+                let named = [isoforge_io::NamedMesh { name: "isosurface", mesh: &mesh, data: &data }];
+                isoforge_io::write::gltf::write_glb(w, &named)
+            }
+        });
+        let mut r = Response::ok(mime, Body::Stream(writer));
         r.headers.push(("Content-Disposition", format!("attachment; filename=\"isosurface.{file}\"")));
         Ok(r)
     }
