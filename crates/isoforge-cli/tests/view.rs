@@ -521,3 +521,40 @@ fn issue_50_malformed_input_is_closed_at_once() {
     assert_eq!(code, 400, "{body}");
     assert!(body.len() < 200 && body.contains("1e300"), "{body}");
 }
+
+#[test]
+#[cfg(target_os = "linux")]
+fn issue_50_exports_are_streamed_and_memory_stays_bounded() {
+    // Issue 50: each export was built whole in memory; 40 at once peaked at 5.5 GB.
+    let v = Viewer::start(&[]);
+    let hwm = || {
+        let s = std::fs::read_to_string(format!("/proc/{}/status", v.child.id())).unwrap();
+        let line = s.lines().find(|l| l.starts_with("VmHWM:")).unwrap().to_string();
+        line.split_whitespace().nth(1).unwrap().parse::<u64>().unwrap() * 1024
+    };
+    let answers: Vec<Vec<u8>> = std::thread::scope(|sc| {
+        let hs: Vec<_> = (153..=160)
+            .map(|n| {
+                let addr = v.addr.clone();
+                sc.spawn(move || {
+                    let mut s = TcpStream::connect(&addr).unwrap();
+                    write!(s, "GET /api/export?format=obj&n={n} HTTP/1.1\r\nHost: {addr}\r\n\r\n").unwrap();
+                    let mut raw = Vec::new();
+                    s.read_to_end(&mut raw).unwrap();
+                    raw
+                })
+            })
+            .collect();
+        hs.into_iter().map(|h| h.join().unwrap()).collect()
+    });
+    for raw in &answers {
+        let split = raw.windows(4).position(|w| w == b"\r\n\r\n").unwrap();
+        let head = String::from_utf8_lossy(&raw[..split]);
+        assert!(head.starts_with("HTTP/1.1 200"), "{head}");
+        // Streamed: no Content-Length, the close ends the body; and the body is a whole OBJ.
+        assert!(!head.to_ascii_lowercase().contains("content-length"), "{head}");
+        assert!(raw.len() - split > 1_000_000 && raw.ends_with(b"\n"));
+    }
+    let peak = hwm();
+    assert!(peak < 200 << 20, "peak RSS {} MiB", peak >> 20);
+}
