@@ -558,3 +558,19 @@ fn issue_50_exports_are_streamed_and_memory_stays_bounded() {
     let peak = hwm();
     assert!(peak < 200 << 20, "peak RSS {} MiB", peak >> 20);
 }
+
+#[test]
+fn issue_50_max_memory_sets_the_budget() {
+    let bad = isoforge(&["view", "--max-memory", "lots"]);
+    assert!(!bad.status.success());
+    assert!(String::from_utf8_lossy(&bad.stderr).contains("--max-memory"), "{bad:?}");
+    // A budget smaller than one mesh: each export runs alone, one after the other, all answered.
+    let v = Viewer::start(&["--max-memory", "1"]);
+    let v = &v;
+    let codes: Vec<u16> = std::thread::scope(|sc| {
+        let hs: Vec<_> =
+            (0..3).map(|i| sc.spawn(move || v.get(&format!("/api/export?format=stl&n={}", 40 + i)).0)).collect();
+        hs.into_iter().map(|h| h.join().unwrap()).collect()
+    });
+    assert_eq!(codes, [200, 200, 200]);
+}

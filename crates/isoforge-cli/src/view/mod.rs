@@ -89,11 +89,13 @@ const PAGE: [(&str, &str, &str); 5] = [
 ///
 /// # Errors
 /// When the port cannot be bound.
-pub fn serve(port: u16, shown: Shown, base: pipeline::Request) -> Result<()> {
+pub fn serve(port: u16, shown: Shown, base: pipeline::Request, budget: u64) -> Result<()> {
     let listener =
         TcpListener::bind(("127.0.0.1", port)).with_context(|| format!("cannot listen on 127.0.0.1:{port}"))?;
     let addr = listener.local_addr().context("the server has no address")?;
-    let viewer = Arc::new(Viewer::new(shown, base));
+    let mut viewer = Viewer::new(shown, base);
+    viewer.budget = Budget::new(budget, BUDGET_WAIT);
+    let viewer = Arc::new(viewer);
     let stats = viewer.stats.clone();
     println!("http://{addr}/");
     use std::io::Write as _;
