@@ -103,6 +103,8 @@ pub struct DemoConfig {
 /// threads); the page's queries fill in method, iso and region through the same parsers.
 pub struct ViewConfig {
     pub port: u16,
+    /// `--max-memory`: the viewer's budget for exports in flight.
+    pub max_memory: Option<u64>,
     pub shown: Shown,
     pub request: Request,
 }
@@ -710,7 +712,8 @@ impl ViewConfig {
         };
         let request =
             Request { inside: Some(inside), options: Options { threads, ..Options::default() }, ..Request::default() };
-        Ok(ViewConfig { port: a.port, shown, request })
+        let max_memory = a.max_memory.as_deref().map(|m| bytes_for("--max-memory", m)).transpose()?;
+        Ok(ViewConfig { port: a.port, max_memory, shown, request })
     }
 }
 

@@ -1269,7 +1269,7 @@ pub fn view(c: &ViewConfig) -> Result<Outcome> {
             }
         }
     };
-    crate::view::serve(c.port, shown, c.request.clone())?;
+    crate::view::serve(c.port, shown, c.request.clone(), c.max_memory.unwrap_or(crate::view::MEMORY_BUDGET))?;
     Ok(Outcome::Success)
 }
 

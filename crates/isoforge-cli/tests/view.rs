@@ -477,3 +477,100 @@ fn issue_10_abandoned_requests_are_dropped() {
         std::thread::sleep(Duration::from_millis(50));
     }
 }
+
+#[test]
+fn issue_50_half_open_connections_do_not_lock_others_out() {
+    // Issue 50: clients that send a request line and nothing more held every worker slot.
+    let v = Viewer::start(&[]);
+    let half: Vec<TcpStream> = (0..300)
+        .map(|_| {
+            let mut s = TcpStream::connect(&v.addr).unwrap();
+            let _ = s.write_all(b"GET /api/info HTTP/1.1\r\n");
+            s
+        })
+        .collect();
+    for path in ["/api/info", "/", "/main.js"] {
+        let t = Instant::now();
+        assert_eq!(v.get(path).0, 200, "{path}");
+        assert!(t.elapsed() < Duration::from_secs(1), "{path} took {:?}", t.elapsed());
+    }
+    drop(half);
+}
+
+#[test]
+fn issue_50_malformed_input_is_closed_at_once() {
+    let v = Viewer::start(&[]);
+    let lf = format!("GET /api/info HTTP/1.1\nHost: {}\n\n", v.addr);
+    let hello = [0x16u8, 0x03, 0x01, 0x00, 0xa5, 0x01, 0x00, 0x00, 0xa1, 0x03, 0x03];
+    for (name, raw) in [("LF-only", lf.as_bytes()), ("ClientHello", &hello[..])] {
+        let t = Instant::now();
+        assert_eq!(v.raw(raw).0, 400, "{name}");
+        assert!(t.elapsed() < Duration::from_secs(1), "{name} closed after {:?}", t.elapsed());
+    }
+    // An empty connection (closed without a byte) is closed at once.
+    let t = Instant::now();
+    let mut s = TcpStream::connect(&v.addr).unwrap();
+    s.shutdown(std::net::Shutdown::Write).unwrap();
+    s.set_read_timeout(Some(Duration::from_secs(5))).unwrap();
+    let mut out = Vec::new();
+    let _ = s.read_to_end(&mut out);
+    assert!(out.is_empty() && t.elapsed() < Duration::from_secs(1), "{out:?} after {:?}", t.elapsed());
+    // An absurd value is named, not echoed digit by digit.
+    let (code, body) = v.get("/api/mesh?t=1e300");
+    let body = String::from_utf8_lossy(&body).into_owned();
+    assert_eq!(code, 400, "{body}");
+    assert!(body.len() < 200 && body.contains("1e300"), "{body}");
+}
+
+#[test]
+#[cfg(target_os = "linux")]
+fn issue_50_exports_are_streamed_and_memory_stays_bounded() {
+    // Issue 50: each export was built whole in memory; 40 at once peaked at 5.5 GB.
+    let v = Viewer::start(&[]);
+    let hwm = || {
+        let s = std::fs::read_to_string(format!("/proc/{}/status", v.child.id())).unwrap();
+        let line = s.lines().find(|l| l.starts_with("VmHWM:")).unwrap().to_string();
+        line.split_whitespace().nth(1).unwrap().parse::<u64>().unwrap() * 1024
+    };
+    let answers: Vec<Vec<u8>> = std::thread::scope(|sc| {
+        let hs: Vec<_> = (153..=160)
+            .map(|n| {
+                let addr = v.addr.clone();
+                sc.spawn(move || {
+                    let mut s = TcpStream::connect(&addr).unwrap();
+                    write!(s, "GET /api/export?format=obj&n={n} HTTP/1.1\r\nHost: {addr}\r\n\r\n").unwrap();
+                    let mut raw = Vec::new();
+                    s.read_to_end(&mut raw).unwrap();
+                    raw
+                })
+            })
+            .collect();
+        hs.into_iter().map(|h| h.join().unwrap()).collect()
+    });
+    for raw in &answers {
+        let split = raw.windows(4).position(|w| w == b"\r\n\r\n").unwrap();
+        let head = String::from_utf8_lossy(&raw[..split]);
+        assert!(head.starts_with("HTTP/1.1 200"), "{head}");
+        // Streamed: no Content-Length, the close ends the body; and the body is a whole OBJ.
+        assert!(!head.to_ascii_lowercase().contains("content-length"), "{head}");
+        assert!(raw.len() - split > 1_000_000 && raw.ends_with(b"\n"));
+    }
+    let peak = hwm();
+    assert!(peak < 200 << 20, "peak RSS {} MiB", peak >> 20);
+}
+
+#[test]
+fn issue_50_max_memory_sets_the_budget() {
+    let bad = isoforge(&["view", "--max-memory", "lots"]);
+    assert!(!bad.status.success());
+    assert!(String::from_utf8_lossy(&bad.stderr).contains("--max-memory"), "{bad:?}");
+    // A budget smaller than one mesh: each export runs alone, one after the other, all answered.
+    let v = Viewer::start(&["--max-memory", "1"]);
+    let v = &v;
+    let codes: Vec<u16> = std::thread::scope(|sc| {
+        let hs: Vec<_> =
+            (0..3).map(|i| sc.spawn(move || v.get(&format!("/api/export?format=stl&n={}", 40 + i)).0)).collect();
+        hs.into_iter().map(|h| h.join().unwrap()).collect()
+    });
+    assert_eq!(codes, [200, 200, 200]);
+}

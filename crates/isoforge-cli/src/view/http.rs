@@ -1,8 +1,12 @@
 //! The viewer's HTTP/1.1 server: `GET` and `HEAD`, one request per connection
 //! (`Connection: close`), hardened for a loopback port any local page or process can reach.
 //!
-//! - Connections are served concurrently by a bounded pool of workers fed by a bounded queue; when
-//!   the queue is full the accepting thread answers 503 itself, so it never blocks.
+//! - One thread accepts and reads requests on non-blocking sockets (`poll`), holding up to
+//!   [`Limits::pending`] incomplete ones and dropping the oldest when full; only complete request
+//!   heads reach the workers, in two lanes (work: mesh/check/export; fast: the rest) so the page and
+//!   `/api/info` are not queued behind exports. A full lane queue is answered 503 at once.
+//! - Malformed input (a first byte that is not a method letter, as a TLS ClientHello; LF-only line
+//!   endings) is refused as soon as it arrives.
 //! - The request line, the header block and the body are capped ([`Limits`]) and must arrive
 //!   within one deadline, so a client that trickles bytes (slowloris) holds a worker for a bounded
 //!   time; a response must be read at [`Limits::min_read_rate`], so a client that never reads
@@ -14,6 +18,7 @@
 
 use std::io::{ErrorKind, Read, Write};
 use std::net::{Shutdown, TcpListener, TcpStream};
+use std::os::fd::AsRawFd;
 use std::sync::atomic::{AtomicU64, Ordering};
 use std::sync::mpsc::{sync_channel, Receiver, TrySendError};
 use std::sync::{Arc, Mutex};
@@ -22,10 +27,14 @@ use std::time::{Duration, Instant};
 /// Caps and timeouts of the server.
 #[derive(Debug, Clone)]
 pub struct Limits {
-    /// Worker threads (connections served at once).
+    /// Worker threads of the work lane (meshes, checks, exports served at once).
     pub workers: usize,
-    /// Accepted connections waiting for a worker; beyond this, 503.
+    /// Worker threads of the fast lane (the page, `/api/info`, `/api/status`, refusals).
+    pub fast_workers: usize,
+    /// Complete requests waiting for a worker, per lane; beyond this, 503.
     pub queue: usize,
+    /// Connections whose request is still arriving; a new one beyond this drops the oldest.
+    pub pending: usize,
     /// Longest request line (`GET /path?query HTTP/1.1`), bytes; longer is 414.
     pub request_line: usize,
     /// Largest header block after the request line, bytes; larger is 431.
@@ -44,7 +53,9 @@ impl Default for Limits {
     fn default() -> Self {
         Limits {
             workers: 8,
+            fast_workers: 2,
             queue: 32,
+            pending: 4096,
             request_line: 8 * 1024,
             headers: 16 * 1024,
             body: 64 * 1024,
@@ -110,6 +121,34 @@ pub enum Body {
     Owned(Vec<u8>),
     /// A static file of the page.
     Static(&'static [u8]),
+    /// Written straight to the connection as it is made (an export), without `Content-Length`: the
+    /// close ends it. Held memory is what the writer holds, not the whole body.
+    Stream(Writer),
+}
+
+/// Writes a streamed body; an error stops it (the client went away or stopped reading).
+pub type Writer = Box<dyn FnOnce(&mut dyn Write) -> std::io::Result<()> + Send>;
+
+/// A body writer that holds the client to [`Limits::min_read_rate`] from its start.
+struct Paced<'a> {
+    stream: &'a mut TcpStream,
+    start: Instant,
+    written: u64,
+    limits: &'a Limits,
+}
+
+impl Write for Paced<'_> {
+    fn write(&mut self, buf: &[u8]) -> std::io::Result<usize> {
+        let allowed =
+            Duration::from_secs_f64((self.written + buf.len() as u64) as f64 / self.limits.min_read_rate.max(1) as f64);
+        write_all_by(self.stream, buf, self.start + self.limits.io_timeout + allowed, self.limits)?;
+        self.written += buf.len() as u64;
+        Ok(buf.len())
+    }
+
+    fn flush(&mut self) -> std::io::Result<()> {
+        Ok(())
+    }
 }
 
 impl Response {
@@ -156,50 +195,202 @@ fn reason(status: u16) -> &'static str {
 /// A handler: one request in, one response out; may run on several workers at once.
 pub type Handler = dyn Fn(&Request) -> Response + Send + Sync;
 
-/// Serves `listener` until the process ends: accepts on this thread, answers on the workers.
+/// Serves `listener` until the process ends: this thread accepts and reads requests, the workers
+/// answer them.
+///
+/// Reading is one `poll` loop over non-blocking sockets holding up to [`Limits::pending`]
+/// incomplete requests (the oldest is dropped when a new one needs room), so silent or trickling
+/// clients hold no worker. A complete request head goes to one of two lanes: `/api/mesh`,
+/// `/api/check` and `/api/export` to the work lane ([`Limits::workers`]), everything else (the page,
+/// `/api/info`, `/api/status`, refusals) to the fast lane ([`Limits::fast_workers`]).
 pub fn serve(listener: TcpListener, limits: Limits, stats: Arc<Stats>, handler: Arc<Handler>) {
     let port = listener.local_addr().map(|a| a.port()).unwrap_or(0);
     let hosts = Arc::new([format!("127.0.0.1:{port}"), format!("localhost:{port}"), format!("[::1]:{port}")]);
-    let (tx, rx) = sync_channel::<TcpStream>(limits.queue);
-    let rx = Arc::new(Mutex::new(rx));
-    for _ in 0..limits.workers.max(1) {
-        let (rx, limits, stats, handler, hosts) =
-            (rx.clone(), limits.clone(), stats.clone(), handler.clone(), hosts.clone());
-        std::thread::spawn(move || worker(&rx, &limits, &stats, &*handler, &hosts));
+    let lane = |workers: usize| {
+        let (tx, rx) = sync_channel::<Head>(limits.queue);
+        let rx = Arc::new(Mutex::new(rx));
+        for _ in 0..workers.max(1) {
+            let (rx, limits, stats, handler, hosts) =
+                (rx.clone(), limits.clone(), stats.clone(), handler.clone(), hosts.clone());
+            std::thread::spawn(move || worker(&rx, &limits, &stats, &*handler, &hosts));
+        }
+        tx
+    };
+    let (work, fast) = (lane(limits.workers), lane(limits.fast_workers));
+    if listener.set_nonblocking(true).is_err() {
+        return;
     }
-    for stream in listener.incoming() {
-        let Ok(stream) = stream else { continue };
-        match tx.try_send(stream) {
-            Ok(()) => {}
-            Err(TrySendError::Full(mut stream)) => {
-                // A few bytes always fit an empty socket buffer: this write does not block.
-                stats.refused.fetch_add(1, Ordering::Relaxed);
-                let _ = stream.set_write_timeout(Some(Duration::from_millis(100)));
-                let _ = write_head(&mut stream, &Response::error(503, "busy: too many connections"), 0);
+    let mut pending: Vec<Head> = Vec::new();
+    let mut fds: Vec<libc::pollfd> = Vec::new();
+    loop {
+        fds.clear();
+        fds.push(libc::pollfd { fd: listener.as_raw_fd(), events: libc::POLLIN, revents: 0 });
+        fds.extend(pending.iter().map(|h| libc::pollfd { fd: h.stream.as_raw_fd(), events: libc::POLLIN, revents: 0 }));
+        // SAFETY: `fds` is a valid array of `fds.len()` pollfd for the duration of the call.
+        let n = unsafe { libc::poll(fds.as_mut_ptr(), fds.len() as libc::nfds_t, 100) };
+        if n < 0 && std::io::Error::last_os_error().kind() != ErrorKind::Interrupted {
+            return;
+        }
+        let now = Instant::now();
+        let mut kept = Vec::with_capacity(pending.len());
+        for (mut h, fd) in pending.drain(..).zip(&fds[1..]) {
+            let step = if fd.revents != 0 { read_more(&mut h, &limits) } else { Step::Wait };
+            let step = match step {
+                Step::Wait if now >= h.deadline => {
+                    Step::Refuse(408, format!("request not received within {:?}", limits.request_deadline))
+                }
+                s => s,
+            };
+            match step {
+                Step::Wait => kept.push(h),
+                Step::Drop => {}
+                Step::Refuse(status, message) => {
+                    stats.refused.fetch_add(1, Ordering::Relaxed);
+                    refuse_now(h.stream, status, message);
+                }
+                Step::Ready => {
+                    let tx = if is_work(&h.buf) { &work } else { &fast };
+                    let _ = h.stream.set_nonblocking(false);
+                    match tx.try_send(h) {
+                        Ok(()) => {}
+                        Err(TrySendError::Full(h)) => {
+                            stats.refused.fetch_add(1, Ordering::Relaxed);
+                            refuse_now(h.stream, 503, "busy: too many requests, retry later".into());
+                        }
+                        Err(TrySendError::Disconnected(_)) => return,
+                    }
+                }
             }
-            Err(TrySendError::Disconnected(_)) => return,
+        }
+        pending = kept;
+        loop {
+            match listener.accept() {
+                Ok((stream, _)) => {
+                    if stream.set_nonblocking(true).is_err() {
+                        continue;
+                    }
+                    if pending.len() >= limits.pending.max(1) {
+                        // The oldest incomplete request makes room: a newcomer is never refused for
+                        // clients that do not finish theirs.
+                        pending.remove(0);
+                        stats.refused.fetch_add(1, Ordering::Relaxed);
+                    }
+                    pending.push(Head { stream, buf: Vec::new(), deadline: Instant::now() + limits.request_deadline });
+                }
+                Err(e) if e.kind() == ErrorKind::WouldBlock => break,
+                Err(e) if e.kind() == ErrorKind::Interrupted => continue,
+                Err(_) => {
+                    // Out of descriptors: the oldest incomplete request gives its back.
+                    if !pending.is_empty() {
+                        pending.remove(0);
+                        stats.refused.fetch_add(1, Ordering::Relaxed);
+                    }
+                    break;
+                }
+            }
         }
     }
 }
 
-fn worker(rx: &Mutex<Receiver<TcpStream>>, limits: &Limits, stats: &Stats, handler: &Handler, hosts: &[String; 3]) {
+/// A connection and the bytes of its request read so far.
+struct Head {
+    stream: TcpStream,
+    buf: Vec<u8>,
+    deadline: Instant,
+}
+
+enum Step {
+    /// Incomplete: keep reading.
+    Wait,
+    /// The head is complete (or over a cap, which the worker answers).
+    Ready,
+    /// Closed before sending anything, or reset.
+    Drop,
+    /// Answered at once by the reading thread.
+    Refuse(u16, String),
+}
+
+/// Reads what the non-blocking `h.stream` holds and says whether the head is complete.
+fn read_more(h: &mut Head, limits: &Limits) -> Step {
+    let cap = limits.request_line + 2 + limits.headers + 2;
+    let mut chunk = [0u8; 4096];
+    let closed = loop {
+        if h.buf.len() >= cap {
+            break false;
+        }
+        let room = (cap - h.buf.len()).min(chunk.len());
+        match h.stream.read(&mut chunk[..room]) {
+            Ok(0) => break true,
+            Ok(n) => h.buf.extend_from_slice(&chunk[..n]),
+            Err(e) if e.kind() == ErrorKind::Interrupted => {}
+            Err(e) if e.kind() == ErrorKind::WouldBlock => break false,
+            Err(_) => return Step::Drop,
+        }
+    };
+    if let Some(&b) = h.buf.first() {
+        if !b.is_ascii_uppercase() {
+            return Step::Refuse(400, "not an HTTP request (TLS is not served: use http://)".into());
+        }
+    }
+    let bare_lf = h.buf.iter().enumerate().any(|(i, &b)| b == b'\n' && (i == 0 || h.buf[i - 1] != b'\r'));
+    if bare_lf {
+        return Step::Refuse(400, "lines must end with CRLF".into());
+    }
+    if h.buf.windows(4).any(|w| w == b"\r\n\r\n") || h.buf.len() >= cap {
+        return Step::Ready;
+    }
+    let line_end = h.buf.windows(2).position(|w| w == b"\r\n").unwrap_or(h.buf.len());
+    if line_end > limits.request_line {
+        return Step::Ready; // the worker answers 414
+    }
+    match (closed, h.buf.is_empty()) {
+        (true, true) => Step::Drop,
+        (true, false) => Step::Refuse(400, "connection closed inside the request".into()),
+        (false, _) => Step::Wait,
+    }
+}
+
+/// True when the request's path is one of the expensive endpoints.
+fn is_work(buf: &[u8]) -> bool {
+    let line = buf.split(|&b| b == b'\r').next().unwrap_or(&[]);
+    let target = line.split(|&b| b == b' ').nth(1).unwrap_or(&[]);
+    let path = target.split(|&b| b == b'?').next().unwrap_or(&[]);
+    matches!(path, b"/api/mesh" | b"/api/check" | b"/api/export")
+}
+
+/// Answers a refusal from the reading thread: a short head on a fresh socket fits its buffer, so the
+/// non-blocking write does not wait; then the connection is closed.
+fn refuse_now(mut stream: TcpStream, status: u16, message: String) {
+    let mut r = Response::error(status, message);
+    if status == 503 {
+        r.headers.push(("Retry-After", "1".into()));
+    }
+    let Body::Owned(body) = &r.body else { return };
+    let mut out = Vec::new();
+    let _ = write_head(&mut out, &r, Some(body.len()));
+    out.extend_from_slice(body);
+    let _ = stream.write(&out);
+    let _ = stream.shutdown(Shutdown::Write);
+}
+
+fn worker(rx: &Mutex<Receiver<Head>>, limits: &Limits, stats: &Stats, handler: &Handler, hosts: &[String; 3]) {
     loop {
         let next = match rx.lock() {
             Ok(rx) => rx.recv(),
             Err(_) => return,
         };
-        let Ok(stream) = next else { return };
-        let _ = stream.set_nodelay(true);
-        connection(stream, limits, stats, handler, hosts);
+        let Ok(head) = next else { return };
+        let _ = head.stream.set_nodelay(true);
+        connection(head, limits, stats, handler, hosts);
     }
 }
 
 /// Why a request was not handed to the handler.
 struct Refusal(u16, String);
 
-fn connection(mut stream: TcpStream, limits: &Limits, stats: &Stats, handler: &Handler, hosts: &[String; 3]) {
-    let deadline = Instant::now() + limits.request_deadline;
-    let response = match read_request(&mut stream, limits, deadline, hosts) {
+fn connection(head: Head, limits: &Limits, stats: &Stats, handler: &Handler, hosts: &[String; 3]) {
+    let Head { mut stream, buf, deadline } = head;
+    let response = match read_request(&mut stream, buf, limits, deadline, hosts) {
         Ok((method, path, query)) => {
             let req = Request { path, query, stream: &stream };
             // A panic in a handler is a bug; it costs this request, not the server.
@@ -217,13 +408,33 @@ fn connection(mut stream: TcpStream, limits: &Limits, stats: &Stats, handler: &H
             (Response::error(status, message), false)
         }
     };
-    let (response, head_only) = response;
+    let (mut response, head_only) = response;
+    if let Body::Stream(_) = response.body {
+        let Body::Stream(writer) = std::mem::replace(&mut response.body, Body::Static(b"")) else { return };
+        let written = write_head(&mut stream, &response, None).and_then(|()| {
+            if head_only {
+                return Ok(());
+            }
+            let paced = Paced { stream: &mut stream, start: Instant::now(), written: 0, limits };
+            let mut w = std::io::BufWriter::with_capacity(256 * 1024, paced);
+            writer(&mut w)?;
+            w.flush()
+        });
+        if written.is_ok() {
+            stats.served.fetch_add(1, Ordering::Relaxed);
+            close_gently(stream);
+        } else {
+            stats.abandoned.fetch_add(1, Ordering::Relaxed);
+        }
+        return;
+    }
     let body: &[u8] = match &response.body {
         Body::Owned(b) => b,
         Body::Static(b) => b,
+        Body::Stream(_) => &[],
     };
     let budget = limits.io_timeout + Duration::from_secs_f64(body.len() as f64 / limits.min_read_rate.max(1) as f64);
-    let written = write_head(&mut stream, &response, body.len()).and_then(|()| {
+    let written = write_head(&mut stream, &response, Some(body.len())).and_then(|()| {
         if head_only {
             Ok(())
         } else {
@@ -243,11 +454,11 @@ fn connection(mut stream: TcpStream, limits: &Limits, stats: &Stats, handler: &H
 /// Reads and checks the request line and headers, and reads (and drops) the body.
 fn read_request(
     stream: &mut TcpStream,
+    mut buf: Vec<u8>,
     limits: &Limits,
     deadline: Instant,
     hosts: &[String; 3],
 ) -> Result<(&'static str, String, String), Refusal> {
-    let mut buf: Vec<u8> = Vec::with_capacity(1024);
     let cap = limits.request_line + 2 + limits.headers + 2;
     let end = loop {
         if let Some(p) = buf.windows(4).position(|w| w == b"\r\n\r\n") {
@@ -352,9 +563,10 @@ fn read_by(stream: &mut TcpStream, buf: &mut [u8], deadline: Instant, limits: &L
     }
 }
 
-fn write_head(stream: &mut TcpStream, r: &Response, len: usize) -> std::io::Result<()> {
+fn write_head(stream: &mut impl Write, r: &Response, len: Option<usize>) -> std::io::Result<()> {
+    let len = len.map(|n| format!("Content-Length: {n}\r\n")).unwrap_or_default();
     let mut head = format!(
-        "HTTP/1.1 {} {}\r\nContent-Type: {}\r\nContent-Length: {len}\r\nConnection: close\r\n\
+        "HTTP/1.1 {} {}\r\nContent-Type: {}\r\n{len}Connection: close\r\n\
          Cache-Control: no-store\r\nX-Content-Type-Options: nosniff\r\nCross-Origin-Resource-Policy: same-origin\r\n",
         r.status,
         reason(r.status),
@@ -538,19 +750,80 @@ mod tests {
 
     #[test]
     fn a_full_queue_is_answered_503() {
-        let limits = Limits { workers: 1, queue: 1, ..quick() };
-        let (addr, stats) = server(limits, 10);
-        // The worker waits on one silent client, a second fills the queue; the third is refused.
-        let _a = TcpStream::connect(&addr).unwrap();
-        std::thread::sleep(Duration::from_millis(50));
-        let _b = TcpStream::connect(&addr).unwrap();
-        std::thread::sleep(Duration::from_millis(50));
-        // Sending nothing: the refusal is not lost to a reset over unread bytes.
-        let mut c = TcpStream::connect(&addr).unwrap();
-        c.set_read_timeout(Some(Duration::from_secs(5))).unwrap();
-        let mut out = String::new();
-        c.read_to_string(&mut out).unwrap();
-        assert!(out.starts_with("HTTP/1.1 503"), "{out}");
-        assert!(stats.refused.load(Ordering::Relaxed) >= 1);
+        let listener = TcpListener::bind("127.0.0.1:0").unwrap();
+        let addr = listener.local_addr().unwrap().to_string();
+        let stats = Arc::new(Stats::default());
+        let (s, limits) = (stats.clone(), Limits { workers: 1, fast_workers: 1, queue: 1, ..quick() });
+        // A slow handler: one request works, one waits in the queue, the rest are refused.
+        std::thread::spawn(move || {
+            serve(
+                listener,
+                limits,
+                s,
+                Arc::new(|_: &Request| {
+                    std::thread::sleep(Duration::from_millis(300));
+                    Response::ok("text/plain", Body::Static(b"ok"))
+                }),
+            )
+        });
+        let req = format!("GET /api/export HTTP/1.1\r\nHost: {addr}\r\n\r\n");
+        let mut held: Vec<TcpStream> = (0..5)
+            .map(|_| {
+                let mut c = TcpStream::connect(&addr).unwrap();
+                c.write_all(req.as_bytes()).unwrap();
+                c
+            })
+            .collect();
+        let (mut codes, mut answers) = (Vec::new(), Vec::new());
+        for c in &mut held {
+            c.set_read_timeout(Some(Duration::from_secs(5))).unwrap();
+            let mut out = String::new();
+            let _ = c.read_to_string(&mut out);
+            codes.push(out.split_whitespace().nth(1).unwrap_or("").to_string());
+            answers.push(out);
+        }
+        let refused = codes.iter().filter(|c| *c == "503").count();
+        assert!(codes.iter().any(|c| c == "200") && refused >= 1, "{codes:?}");
+        assert!(answers.iter().filter(|a| a.contains("Retry-After: 1\r\n")).count() == refused);
+        assert_eq!(stats.refused.load(Ordering::Relaxed) as usize, refused);
+    }
+
+    #[test]
+    fn silent_clients_hold_no_worker_and_the_oldest_is_dropped() {
+        let limits = Limits { workers: 1, fast_workers: 1, pending: 64, ..quick() };
+        let limits = Limits { request_deadline: Duration::from_secs(30), ..limits };
+        let (addr, _) = server(limits, 10);
+        let silent: Vec<TcpStream> = (0..300)
+            .map(|_| {
+                let mut s = TcpStream::connect(&addr).unwrap();
+                let _ = s.write_all(b"GET /api/info HTTP/1.1\r\n");
+                s
+            })
+            .collect();
+        let t = Instant::now();
+        assert_eq!(ask(&addr, &get(&addr)), 200);
+        assert!(t.elapsed() < Duration::from_secs(1), "{:?}", t.elapsed());
+        drop(silent);
+    }
+
+    #[test]
+    fn malformed_input_is_closed_at_once() {
+        let limits = Limits { request_deadline: Duration::from_secs(5), ..quick() };
+        let (addr, _) = server(limits, 10);
+        let lf = format!("GET /x HTTP/1.1\nHost: {addr}\n\n");
+        let hello = [0x16u8, 0x03, 0x01, 0x02, 0x00, 0x01, 0x00, 0x01, 0xfc, 0x03, 0x03];
+        for (raw, code) in [(lf.as_bytes(), 400), (&hello[..], 400)] {
+            let t = Instant::now();
+            assert_eq!(ask(&addr, raw), code);
+            assert!(t.elapsed() < Duration::from_secs(1), "{:?}", t.elapsed());
+        }
+        // An empty connection (closed without a byte) is closed at once, unanswered.
+        let t = Instant::now();
+        let mut s = TcpStream::connect(&addr).unwrap();
+        s.shutdown(Shutdown::Write).unwrap();
+        s.set_read_timeout(Some(Duration::from_secs(5))).unwrap();
+        let mut out = Vec::new();
+        let _ = s.read_to_end(&mut out);
+        assert!(out.is_empty() && t.elapsed() < Duration::from_secs(1), "{:?}", t.elapsed());
     }
 }

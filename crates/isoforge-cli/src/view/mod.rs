@@ -89,11 +89,13 @@ const PAGE: [(&str, &str, &str); 5] = [
 ///
 /// # Errors
 /// When the port cannot be bound.
-pub fn serve(port: u16, shown: Shown, base: pipeline::Request) -> Result<()> {
+pub fn serve(port: u16, shown: Shown, base: pipeline::Request, budget: u64) -> Result<()> {
     let listener =
         TcpListener::bind(("127.0.0.1", port)).with_context(|| format!("cannot listen on 127.0.0.1:{port}"))?;
     let addr = listener.local_addr().context("the server has no address")?;
-    let viewer = Arc::new(Viewer::new(shown, base));
+    let mut viewer = Viewer::new(shown, base);
+    viewer.budget = Budget::new(budget, BUDGET_WAIT);
+    let viewer = Arc::new(viewer);
     let stats = viewer.stats.clone();
     println!("http://{addr}/");
     use std::io::Write as _;
@@ -148,6 +150,10 @@ struct Viewer {
     /// Held while a check runs (one at a time).
     checking: Mutex<()>,
     stats: Arc<Stats>,
+    /// The memory budget of exports in flight.
+    budget: Arc<Budget>,
+    /// Bytes of the last exported mesh: the next export's estimate.
+    last_export_bytes: std::sync::atomic::AtomicU64,
 }
 
 /// Why a request ended without an answer: its client went away.
@@ -157,6 +163,94 @@ struct Abandoned;
 enum Failure {
     Abandoned,
     Bad(anyhow::Error),
+    /// The memory budget stayed taken for [`BUDGET_WAIT`]: 503 with `Retry-After`.
+    Busy,
+}
+
+/// Memory that meshes held for exports in flight may take together, bytes (the volume itself and
+/// the one extraction running at a time come on top).
+pub const MEMORY_BUDGET: u64 = 1 << 30;
+/// How long an export waits for room in the budget before it is answered 503.
+const BUDGET_WAIT: Duration = Duration::from_secs(30);
+/// What an export reserves before its mesh is known, when no export was made yet.
+const FIRST_ESTIMATE: u64 = 64 << 20;
+
+/// One memory budget for everything in flight: a request reserves before it allocates, waits
+/// while the budget is taken, and gives its share back when its answer is written.
+struct Budget {
+    limit: u64,
+    /// Longest wait for room ([`BUDGET_WAIT`]).
+    wait: Duration,
+    used: Mutex<u64>,
+    freed: std::sync::Condvar,
+}
+
+impl Budget {
+    fn new(limit: u64, wait: Duration) -> Arc<Budget> {
+        Arc::new(Budget { limit, wait, used: Mutex::new(0), freed: std::sync::Condvar::new() })
+    }
+}
+
+/// A share of the [`Budget`], given back when dropped.
+struct Reservation {
+    budget: Arc<Budget>,
+    bytes: u64,
+}
+
+impl Budget {
+    /// Reserves `bytes` (at most the whole budget: a larger request runs alone), waiting up to
+    /// [`BUDGET_WAIT`] for room.
+    fn reserve(self: &Arc<Self>, bytes: u64, abandoned: impl Fn() -> bool) -> Result<Reservation, Failure> {
+        let bytes = bytes.min(self.limit);
+        let until = Instant::now() + self.wait;
+        let mut used = lock(&self.used);
+        while *used + bytes > self.limit {
+            if Instant::now() >= until {
+                return Err(Failure::Busy);
+            }
+            used = match self.freed.wait_timeout(used, Duration::from_millis(100)) {
+                Ok((g, _)) => g,
+                Err(p) => p.into_inner().0,
+            };
+            if abandoned() {
+                return Err(Failure::Abandoned);
+            }
+        }
+        *used += bytes;
+        Ok(Reservation { budget: self.clone(), bytes })
+    }
+}
+
+impl Reservation {
+    /// Replaces the estimate by what was really allocated (it may overshoot the budget once).
+    fn resize(&mut self, bytes: u64) {
+        let mut used = lock(&self.budget.used);
+        *used = (*used + bytes).saturating_sub(self.bytes);
+        self.bytes = bytes;
+        self.budget.freed.notify_all();
+    }
+}
+
+impl Drop for Reservation {
+    fn drop(&mut self) {
+        let mut used = lock(&self.budget.used);
+        *used = used.saturating_sub(self.bytes);
+        if *used == 0 {
+            // Idle: give freed memory back to the system (glibc keeps freed arenas otherwise).
+            #[cfg(all(target_os = "linux", target_env = "gnu"))]
+            // SAFETY: malloc_trim only releases free heap pages.
+            unsafe {
+                libc::malloc_trim(0);
+            }
+        }
+        self.budget.freed.notify_all();
+    }
+}
+
+/// Bytes a mesh holds.
+fn mesh_bytes(m: &Mesh) -> u64 {
+    (m.positions.capacity() * 12 + m.normals.capacity() * 12 + m.triangles.capacity() * 12 + m.quads.capacity() * 16)
+        as u64
 }
 
 impl From<anyhow::Error> for Failure {
@@ -221,6 +315,8 @@ impl Viewer {
             extracting: Mutex::new(()),
             checking: Mutex::new(()),
             stats: Arc::new(Stats::default()),
+            budget: Budget::new(MEMORY_BUDGET, BUDGET_WAIT),
+            last_export_bytes: std::sync::atomic::AtomicU64::new(FIRST_ESTIMATE),
         }
     }
 
@@ -246,6 +342,11 @@ impl Viewer {
             Ok(r) => r,
             Err(Failure::Abandoned) => Response::abandoned(),
             Err(Failure::Bad(e)) => Response::error(400, format!("{e:#}")),
+            Err(Failure::Busy) => {
+                let mut r = Response::error(503, "busy: exports in flight hold the memory budget, retry later");
+                r.headers.push(("Retry-After", "5".into()));
+                r
+            }
         }
     }
 
@@ -328,11 +429,11 @@ impl Viewer {
                     Classic::parse(name).ok_or_else(|| anyhow!("field={name:?}: metaballs, lines or height"))?;
                 let n = number(params, "n")?.unwrap_or(40.0);
                 if !(MIN_N as f64..=MAX_N as f64).contains(&n) || n.fract() != 0.0 {
-                    bail!("n={n}: a whole number from {MIN_N} to {MAX_N}");
+                    bail!("n={n:e}: a whole number from {MIN_N} to {MAX_N}");
                 }
                 let t = number(params, "t")?.unwrap_or(isoforge::volume::catalog::DEFAULT_TIME as f64);
                 if !(-1e6..=1e6).contains(&t) {
-                    bail!("t={t}: out of range");
+                    bail!("t={t:e}: out of range (at most 1e6 in magnitude)");
                 }
                 q.demo = Some(Demo { field, n: n as u32, t: t as f32 });
             }
@@ -496,21 +597,31 @@ impl Viewer {
 
     fn export_reply(&self, params: &[(String, String)], req: &Request) -> Result<Response, Failure> {
         let q = self.query(params, &["format"])?;
+        use std::sync::atomic::Ordering::Relaxed;
+        let mut held = self.budget.reserve(self.last_export_bytes.load(Relaxed), || req.is_abandoned())?;
         let mesh = self.full_mesh(&q, req)?;
-        let data = isoforge_io::MeshData::default();
-        let mut bytes = Vec::new();
-        let (written, mime, file) = match get(params, "format").unwrap_or("ply") {
-            "ply" => (isoforge_io::write::ply::write_ply(&mut bytes, &mesh, false), "application/octet-stream", "ply"),
-            "obj" => (isoforge_io::write::obj::write_obj(&mut bytes, &mesh), "text/plain; charset=utf-8", "obj"),
-            "stl" => (isoforge_io::write::stl::write_stl(&mut bytes, &mesh), "application/octet-stream", "stl"),
-            "glb" => {
-                let named = [isoforge_io::NamedMesh { name: "isosurface", mesh: &mesh, data: &data }];
-                (isoforge_io::write::gltf::write_glb(&mut bytes, &named), "model/gltf-binary", "glb")
-            }
+        let bytes = mesh_bytes(&mesh);
+        self.last_export_bytes.store(bytes.max(1 << 20), Relaxed);
+        held.resize(bytes);
+        let (mime, file) = match get(params, "format").unwrap_or("ply") {
+            "ply" => ("application/octet-stream", "ply"),
+            "obj" => ("text/plain; charset=utf-8", "obj"),
+            "stl" => ("application/octet-stream", "stl"),
+            "glb" => ("model/gltf-binary", "glb"),
             f => return Err(Failure::Bad(anyhow!("format={f:?}: ply, obj, stl or glb"))),
         };
-        written.map_err(|e| anyhow!("export: {e}"))?;
-        let mut r = Response::ok(mime, Body::Owned(bytes));
+        // Streamed to the client as it is written: the body is never whole in memory.
+        let writer: http::Writer = Box::new(move |w: &mut dyn std::io::Write| match file {
+            "ply" => isoforge_io::write::ply::write_ply(w, &mesh, false),
+            "obj" => isoforge_io::write::obj::write_obj(w, &mesh),
+            "stl" => isoforge_io::write::stl::write_stl(w, &mesh),
+            _ => {
+                let data = isoforge_io::MeshData::default();
+                let named = [isoforge_io::NamedMesh { name: "isosurface", mesh: &mesh, data: &data }];
+                isoforge_io::write::gltf::write_glb(w, &named)
+            }
+        });
+        let mut r = Response::ok(mime, Body::Stream(writer));
         r.headers.push(("Content-Disposition", format!("attachment; filename=\"isosurface.{file}\"")));
         Ok(r)
     }
@@ -631,6 +742,33 @@ fn drawable(mut mesh: isoforge::mesh::Mesh) -> isoforge::mesh::Mesh {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn the_memory_budget_makes_exports_wait_then_refuses() {
+        let b = Budget::new(100, Duration::from_millis(300));
+        let first = b.reserve(80, || false).ok().unwrap();
+        // No room: waits, then Busy (503 + Retry-After).
+        let t = Instant::now();
+        assert!(matches!(b.reserve(40, || false), Err(Failure::Busy)));
+        assert!(t.elapsed() >= Duration::from_millis(300));
+        // An abandoned request stops waiting.
+        assert!(matches!(b.reserve(40, || true), Err(Failure::Abandoned)));
+        // Room is given back when the first answer is written; a waiter gets it.
+        let b2 = b.clone();
+        let waiter = std::thread::spawn(move || b2.reserve(40, || false).is_ok());
+        std::thread::sleep(Duration::from_millis(50));
+        drop(first);
+        assert!(waiter.join().unwrap());
+        assert_eq!(*lock(&b.used), 0);
+        // Larger than the whole budget: runs alone.
+        let big = b.reserve(1000, || false).ok().unwrap();
+        assert_eq!(*lock(&b.used), 100);
+        drop(big);
+        // resize follows what was really allocated.
+        let mut r = b.reserve(10, || false).ok().unwrap();
+        r.resize(70);
+        assert_eq!(*lock(&b.used), 70);
+    }
 
     #[test]
     fn sparse_previews_take_the_level_that_brings_samples_under_the_budget() {
