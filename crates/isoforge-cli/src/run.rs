@@ -82,10 +82,10 @@ fn open_input(input: &InputConfig, budget: Option<&Budget>, prefer_stream: bool)
                 let need = estimate(&f.lattice, points.saturating_mul(4), b);
                 if need > b.bytes {
                     bail!(
-                        "--max-memory {} MiB: meshing the field in memory can need {} MiB (its {} values \
+                        "--max-memory {}: meshing the field in memory can need {} (its {} values \
                          and the largest mesh --method {} could make), and fields do not stream",
-                        b.bytes >> 20,
-                        need.div_ceil(1 << 20),
+                        size(b.bytes),
+                        size(need),
                         points,
                         b.method.name()
                     );
@@ -97,8 +97,7 @@ fn open_input(input: &InputConfig, budget: Option<&Budget>, prefer_stream: bool)
     };
     let name = path.display();
     if raw.is_none() && isoforge_io::VolumeFormat::from_path(path) == Some(isoforge_io::VolumeFormat::Vdb) {
-        let file = spin(format!("reading {name}"), || isoforge_io::read_sparse(path, None, &input.limits))?;
-        return Ok(Loaded::Sparse(Box::new(file)));
+        return Ok(Loaded::Sparse(Box::new(read_sparse_within(path, &input.limits, budget)?)));
     }
     let open_limits = if budget.is_some() { Limits::new(u64::MAX) } else { input.limits };
     let reader = open_reader(path, raw.as_ref(), &open_limits)?;
@@ -108,19 +107,19 @@ fn open_input(input: &InputConfig, budget: Option<&Budget>, prefer_stream: bool)
             if !streams(path) {
                 bail!(
                     "{name}: images, DICOM series and VTI files are read whole; with the largest mesh \
-                     --method {} could make they need {} MiB, more than --max-memory {} MiB",
+                     --method {} could make they need {}, more than --max-memory {}",
                     b.method.name(),
-                    need >> 20,
-                    b.bytes >> 20
+                    size(need),
+                    size(b.bytes)
                 );
             }
             let least = stream_minimum(&reader);
             if least > b.bytes {
                 bail!(
-                    "{name}: --max-memory {} KiB: streaming it slab by slab holds at least {} KiB (nine slabs \
-                     of {}×{} samples, before any mesh)",
-                    b.bytes >> 10,
-                    least.div_ceil(1 << 10),
+                    "{name}: --max-memory {}: streaming it slab by slab holds at least {} (nine slabs \
+                     of {}×{} samples and the files' buffers, before any mesh)",
+                    size(b.bytes),
+                    size(least),
                     reader.lattice().dims()[0],
                     reader.lattice().dims()[1]
                 );
@@ -135,6 +134,44 @@ fn open_input(input: &InputConfig, budget: Option<&Budget>, prefer_stream: bool)
     let grid = reader.read_grid_with_progress(&input.limits, Some(&task))?;
     task.finish();
     Ok(Loaded::Grid(place(grid, &input.placement)?))
+}
+
+/// Reads the sparse (VDB) file `path`. Sparse files are read whole, so with a budget the reading
+/// stops at it ([`sparse_mesh_estimate`] checks the mesh once the isos are known).
+fn read_sparse_within(path: &Path, limits: &Limits, budget: Option<&Budget>) -> Result<isoforge_io::SparseFile> {
+    let name = path.display();
+    let within = match budget {
+        Some(b) if b.bytes < limits.max_bytes => Limits::new(b.bytes),
+        _ => *limits,
+    };
+    spin(format!("reading {name}"), || isoforge_io::read_sparse(path, None, &within)).map_err(|e| match budget {
+        Some(b) if matches!(e, isoforge_io::Error::Limit { .. }) && b.bytes < limits.max_bytes => {
+            anyhow!("{name}: sparse files are read whole, and its grid needs more than --max-memory {}", size(b.bytes))
+        }
+        _ => e.into(),
+    })
+}
+
+/// The memory meshing the sparse grid `g` at `iso` in memory can need at most: its samples and
+/// the largest mesh `b`'s method could make in the blocks of cells the surface may cross.
+fn sparse_mesh_estimate(g: &AnySparse, iso: Iso, b: &Budget) -> u64 {
+    let ranges = match g {
+        AnySparse::F32(g) => g.active_ranges_in(iso, true, 1),
+        AnySparse::F64(g) => g.active_ranges_in(iso, true, 1),
+    };
+    let count = |extra: u32| -> u64 {
+        ranges.iter().map(|r| (0..3).map(|a| u64::from(r.hi[a] - r.lo[a] + extra)).product::<u64>()).sum()
+    };
+    estimate_for(count(1), count(0), g.stats().bytes, b)
+}
+
+/// `bytes` for a message: in KiB below 1 MiB, in MiB below 10 GiB, else in GiB.
+fn size(bytes: u64) -> String {
+    match bytes {
+        b if b < 1 << 20 => format!("{} KiB", b.div_ceil(1 << 10)),
+        b if b < 10 << 30 => format!("{} MiB", b.div_ceil(1 << 20)),
+        b => format!("{} GiB", b.div_ceil(1 << 30)),
+    }
 }
 
 /// Opens the volume file `path` (raw with `raw`'s layout); opening decodes images, DICOM series
@@ -251,8 +288,13 @@ fn in_memory_estimate(reader: &VolumeReader, b: &Budget) -> u64 {
 
 /// [`in_memory_estimate`] of the samples of `volume_bytes` on `l`.
 fn estimate(l: &isoforge::grid::Lattice, volume_bytes: u64, b: &Budget) -> u64 {
-    let points = l.num_points();
     let cells = l.dims().iter().map(|&d| u64::from(d.saturating_sub(1))).product::<u64>();
+    estimate_for(l.num_points(), cells, volume_bytes, b)
+}
+
+/// The memory an in-memory extraction of `cells` cells and `points` points, whose samples take
+/// `volume_bytes`, can need at most with `b`'s method.
+fn estimate_for(points: u64, cells: u64, volume_bytes: u64, b: &Budget) -> u64 {
     let ((per_point, per_cell), growth) =
         (if b.method == Method::MarchingCubes { MC_MESH } else { ANY_METHOD_MESH }, if b.grows { 2 } else { 1 });
     let (vertices, triangles) = (per_point.saturating_mul(points), per_cell.saturating_mul(cells));
@@ -275,8 +317,13 @@ fn stream_minimum(reader: &VolumeReader) -> u64 {
     let samples = (nx * ny).saturating_mul(reader.dtype().size() as u64).saturating_mul(9);
     let bits = 3 * ny * nx.div_ceil(64) * 8;
     let rows = 2 * ny * 40;
-    samples.saturating_add(bits).saturating_add(rows)
+    samples.saturating_add(bits).saturating_add(rows).saturating_add(STREAM_BUFFERS)
 }
+
+/// The file buffers a stream holds whatever the volume (measured with heaptrack on a streamed
+/// PLY): the reader's (1 MiB), the writer's two parts (1 MiB each) and its gathered faces (up to
+/// 2 MiB).
+const STREAM_BUFFERS: u64 = 5 << 20;
 
 fn input_name(input: &InputConfig) -> String {
     match &input.source {
@@ -501,6 +548,18 @@ pub fn extract(c: &ExtractConfig) -> Result<Outcome> {
             if let Some(range) = s.grid.value_range() {
                 request::check_isos_in_range(&isos, range.min, range.max)
                     .map_err(|e| anyhow!("{name}: {e} (see `isoforge info {name}`)"))?;
+            }
+            if let Some(b) = &budget {
+                let need = isos.iter().map(|&iso| sparse_mesh_estimate(&s.grid, iso, b)).max().unwrap_or(0);
+                if need > b.bytes {
+                    bail!(
+                        "{name}: sparse files are meshed in memory, and with the largest mesh --method {} could \
+                         make in the cells the surface may cross it can need {}, more than --max-memory {}",
+                        b.method.name(),
+                        size(need),
+                        size(b.bytes)
+                    );
+                }
             }
             Loaded::Sparse(s)
         }

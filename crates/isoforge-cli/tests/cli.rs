@@ -1,40 +1,12 @@
 //! The command line end to end: exit codes, one-line errors naming the file, no partial output,
 //! the peer-benchmark contract, and the real volumes in ../shared/data when present.
 
+mod common;
+
 use std::path::{Path, PathBuf};
-use std::process::{Command, Output};
+use std::process::Command;
 
-fn isoforge(args: &[&str]) -> Output {
-    Command::new(env!("CARGO_BIN_EXE_isoforge")).args(args).output().expect("run isoforge")
-}
-
-fn stderr(o: &Output) -> String {
-    String::from_utf8_lossy(&o.stderr).into_owned()
-}
-
-fn p(path: &Path) -> &str {
-    path.to_str().unwrap()
-}
-
-fn testdata() -> PathBuf {
-    PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("../../testdata")
-}
-
-/// Runs `args`, expects exit 2 with a one-line error containing `needle`, and no output file.
-fn fails(args: &[&str], needle: &str, out: &Path) {
-    let o = isoforge(args);
-    let err = stderr(&o);
-    assert_eq!(o.status.code(), Some(2), "{args:?}: {err}");
-    assert!(err.contains(needle), "{args:?}: expected {needle:?} in {err:?}");
-    assert_eq!(err.trim_end().lines().count(), 1, "{args:?}: error is not one line: {err}");
-    assert!(!out.exists(), "{args:?}: left {} behind", out.display());
-    let leftovers: Vec<_> = std::fs::read_dir(out.parent().unwrap())
-        .unwrap()
-        .filter_map(|e| e.ok())
-        .filter(|e| e.file_name().to_string_lossy().contains(".tmp"))
-        .collect();
-    assert!(leftovers.is_empty(), "temporary files left: {leftovers:?}");
-}
+use common::{fails, isoforge, p, stderr, testdata};
 
 #[test]
 fn demo_writes_a_watertight_mesh() {
@@ -356,7 +328,7 @@ fn streamed_mesh_equals_in_memory_mesh() {
         let o = isoforge(&[&base[..], &["-o", p(&mem)]].concat());
         assert_eq!(o.status.code(), Some(0), "{}", stderr(&o));
         let t = dir.path().join("t.json");
-        let o = isoforge(&[&base[..], &["-o", p(&streamed), "--max-memory", "64K", "--time-json", p(&t)]].concat());
+        let o = isoforge(&[&base[..], &["-o", p(&streamed), "--max-memory", "8M", "--time-json", p(&t)]].concat());
         assert_eq!(o.status.code(), Some(0), "{}", stderr(&o));
         assert!(stderr(&o).contains("streamed slab by slab"), "{}", stderr(&o));
         let j: serde_json::Value = serde_json::from_str(&std::fs::read_to_string(&t).unwrap()).unwrap();
@@ -368,7 +340,7 @@ fn streamed_mesh_equals_in_memory_mesh() {
     }
     // Out-of-core runs of the raw volume into `out` with `extra` flags.
     let out_of_core = |extra: &[&str], out: &Path| -> Vec<String> {
-        let base = ["extract", "-i", p(&raw), "--dims", "70,40,33", "--dtype", "u16", "--max-memory", "64K"];
+        let base = ["extract", "-i", p(&raw), "--dims", "70,40,33", "--dtype", "u16", "--max-memory", "8M"];
         base.iter().chain(extra).copied().chain(["-o", p(out)]).map(String::from).collect()
     };
     let fails_out_of_core = |extra: &[&str], name: &str, message: &str| {
@@ -419,7 +391,7 @@ fn several_isos_stream_out_of_core_a_file_each() {
             (stderr(&o), String::from_utf8_lossy(&o.stdout).into_owned())
         };
         let ((mem, mem_report), (streamed, streamed_report)) =
-            (run(&mem_dir, &[]), run(&stream_dir, &["--max-memory", "64K"]));
+            (run(&mem_dir, &[]), run(&stream_dir, &["--max-memory", "8M"]));
         assert!(!mem.contains("streamed"), "{mem}");
         assert_eq!(streamed.matches("streamed slab by slab").count(), 3, "{streamed}");
         // --require's report of every file, in iso order, as in memory.
@@ -445,7 +417,7 @@ fn several_isos_stream_out_of_core_a_file_each() {
         "--iso",
         "0.5,1.5",
         "--max-memory",
-        "64K",
+        "8M",
         "--require",
         "closed",
         "-o",
@@ -462,14 +434,14 @@ fn several_isos_stream_out_of_core_a_file_each() {
     let none = dir.path().join("none");
     std::fs::create_dir_all(&none).unwrap();
     let o =
-        isoforge(&["extract", "-i", p(&gz), "--iso", "0.5,99999", "--max-memory", "3K", "-o", p(&none.join("m.ply"))]);
+        isoforge(&["extract", "-i", p(&gz), "--iso", "0.5,99999", "--max-memory", "8M", "-o", p(&none.join("m.ply"))]);
     assert_eq!(o.status.code(), Some(2), "{}", stderr(&o));
     assert!(stderr(&o).contains("is outside the value range"), "{}", stderr(&o));
     assert_eq!(std::fs::read_dir(&none).unwrap().count(), 0, "a failed run leaves nothing");
     for ext in ["glb", "obj"] {
         let out = none.join(format!("m.{ext}"));
         fails(
-            &["extract", "-i", p(&gz), "--iso", "0.5,1.5", "--max-memory", "3K", "-o", p(&out)],
+            &["extract", "-i", p(&gz), "--iso", "0.5,1.5", "--max-memory", "8M", "-o", p(&out)],
             "several isos in one",
             &out,
         );
@@ -1371,7 +1343,7 @@ fn issue_10_every_long_step_reports_progress() {
     assert!(r.contains("rendering"), "{r}");
     let s = run(
         "always",
-        &[&["extract", "-i", p(&raw)][..], &layout, &["--iso", "128.5", "--max-memory", "1M", "-o", p(&mesh)]].concat(),
+        &[&["extract", "-i", p(&raw)][..], &layout, &["--iso", "128.5", "--max-memory", "8M", "-o", p(&mesh)]].concat(),
     );
     assert!(s.contains("slab by slab ["), "{s}");
     assert!(run("always", &[&["info", p(&raw)][..], &layout].concat()).contains("histogram"));
@@ -1680,6 +1652,46 @@ fn issue_10_max_memory_is_a_real_cap_with_require() {
     ]);
     assert_eq!(o.status.code(), Some(0), "{}", stderr(&o));
     assert!(stderr(&o).contains("(mc"), "{}", stderr(&o));
+}
+
+/// Issue 50: a cap is honoured by every format that streams (raw, NRRD, gzip NRRD, NIfTI, gzip
+/// NIfTI): the process holds at most the cap above what a tiny extraction holds (the binary, the
+/// threads), the files' buffers counted in the cap.
+#[test]
+fn issue_50_every_streaming_format_holds_the_cap() {
+    let dir = tempfile::tempdir().unwrap();
+    let raw = gyroid_raw(dir.path(), 160);
+    let layout = ["--dims", "160,160,160", "--dtype", "u8"];
+    let out = dir.path().join("g.ply");
+    let Some((code, _, err, baseline_kib)) =
+        run_measured(&["extract", "-i", "field:sphere?n=8", "-o", p(&out)], dir.path())
+    else {
+        eprintln!("skipping: /usr/bin/time (GNU time) is not installed");
+        return;
+    };
+    assert_eq!(code, Some(0), "{err}");
+    let mut inputs = vec![(raw.clone(), &layout[..])];
+    for ext in ["nrrd", "nii", "nii.gz"] {
+        let file = dir.path().join(format!("g.{ext}"));
+        let o = isoforge(&[&["convert", p(&raw), p(&file)][..], &layout].concat());
+        assert_eq!(o.status.code(), Some(0), "{}", stderr(&o));
+        inputs.push((file, &[][..]));
+    }
+    for (input, layout) in inputs {
+        let args =
+            [&["extract", "-i", p(&input)][..], layout, &["--iso", "128.5", "--max-memory", "8M", "-o", p(&out)]]
+                .concat();
+        let (code, _, err, peak_kib) = run_measured(&args, dir.path()).expect("GNU time was found above");
+        assert_eq!(code, Some(0), "{}: {err}", input.display());
+        assert!(err.contains("streamed slab by slab"), "{}: {err}", input.display());
+        let over = peak_kib.saturating_sub(baseline_kib);
+        assert!(over <= 8 * 1024, "{}: {} KiB above a tiny run on an 8 MiB cap", input.display(), over);
+    }
+    // Below the stream's buffers: refused with the figure it needs.
+    let args = [&["extract", "-i", p(&raw)][..], &layout[..], &["--iso", "128.5", "--max-memory", "2M", "-o", p(&out)]]
+        .concat();
+    std::fs::remove_file(&out).unwrap();
+    fails(&args, "streaming it slab by slab holds at least 6 MiB", &out);
 }
 
 /// Collects a streamed mesh and checks it as it streams.

@@ -2,38 +2,23 @@
 //! .vdb meshes as the volume does, .vdb regions come back as dense volumes, bad requests exit 2
 //! with one line and leave no file.
 
+mod common;
+
 use std::path::{Path, PathBuf};
-use std::process::{Command, Output};
+
+use common::{fails, isoforge, p};
 
 use isoforge::grid::AnyGrid;
 use isoforge::mesh::Mesh;
 use isoforge_io::Limits;
-
-fn isoforge(args: &[&str]) -> Output {
-    Command::new(env!("CARGO_BIN_EXE_isoforge")).args(args).output().expect("run isoforge")
-}
 
 fn ok(args: &[&str]) {
     let o = isoforge(args);
     assert_eq!(o.status.code(), Some(0), "{args:?}: {}", String::from_utf8_lossy(&o.stderr));
 }
 
-fn p(path: &Path) -> &str {
-    path.to_str().unwrap()
-}
-
 fn volume(name: &str) -> PathBuf {
     PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("../../testdata/volumes").join(name)
-}
-
-/// Exit 2 with a one-line error holding `needle`, and no file at `out`.
-fn fails(args: &[&str], needle: &str, out: &Path) {
-    let o = isoforge(args);
-    let err = String::from_utf8_lossy(&o.stderr).into_owned();
-    assert_eq!(o.status.code(), Some(2), "{args:?}: {err}");
-    assert!(err.contains(needle), "{args:?}: expected {needle:?} in {err:?}");
-    assert_eq!(err.trim_end().lines().count(), 1, "{args:?}: {err}");
-    assert!(!out.exists(), "{args:?}: left {}", out.display());
 }
 
 /// The triangles of a mesh as position triples, each rotated to start at its smallest corner,

@@ -257,7 +257,7 @@ fn issue_10_links_planted_at_temporary_names_are_never_followed() {
             args.extend(raw);
             args.extend(["-o", p(out)]);
             if stream {
-                args.extend(["--max-memory", "32K"]);
+                args.extend(["--max-memory", "8M"]);
             }
             let r =
                 Command::new(env!("CARGO_BIN_EXE_isoforge")).args(&args).env("ISOFORGE_TEMP", temp).output().unwrap();
@@ -327,7 +327,7 @@ fn issue_10_signals_and_kills_leave_no_temporary_files() {
             let out = dir.path().join("big.ply");
             // A field extracted in memory and written as ASCII (slow), or a volume streamed.
             let mut args: Vec<String> = if stream {
-                ["extract", "-i", p(&vol), "--dims", "96,96,96", "--dtype", "f32", "--iso", "0", "--max-memory", "400K"]
+                ["extract", "-i", p(&vol), "--dims", "96,96,96", "--dtype", "f32", "--iso", "0", "--max-memory", "8M"]
                     .map(String::from)
                     .to_vec()
             } else {

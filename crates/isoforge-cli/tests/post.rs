@@ -1,20 +1,11 @@
 //! Issue 49 end to end: `extract --smooth --decimate --max-error`, `isoforge simplify`, label
 //! values that are not integers, and the refusals (streaming, bad values) without output left behind.
 
+mod common;
+
 use std::path::{Path, PathBuf};
-use std::process::{Command, Output};
 
-fn isoforge(args: &[&str]) -> Output {
-    Command::new(env!("CARGO_BIN_EXE_isoforge")).args(args).output().expect("run isoforge")
-}
-
-fn stderr(o: &Output) -> String {
-    String::from_utf8_lossy(&o.stderr).into_owned()
-}
-
-fn p(path: &Path) -> &str {
-    path.to_str().unwrap()
-}
+use common::{isoforge, p, stderr};
 
 /// `check --json` of a mesh file.
 fn report(path: &Path) -> serde_json::Value {
@@ -139,7 +130,7 @@ fn streamed_extraction_refuses_post_processing() {
     let out = dir.path().join("o.ply");
     for flag in [["--smooth", "sinc"], ["--decimate", "0.5"], ["--max-error", "1"]] {
         let args =
-            [&["extract", "-i", p(&vol), "--iso", "0.5", "--max-memory", "60K", "-o", p(&out)][..], &flag[..]].concat();
+            [&["extract", "-i", p(&vol), "--iso", "0.5", "--max-memory", "8M", "-o", p(&out)][..], &flag[..]].concat();
         fails(&args, flag[0], &out, None);
         fails(&args, "in memory", &out, None);
     }

@@ -1,24 +1,11 @@
 //! Sparse inputs and options on the command line (issue 44: `--sparse`, `--lipschitz`, `--level`,
 //! `--follow`, `--seed`, OpenVDB files) and the caps that are refused before the work (issue 50).
 
-use std::path::{Path, PathBuf};
-use std::process::{Command, Output};
+mod common;
 
-fn isoforge(args: &[&str]) -> Output {
-    Command::new(env!("CARGO_BIN_EXE_isoforge")).args(args).output().expect("run isoforge")
-}
+use std::path::Path;
 
-fn stderr(o: &Output) -> String {
-    String::from_utf8_lossy(&o.stderr).into_owned()
-}
-
-fn p(path: &Path) -> &str {
-    path.to_str().unwrap()
-}
-
-fn testdata() -> PathBuf {
-    PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("../../testdata")
-}
+use common::{fails, isoforge, p, stderr, testdata};
 
 /// `isoforge check` of a mesh: its text report.
 fn check(mesh: &Path) -> String {
@@ -31,16 +18,6 @@ fn triangles(report: &str) -> u64 {
     let words: Vec<&str> = line.split_whitespace().collect();
     let at = words.iter().position(|w| w.starts_with("triangles")).unwrap();
     words[at - 1].trim_end_matches(',').parse().unwrap()
-}
-
-/// Exit 2 with a one-line error holding `needle`, and no output.
-fn fails(args: &[&str], needle: &str, out: &Path) {
-    let o = isoforge(args);
-    let err = stderr(&o);
-    assert_eq!(o.status.code(), Some(2), "{args:?}: {err}");
-    assert!(err.contains(needle), "{args:?}: expected {needle:?} in {err:?}");
-    assert_eq!(err.trim_end().lines().count(), 1, "{args:?}: {err}");
-    assert!(!out.exists(), "{args:?}: left {}", out.display());
 }
 
 #[test]
@@ -151,6 +128,16 @@ fn caps_that_cannot_hold_are_refused_before_the_work() {
         "at least",
         &out,
     );
+    // A sparse file is read whole and meshed in memory: the read stops at the cap, and a mesh
+    // that could exceed it is refused before the work; a cap that holds is honoured.
+    let sphere = testdata().join("vdb/sphere.vdb");
+    let vdb = |cap: &'static str| ["extract", "-i", p(&sphere), "--iso", "0", "--max-memory", cap, "-o", p(&out)];
+    fails(&vdb("10K"), "its grid needs more than --max-memory 10 KiB", &out);
+    fails(&vdb("1M"), "more than --max-memory 1 MiB", &out);
+    let o = isoforge(&vdb("200M"));
+    assert_eq!(o.status.code(), Some(0), "{}", stderr(&o));
+    assert!(triangles(&check(&out)) > 1000);
+    std::fs::remove_file(&out).unwrap();
     // More isos than files one run writes: refused at once.
     let isos: Vec<String> = (0..1100).map(|i| format!("{}", -0.5 + i as f64 / 1000.0)).collect();
     fails(&["extract", "-i", "field:sphere?n=16", "--iso", &isos.join(","), "-o", p(&out)], "at most 1024", &out);
