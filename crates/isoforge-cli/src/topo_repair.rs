@@ -131,7 +131,8 @@ fn text(j: &Value) -> String {
             &mut s,
             "note:",
             format!(
-                "thinning stopped at {} faces/cells (solid, outside): a loop held there is not measured",
+                "thinning stopped at {} faces/cells (solid, outside): sheets (a knotted shape's outside \
+                 needs them); their loops were found by reduction over their faces",
                 j["stuck_elements"]
             ),
         );

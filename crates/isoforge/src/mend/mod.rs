@@ -48,7 +48,7 @@ use std::collections::HashSet;
 
 pub use complex::CellComplex;
 pub use distance::squared_distance_to_absent;
-pub use skeleton::{spanning_loops, SkeletonEdge};
+pub use skeleton::{sheet_loops, spanning_loops, SheetLoop, SkeletonEdge};
 pub use thin::{thin, Thinning};
 
 use crate::error::{Error, Result};
@@ -129,9 +129,9 @@ pub struct RepairReport {
     pub skeleton: Vec<SkeletonRecord>,
     /// Thinning rounds of the two passes (0 when skipped).
     pub rounds: [u32; 2],
-    /// Faces and cells thinning could not remove in each pass (beside the dual's border): where
-    /// they hold a loop, that loop is not measured, so not repaired (seen on two of the four
-    /// real SOG files' outsides).
+    /// Faces and cells thinning could not remove in each pass (beside the dual's border): the
+    /// sheets a knotted solid's outside needs (its spine is two-dimensional). Loops they hold
+    /// are found by a reduction over their faces ([`sheet_loops`]) and measured like the others.
     pub stuck: [u64; 2],
 }
 
@@ -340,14 +340,25 @@ fn run_pass(
     let area = [spacing[1] * spacing[2], spacing[0] * spacing[2], spacing[0] * spacing[1]];
     let mut loops: Vec<&SkeletonEdge> = edges.iter().filter(|e| e.closes_loop && e.weight.is_finite()).collect();
     loops.sort_by(|a, b| a.weight.total_cmp(&b.weight).then(a.element.cmp(&b.element)));
+    // Each loop's candidate cocycles, each with the edge it stands at: on the graph, the
+    // indicators of edges along its cycle (only edges that bound no face left by thinning: their
+    // indicators are cocycles); on a sheet, the one cocycle dual to it.
+    let mut candidate_sets: Vec<Vec<(usize, Vec<usize>)>> = loops
+        .iter()
+        .map(|e| {
+            let along = fundamental_cycle(&edges, e, |x| c.present_cofaces(x).0 == 0, 64);
+            along.into_iter().map(|x| (x, vec![x])).collect()
+        })
+        .collect();
+    candidate_sets.extend(sheet_loops(&c, &edges).into_iter().map(|l| vec![(l.element, l.cocycle)]));
     let mut ops = Vec::new();
     let mut done = HashSet::new();
-    for e in loops {
-        // The loop's membranes: for edges along its cycle, the edges of the whole complex that
-        // retracted onto each (the pulled-back cochain); the smallest is the handle's size.
-        // (Only edges that bound no face left by thinning: their indicators are cocycles.)
-        let candidates = fundamental_cycle(&edges, e, |x| c.present_cofaces(x).0 == 0, 64);
-        let bits = pull_back(&whole, &t.pairs, &candidates);
+    for set in candidate_sets {
+        // The loop's membranes: the edges of the whole complex whose cochain, pulled back
+        // through the collapses, is 1; the smallest is the loop's size.
+        let candidates: Vec<usize> = set.iter().map(|(x, _)| *x).collect();
+        let supports: Vec<&[usize]> = set.iter().map(|(_, s)| s.as_slice()).collect();
+        let bits = pull_back(&whole, &t.pairs, &supports);
         let mut areas = vec![0.0; candidates.len()];
         for (i, &b) in bits.iter().enumerate() {
             if b != 0 {
@@ -485,15 +496,17 @@ fn fundamental_cycle(
 }
 
 /// The cochains of the whole complex that thinning's collapses, played backwards, give the
-/// indicator cochains of `candidates` (at most 64 skeleton edges; bit `k` for the `k`-th): an
-/// edge collapsed with a face takes the sum (mod 2) of the face's other edges, an edge collapsed
-/// away from a point takes 0. Each is a cocycle whose support — a membrane of edges — crosses
-/// every loop through its candidate once: removing it cuts them there.
-fn pull_back(whole: &CellComplex, pairs: &[(u32, u32)], candidates: &[usize]) -> Vec<u64> {
-    assert!(candidates.len() <= 64);
+/// cocycles of the thinned complex whose supports are `supports` (at most 64; bit `k` for the
+/// `k`-th): an edge collapsed with a face takes the sum (mod 2) of the face's other edges, an
+/// edge collapsed away from a point takes 0. Each is a cocycle whose support — a membrane of
+/// edges — crosses every loop its cocycle counts once: removing it cuts them there.
+fn pull_back(whole: &CellComplex, pairs: &[(u32, u32)], supports: &[&[usize]]) -> Vec<u64> {
+    assert!(supports.len() <= 64);
     let mut bits = vec![0u64; whole.len()];
-    for (k, &c) in candidates.iter().enumerate() {
-        bits[c] |= 1 << k;
+    for (k, support) in supports.iter().enumerate() {
+        for &e in *support {
+            bits[e] ^= 1 << k;
+        }
     }
     for &(s, t) in pairs.iter().rev() {
         let (s, t) = (s as usize, t as usize);
@@ -674,6 +687,10 @@ fn grow_section(
     }
     let mut flipped = Vec::new();
     let mut chi = 0;
+    // Each check of the components walks the box: a ball that has passed this many states of
+    // the right Euler characteristic without the right components will not find one (a knot's
+    // outside: no ball fills its loop), so it stops.
+    let mut checks = 0;
     while let Some((_, p)) = heap.pop() {
         let k = index(p);
         if from {
@@ -684,8 +701,14 @@ fn grow_section(
             chi += star_euler(inside, n, p);
         }
         flipped.push(k);
-        if chi == 1 && components(inside, n) == before {
-            return flipped;
+        if chi == 1 {
+            if components(inside, n) == before {
+                return flipped;
+            }
+            checks += 1;
+            if checks == MAX_COMPONENT_CHECKS {
+                break;
+            }
         }
         for a in (0..3).filter(|&a| a != axis) {
             for d in [-1, 1] {
@@ -702,6 +725,9 @@ fn grow_section(
     }
     Vec::new()
 }
+
+/// Component checks a ball of [`grow_section`] makes at most.
+const MAX_COMPONENT_CHECKS: u32 = 16;
 
 #[cfg(test)]
 mod tests;

@@ -54,6 +54,104 @@ pub fn spanning_loops(c: &CellComplex, size: impl Fn(usize) -> f64) -> Vec<Skele
     edges
 }
 
+/// A loop that only a sheet left by thinning holds (the outside of a knotted solid cannot thin
+/// to a graph: its spine is two-dimensional): a loop-closing edge of the skeleton's graph that
+/// no combination of the remaining faces' boundaries cancels, with a cocycle dual to it.
+#[derive(Debug, Clone, PartialEq)]
+pub struct SheetLoop {
+    /// The loop-closing edge (an element) standing for the loop.
+    pub element: usize,
+    /// The edges (elements) of a cocycle that is 1 on this loop and 0 on every other loop of
+    /// the skeleton: it vanishes on every remaining face's boundary, so it pulls back through
+    /// the collapses like an edge's indicator does on a graph.
+    pub cocycle: Vec<usize>,
+}
+
+/// The loops held by sheets: among the loop-closing edges of `edges` that bound a face (weight
+/// infinite), those independent of the faces' boundaries (mod 2, one column reduction over the
+/// faces in element order), each with its dual cocycle.
+pub fn sheet_loops(c: &CellComplex, edges: &[SkeletonEdge]) -> Vec<SheetLoop> {
+    // The closing edges on sheets, numbered in element order; a face's boundary in the basis
+    // of fundamental cycles is the set of its closing edges (tree edges add nothing).
+    // Edges on the grid's border are numbered last, so they are the ones the faces cancel and a
+    // loop is represented where it runs, not out at the border.
+    let mut closing: Vec<usize> =
+        edges.iter().filter(|e| e.closes_loop && e.weight == f64::INFINITY).map(|e| e.element).collect();
+    closing.sort_by_key(|&e| (c.on_border(e), e));
+    if closing.is_empty() {
+        return Vec::new();
+    }
+    let number: HashMap<usize, u32> = closing.iter().enumerate().map(|(k, &e)| (e, k as u32)).collect();
+    let mut reduced: HashMap<u32, Vec<u32>> = HashMap::new();
+    for f in 0..c.len() {
+        if !c.contains(f) || c.dimension(f) != 2 {
+            continue;
+        }
+        let mut col: Vec<u32> = c.faces(f).filter_map(|(e, _)| number.get(&e).copied()).collect();
+        col.sort_unstable();
+        while let Some(&low) = col.last() {
+            match reduced.get(&low) {
+                Some(other) => col = symmetric_difference(&col, other),
+                None => {
+                    reduced.insert(low, col);
+                    break;
+                }
+            }
+        }
+    }
+    let survivors: Vec<u32> = (0..closing.len() as u32).filter(|k| !reduced.contains_key(k)).collect();
+    let mut pivots: Vec<u32> = reduced.keys().copied().collect();
+    pivots.sort_unstable();
+    survivors
+        .iter()
+        .map(|&s| {
+            // 1 on `s`, 0 on the other survivors; each pivot's value makes its reduced column
+            // (whose other entries are lower) sum to 0, so every face's boundary sums to 0.
+            let mut value = vec![false; closing.len()];
+            value[s as usize] = true;
+            for &p in &pivots {
+                value[p as usize] =
+                    reduced[&p].iter().filter(|&&j| j != p).fold(false, |acc, &j| acc ^ value[j as usize]);
+            }
+            SheetLoop {
+                element: closing[s as usize],
+                cocycle: (0..closing.len()).filter(|&k| value[k]).map(|k| closing[k]).collect(),
+            }
+        })
+        .collect()
+}
+
+/// The symmetric difference of two sorted lists.
+fn symmetric_difference(a: &[u32], b: &[u32]) -> Vec<u32> {
+    let (mut i, mut j, mut out) = (0, 0, Vec::with_capacity(a.len() + b.len()));
+    while i < a.len() || j < b.len() {
+        match (a.get(i), b.get(j)) {
+            (Some(x), Some(y)) if x == y => {
+                i += 1;
+                j += 1;
+            }
+            (Some(x), Some(y)) if x < y => {
+                out.push(*x);
+                i += 1;
+            }
+            (Some(_), Some(y)) => {
+                out.push(*y);
+                j += 1;
+            }
+            (Some(x), None) => {
+                out.push(*x);
+                i += 1;
+            }
+            (None, Some(y)) => {
+                out.push(*y);
+                j += 1;
+            }
+            (None, None) => unreachable!(),
+        }
+    }
+    out
+}
+
 #[cfg(test)]
 mod tests {
     use super::super::distance::squared_distance_to_absent;
@@ -85,5 +183,35 @@ mod tests {
         // (1.5 at its middle, less where the cycle turns a corner off the middle).
         assert_eq!(loops[0], std::f64::consts::PI * 0.25);
         assert!(loops[1] >= std::f64::consts::PI * 1.25, "{loops:?}");
+    }
+
+    #[test]
+    fn a_knots_outside_keeps_sheets_and_its_one_loop_is_found_there_with_a_cocycle() {
+        // A trefoil tube on 40³ points.
+        let n = 40;
+        let solid: Vec<bool> = (0..n * n * n)
+            .map(|i| {
+                let p = [i % n, i / n % n, i / (n * n)].map(|v| (v as f64 - 19.5) / 6.0);
+                (0..1000).any(|k| {
+                    let t = k as f64 * std::f64::consts::TAU / 1000.0;
+                    let q = [t.sin() + 2.0 * (2.0 * t).sin(), t.cos() - 2.0 * (2.0 * t).cos(), -(3.0 * t).sin()];
+                    (0..3).map(|a| (p[a] - q[a]).powi(2)).sum::<f64>() < 0.3f64.powi(2)
+                })
+            })
+            .collect();
+        let mut c = CellComplex::dual_of_complement([n; 3], &solid);
+        thin(&mut c, true);
+        let sheets = (0..c.len()).filter(|&i| c.contains(i) && c.dimension(i) == 2 && !c.on_border(i)).count();
+        assert!(sheets > 0, "a knot's outside thins to sheets");
+        let edges = spanning_loops(&c, |_| 1.0);
+        assert!(edges.iter().all(|e| !e.closes_loop || e.weight.is_infinite()), "no loop on the graph alone");
+        let loops = sheet_loops(&c, &edges);
+        assert_eq!(loops.len(), 1, "H1 of a knot's outside is Z");
+        // A cocycle: even on the boundary of every face left.
+        let on: std::collections::HashSet<usize> = loops[0].cocycle.iter().copied().collect();
+        assert!(on.contains(&loops[0].element));
+        for f in (0..c.len()).filter(|&f| c.contains(f) && c.dimension(f) == 2) {
+            assert_eq!(c.faces(f).filter(|(e, _)| on.contains(e)).count() % 2, 0, "face {f}");
+        }
     }
 }

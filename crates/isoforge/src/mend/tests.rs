@@ -156,3 +156,34 @@ fn on_sign_like_data_the_mc33_surface_has_the_complex_topology() {
     }
     assert!(bad.is_empty(), "{} of 300 differ: {:?}", bad.len(), &bad[..bad.len().min(10)]);
 }
+
+/// The distance from `p` to a trefoil knot of scale `s` (sampled densely: exact enough for a
+/// tube of a few spacings).
+fn trefoil_distance(p: [f64; 3], s: f64) -> f64 {
+    (0..2000)
+        .map(|k| {
+            let t = k as f64 * std::f64::consts::TAU / 2000.0;
+            let q =
+                [s * (t.sin() + 2.0 * (2.0 * t).sin()), s * (t.cos() - 2.0 * (2.0 * t).cos()), -s * (3.0 * t).sin()];
+            (0..3).map(|a| (p[a] - q[a]).powi(2)).sum::<f64>()
+        })
+        .fold(f64::INFINITY, f64::min)
+        .sqrt()
+}
+
+/// A knotted tube: its outside cannot thin to a graph (the knot group is not free), so its one
+/// tunnel is held by the sheets thinning leaves; it is found there and measured, and no fill can
+/// take it without adding handles, so it is kept — while the handle (the tube) is cut.
+#[test]
+fn a_knotted_tube_has_its_tunnel_found_on_the_outside_sheets_and_kept() {
+    let g = grid(48, |p| trefoil_distance(p, 0.28) - 0.12);
+    assert_eq!(genus(&g, Iso::below(0.0)), 1);
+    let (kept, found) = run(&g, 0.0, 1e9);
+    assert!(found.stuck[1] > 0, "the outside of a knot thins to sheets: {found:?}");
+    assert_eq!(found.tunnels.len(), 1, "{found:?}");
+    assert!(!found.tunnels[0].performed && found.tunnels[0].size > 0.0, "{found:?}");
+    assert_eq!(kept.data(), g.data(), "a refused fill leaves the grid as it was");
+    let (cut, report) = run(&g, 1e9, 0.0);
+    assert_eq!(report.cuts().count(), 1, "{report:?}");
+    assert_eq!(genus(&cut, Iso::below(0.0)), 0);
+}
