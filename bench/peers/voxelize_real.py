@@ -31,8 +31,18 @@ HERE = os.path.dirname(os.path.abspath(__file__))
 sys.path.insert(0, HERE)
 from ply_io import read_ply, write_ply  # noqa: E402
 
-MESHES = "/work/shared/data/meshes"
+# shared/ lies beside the repository (../shared/data/meshes from its root)
+MESHES = os.path.join(os.path.dirname(os.path.dirname(os.path.dirname(HERE))), "shared", "data", "meshes")
 SYSTEM_PY = "/usr/bin/python3"  # has Debian's python3-openvdb
+
+
+def default_isoforge():
+    """$ISOFORGE, else the copied release binary, else the workspace's own release build."""
+    repo = os.path.dirname(os.path.dirname(os.path.dirname(os.path.abspath(__file__))))
+    for cand in (os.environ.get("ISOFORGE"), "/work/bin46/isoforge", os.path.join(repo, "target/release/isoforge")):
+        if cand and os.path.exists(cand):
+            return cand
+    return "isoforge"
 
 
 # ---------------------------------------------------------------- workers (run in a subprocess)
@@ -142,7 +152,8 @@ def main():
     ap.add_argument("--mesh")
     ap.add_argument("--voxel", type=float)
     ap.add_argument("--wout", default="")
-    ap.add_argument("--isoforge", default="/work/bin46/isoforge")
+    ap.add_argument("--isoforge", default=default_isoforge(),
+                    help="the isoforge binary ($ISOFORGE, else /work/bin46/isoforge, else target/release/isoforge)")
     ap.add_argument("--sizes", default="128,256")
     ap.add_argument("--blade-sizes", default="256,512")
     ap.add_argument("--repeats", type=int, default=3)

@@ -24,6 +24,15 @@ from nrrd_io import read_nrrd  # noqa: E402
 from ply_io import write_ply  # noqa: E402
 
 
+def default_isoforge():
+    """$ISOFORGE, else the copied release binary, else the workspace's own release build."""
+    repo = os.path.dirname(os.path.dirname(os.path.dirname(os.path.abspath(__file__))))
+    for cand in (os.environ.get("ISOFORGE"), "/work/bin46/isoforge", os.path.join(repo, "target/release/isoforge")):
+        if cand and os.path.exists(cand):
+            return cand
+    return "isoforge"
+
+
 # ---------------------------------------------------------------- analytic solids and their meshes
 
 def weld(verts, faces, decimals=9):
@@ -279,7 +288,8 @@ PEERS = ["isoforge voxelize", "libigl fast_winding_number (≥ ½)", "MeshLib me
 
 def main():
     ap = argparse.ArgumentParser(description=__doc__.split("\n")[0])
-    ap.add_argument("--isoforge", default="/work/bin46/isoforge")
+    ap.add_argument("--isoforge", default=default_isoforge(),
+                    help="the isoforge binary ($ISOFORGE, else /work/bin46/isoforge, else target/release/isoforge)")
     ap.add_argument("--out", default=None, help="markdown file for the table")
     ap.add_argument("--seed", type=int, default=46)
     args = ap.parse_args()
