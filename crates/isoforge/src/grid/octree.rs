@@ -498,7 +498,7 @@ impl SignedOctree {
 
 /// The Morton code of a cell: its path from the root, 3 bits per level (`4x + 2y + z`), so
 /// that pre-order visits cells in increasing code.
-fn morton(ijk: [u32; 3], depth: u32) -> u64 {
+pub(crate) fn morton(ijk: [u32; 3], depth: u32) -> u64 {
     (0..depth).rev().fold(0u64, |m, bit| {
         m << 3 | u64::from((ijk[0] >> bit & 1) << 2 | (ijk[1] >> bit & 1) << 1 | (ijk[2] >> bit & 1))
     })

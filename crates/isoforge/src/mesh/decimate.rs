@@ -146,7 +146,20 @@ pub fn decimate(mesh: &mut Mesh, opts: &DecimateOptions) -> Result<DecimateStats
         Some(r) => ((1.0 - r) * triangles_before as f64).round() as usize,
         None => 0,
     };
-    let mut d = Decimator::new(mesh, opts);
+    // Decimated in a spatial order of the vertices (Morton): a collapse's neighbourhood and the
+    // input vertices it checks lie close in memory; written back in the input's order.
+    let order = spatial_order(&mesh.positions);
+    let mut local_of = vec![0u32; order.len()];
+    for (local, &v) in order.iter().enumerate() {
+        local_of[v as usize] = local as u32;
+    }
+    let local = Mesh {
+        positions: order.iter().map(|&v| mesh.positions[v as usize]).collect(),
+        triangles: mesh.triangles.iter().map(|t| t.map(|v| local_of[v as usize])).collect(),
+        ..Mesh::default()
+    };
+    let mut d = Decimator::new(&local, opts);
+    drop(local);
     d.run(target);
     let stats = DecimateStats {
         triangles_before,
@@ -159,11 +172,34 @@ pub fn decimate(mesh: &mut Mesh, opts: &DecimateOptions) -> Result<DecimateStats
         error: d.track.as_ref().map(|t| t.worst(&d)),
     };
     let had_normals = !mesh.normals.is_empty();
-    d.write(mesh);
+    d.write(mesh, &local_of);
     if had_normals {
         mesh.normals = super::smooth::vertex_normals(mesh);
     }
     Ok(DecimateStats { vertices_after: mesh.positions.len(), ..stats })
+}
+
+/// The vertices in Morton order of their positions (quantised to 2²¹ steps over the bounding
+/// box; ties by index): `order[k]` is the `k`-th vertex.
+fn spatial_order(positions: &[[f32; 3]]) -> Vec<u32> {
+    let (mut lo, mut hi) = ([f32::INFINITY; 3], [f32::NEG_INFINITY; 3]);
+    for p in positions {
+        for a in 0..3 {
+            lo[a] = lo[a].min(p[a]);
+            hi[a] = hi[a].max(p[a]);
+        }
+    }
+    let scale = [0, 1, 2].map(|a| if hi[a] > lo[a] { ((1u32 << 21) - 1) as f64 / (hi[a] - lo[a]) as f64 } else { 0.0 });
+    let mut keyed: Vec<(u64, u32)> = positions
+        .iter()
+        .enumerate()
+        .map(|(i, p)| {
+            let q = [0, 1, 2].map(|a| ((p[a] - lo[a]) as f64 * scale[a]) as u32);
+            (crate::grid::octree::morton(q, 21), i as u32)
+        })
+        .collect();
+    keyed.sort_unstable();
+    keyed.into_iter().map(|(_, i)| i).collect()
 }
 
 /// A symmetric 4×4 quadric `xᵀ A x + 2 bᵀ x + c`: A as (xx, xy, xz, yy, yz, zz).
@@ -888,20 +924,23 @@ impl Decimator {
         self.parked[gs] = Vec::new();
     }
 
-    /// The live vertices (renumbered in their input order) and triangles into `mesh`.
-    fn write(&self, mesh: &mut Mesh) {
+    /// The live vertices (in their input order: vertex `v` of `mesh` is `local_of[v]` here)
+    /// and triangles into `mesh`.
+    fn write(&self, mesh: &mut Mesh, local_of: &[u32]) {
         let mut id = vec![NONE; self.pos.len()];
         let mut positions = Vec::new();
-        for (v, p) in self.pos.iter().enumerate() {
-            if self.vertex_alive[v] {
-                id[v] = positions.len() as u32;
-                positions.push([0, 1, 2].map(|i| (p[i] + self.centre[i]) as f32));
-            }
-        }
-        // Vertices that never moved (the locked ones among them) keep their input coordinates.
-        for (v, p) in mesh.positions.iter().enumerate() {
-            if self.vertex_alive[v] && !self.moved[v] {
-                positions[id[v] as usize] = *p;
+        for (v, &l) in local_of.iter().enumerate() {
+            let l = l as usize;
+            if self.vertex_alive[l] {
+                id[l] = positions.len() as u32;
+                // Vertices that never moved (the locked ones among them) keep their input
+                // coordinates.
+                let p = self.pos[l];
+                positions.push(if self.moved[l] {
+                    [0, 1, 2].map(|i| (p[i] + self.centre[i]) as f32)
+                } else {
+                    mesh.positions[v]
+                });
             }
         }
         let mut triangles: Vec<[u32; 3]> = self
