@@ -574,3 +574,51 @@ fn issue_50_max_memory_sets_the_budget() {
     });
     assert_eq!(codes, [200, 200, 200]);
 }
+
+#[test]
+fn issue_50_trickled_bodies_hold_no_worker() {
+    // Issue 50: a body trickled byte by byte was read by a fast-lane worker until the request
+    // deadline; two such clients stalled the page and /api/info for 5 s.
+    let v = Viewer::start(&[]);
+    let mut tricklers: Vec<TcpStream> = (0..4)
+        .map(|_| {
+            let mut s = TcpStream::connect(&v.addr).unwrap();
+            write!(s, "GET /api/info HTTP/1.1\r\nHost: {}\r\nContent-Length: 1000\r\n\r\n", v.addr).unwrap();
+            s
+        })
+        .collect();
+    let start = Instant::now();
+    while start.elapsed() < Duration::from_millis(1500) {
+        for s in &mut tricklers {
+            let _ = s.write_all(b"x");
+        }
+        let t = Instant::now();
+        assert_eq!(v.get("/api/info").0, 200);
+        assert!(t.elapsed() < Duration::from_secs(1), "/api/info took {:?}", t.elapsed());
+        std::thread::sleep(Duration::from_millis(50));
+    }
+    // A body that does arrive whole is read and the request answered.
+    let with_body = format!("GET /api/info HTTP/1.1\r\nHost: {}\r\nContent-Length: 5\r\n\r\nhello", v.addr);
+    assert_eq!(v.raw(with_body.as_bytes()).0, 200);
+}
+
+#[test]
+fn issue_50_head_of_an_export_does_no_work() {
+    // Issue 50: HEAD /api/export extracted the whole mesh to answer headers only.
+    let v = Viewer::start(&[]);
+    let t = Instant::now();
+    let mut s = TcpStream::connect(&v.addr).unwrap();
+    write!(s, "HEAD /api/export?format=obj&n=160&method=mt-bcc HTTP/1.1\r\nHost: {}\r\n\r\n", v.addr).unwrap();
+    let mut out = String::new();
+    s.read_to_string(&mut out).unwrap();
+    assert!(t.elapsed() < Duration::from_millis(500), "answered after {:?}", t.elapsed());
+    assert!(out.starts_with("HTTP/1.1 405 ") && out.contains("\r\nAllow: GET\r\n"), "{out}");
+    for path in ["/api/mesh?n=160", "/api/check?n=160"] {
+        let (code, _) = v.raw(format!("HEAD {path} HTTP/1.1\r\nHost: {}\r\n\r\n", v.addr).as_bytes());
+        assert_eq!(code, 405, "{path}");
+    }
+    // Nothing was reserved or extracted: the budget is whole, and HEAD of the page still works.
+    let status = v.json("/api/status");
+    assert_eq!(status["memory"]["reserved"], 0, "{status}");
+    assert_eq!(v.raw(format!("HEAD / HTTP/1.1\r\nHost: {}\r\n\r\n", v.addr).as_bytes()).0, 200);
+}

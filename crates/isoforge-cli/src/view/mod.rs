@@ -403,6 +403,7 @@ impl Viewer {
             "served": self.stats.served.load(Relaxed),
             "abandoned": self.stats.abandoned.load(Relaxed),
             "refused": self.stats.refused.load(Relaxed),
+            "memory": { "budget": self.budget.limit, "reserved": *lock(&self.budget.used) },
         })
     }
 
