@@ -622,3 +622,61 @@ fn issue_50_head_of_an_export_does_no_work() {
     assert_eq!(status["memory"]["reserved"], 0, "{status}");
     assert_eq!(v.raw(format!("HEAD / HTTP/1.1\r\nHost: {}\r\n\r\n", v.addr).as_bytes()).0, 200);
 }
+
+/// A connection that sent `request` and reads nothing, its receive buffer shrunk so the server's
+/// writes block once its send buffer is full.
+#[cfg(unix)]
+fn stalled_client(addr: &str, request: &str) -> TcpStream {
+    use std::os::unix::io::AsRawFd;
+    let mut s = TcpStream::connect(addr).unwrap();
+    let small: libc::c_int = 4096;
+    // SAFETY: a valid socket, an int option of the size given.
+    let rc = unsafe {
+        libc::setsockopt(
+            s.as_raw_fd(),
+            libc::SOL_SOCKET,
+            libc::SO_RCVBUF,
+            (&small as *const libc::c_int).cast(),
+            std::mem::size_of::<libc::c_int>() as libc::socklen_t,
+        )
+    };
+    assert_eq!(rc, 0);
+    write!(s, "GET {request} HTTP/1.1\r\nHost: {addr}\r\n\r\n").unwrap();
+    s
+}
+
+#[test]
+#[cfg(unix)]
+fn issue_50_meshes_and_checks_hold_the_memory_budget() {
+    // Issue 50: only exports were under the memory budget; /api/mesh built its whole answer in
+    // memory (82 MB on the shoulder CT) and any number of them ran at once. Now every
+    // extracting endpoint reserves its share before it extracts and keeps it until its answer
+    // is written (streamed).
+    let dir = tempfile::tempdir().unwrap();
+    let vol = dir.path().join("crate.nrrd");
+    write_crate(&vol, 130); // a 9 MB answer at iso 127.5
+                            // A budget of one byte: one request at a time.
+    let v = Viewer::start(&[p(&vol), "--inside", "above", "--max-memory", "1"]);
+    let stalled = stalled_client(&v.addr, "/api/mesh?iso=127.5&level=full");
+    let start = Instant::now();
+    while v.json("/api/status")["memory"]["reserved"] != 1 {
+        assert!(start.elapsed() < Duration::from_secs(10), "the stalled mesh holds no share of the budget");
+        std::thread::sleep(Duration::from_millis(20));
+    }
+    let v = &v;
+    std::thread::scope(|sc| {
+        let mesh = sc.spawn(move || (v.mesh("iso=100&level=full"), Instant::now()));
+        let check = sc.spawn(move || (v.get("/api/check?iso=110").0, Instant::now()));
+        // While the stalled answer holds the budget, the others wait (the page is still served).
+        std::thread::sleep(Duration::from_millis(1500));
+        assert!(!mesh.is_finished() && !check.is_finished(), "a request ran beside the one holding the budget");
+        assert_eq!(v.get("/api/info").0, 200);
+        let freed = Instant::now();
+        drop(stalled);
+        let (decoded, t) = mesh.join().unwrap();
+        assert!(t > freed && decoded.triangles.len() > 1000 && decoded.head["level"] == "full");
+        let (code, t) = check.join().unwrap();
+        assert!(code == 200 && t > freed);
+    });
+    assert_eq!(v.json("/api/status")["memory"]["reserved"], 0, "every share given back");
+}
