@@ -680,3 +680,34 @@ fn issue_50_meshes_and_checks_hold_the_memory_budget() {
     });
     assert_eq!(v.json("/api/status")["memory"]["reserved"], 0, "every share given back");
 }
+
+#[test]
+fn issue_50_a_client_leaving_mid_export_stops_it() {
+    // The client reads the head and a little of a large export, then closes: the next write
+    // fails, the export stops there (counted abandoned, not served) and its share of the
+    // budget is given back at once.
+    let dir = tempfile::tempdir().unwrap();
+    let vol = dir.path().join("crate.nrrd");
+    write_crate(&vol, 130);
+    let v = Viewer::start(&[p(&vol), "--inside", "above"]);
+    let ask = "/api/export?format=obj&iso=127.5";
+    let mut s = TcpStream::connect(&v.addr).unwrap();
+    write!(s, "GET {ask} HTTP/1.1\r\nHost: {}\r\n\r\n", v.addr).unwrap();
+    let mut first = vec![0u8; 64 * 1024];
+    s.read_exact(&mut first).unwrap();
+    assert!(first.starts_with(b"HTTP/1.1 200"));
+    drop(s);
+    let left = Instant::now();
+    for asked in 0u64.. {
+        let status = v.json("/api/status");
+        if status["abandoned"] == 1 && status["memory"]["reserved"] == 0 {
+            assert_eq!(status["served"], asked, "only the status requests were served: {status}");
+            break;
+        }
+        assert!(left.elapsed() < Duration::from_secs(2), "still exporting: {status}");
+        std::thread::sleep(Duration::from_millis(20));
+    }
+    // The whole file is far larger than what was read before the client left.
+    let (code, body) = v.get(ask);
+    assert!(code == 200 && body.len() > 10 * first.len(), "{code}, {} bytes", body.len());
+}

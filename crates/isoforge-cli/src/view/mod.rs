@@ -12,7 +12,13 @@
 //!   full-resolution mesh, then its defect edges (boundary and non-manifold) as vertex pairs.
 //!   Deferred because it costs more than the extraction on large meshes.
 //! - `GET /api/export?format=ply|obj|stl|glb&…` → the full-resolution mesh as a file.
-//! - `GET /api/status` → JSON counters of the server (served, abandoned, refused requests).
+//! - `GET /api/status` → JSON counters of the server (served, abandoned, refused requests) and
+//!   its memory budget (`memory.budget`, `memory.reserved`, bytes).
+//!
+//! Every endpoint that extracts (`/api/mesh`, `/api/check`, `/api/export`) holds a share of one
+//! memory [`Budget`]: reserved before the work from the last mesh of its level, resized to its
+//! own mesh, given back once its answer is written (answers are streamed, not built whole);
+//! without room for [`BUDGET_WAIT`] the answer is 503 with `Retry-After`.
 //!
 //! Parameters: `method`, `iso` (volumes and the demo), `roi` (volumes: `i0:i1,j0:j1,k0:k1`),
 //! `field` (`metaballs|lines|height`), `n` (8–160) and `t` (animation time) for the demo. Each is
