@@ -617,6 +617,10 @@ fn issue_50_head_of_an_export_does_no_work() {
         let (code, _) = v.raw(format!("HEAD {path} HTTP/1.1\r\nHost: {}\r\n\r\n", v.addr).as_bytes());
         assert_eq!(code, 405, "{path}");
     }
+    // A bad format is refused before any work too.
+    let t = Instant::now();
+    assert_eq!(v.get("/api/export?format=xyz&n=160&method=mt-bcc").0, 400);
+    assert!(t.elapsed() < Duration::from_millis(500), "refused after {:?}", t.elapsed());
     // Nothing was reserved or extracted: the budget is whole, and HEAD of the page still works.
     let status = v.json("/api/status");
     assert_eq!(status["memory"]["reserved"], 0, "{status}");

@@ -656,11 +656,6 @@ impl Viewer {
     fn export_reply(&self, params: &[(String, String)], req: &Request) -> Result<Response, Failure> {
         let q = self.query(params, &["format"])?;
         use std::sync::atomic::Ordering::Relaxed;
-        let mut held = self.budget.reserve(self.full_estimate.load(Relaxed), || req.is_abandoned())?;
-        let mesh = self.full_mesh(&q, req)?;
-        let bytes = mesh_bytes(&mesh);
-        self.full_estimate.store(bytes.max(1 << 20), Relaxed);
-        held.resize(bytes);
         let (mime, file) = match get(params, "format").unwrap_or("ply") {
             "ply" => ("application/octet-stream", "ply"),
             "obj" => ("text/plain; charset=utf-8", "obj"),
@@ -668,6 +663,11 @@ impl Viewer {
             "glb" => ("model/gltf-binary", "glb"),
             f => return Err(Failure::Bad(anyhow!("format={f:?}: ply, obj, stl or glb"))),
         };
+        let mut held = self.budget.reserve(self.full_estimate.load(Relaxed), || req.is_abandoned())?;
+        let mesh = self.full_mesh(&q, req)?;
+        let bytes = mesh_bytes(&mesh);
+        self.full_estimate.store(bytes.max(1 << 20), Relaxed);
+        held.resize(bytes);
         // Streamed to the client as it is written: the body is never whole in memory.
         // The share of the budget is given back once the file is written.
         let writer: http::Writer = Box::new(move |w: &mut dyn std::io::Write| {
