@@ -504,7 +504,11 @@ impl Viewer {
         };
         still_wanted(req)?;
         let estimate = if self.has_preview(&q, preview)? { &self.preview_estimate } else { &self.full_estimate };
-        let mut held = self.budget.reserve(estimate.load(Relaxed), || req.is_abandoned())?;
+        // A mesh of V vertices holds 12 V bytes of positions and about 24 V of triangles; the
+        // encoding's normals add 12 V, a third.
+        let e = estimate.load(Relaxed);
+        let mut held =
+            self.budget.reserve(e.saturating_add(e / 3).saturating_add(codec::BATCH_BYTES), || req.is_abandoned())?;
         let start = Instant::now();
         let sparse_level = match &self.shown {
             Shown::Sparse { grid, .. } if preview => sparse_preview_level(grid),
