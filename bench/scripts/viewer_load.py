@@ -1,13 +1,15 @@
 #!/usr/bin/env python3
 """Load test of `isoforge view` (issue 50), Python stdlib only.
 
-1. exports: N clients at once each ask GET /api/export?format=obj&method=surface-nets&iso=<base + i*step>
-   and read the streamed body; reports wall time, bytes, status codes, the server's peak RSS
+1. exports (or meshes, checks: --endpoint): N clients at once each ask
+   GET /api/export?format=obj&method=surface-nets&iso=<base + i*step> (mesh: /api/mesh?…&level=full,
+   check: /api/check?…) and read the body; reports wall time, bytes, status codes, the server's peak RSS
    (VmHWM) and its RSS once idle again (VmRSS, 2 s after the last answer).
 2. half-open: H connections send only "GET /api/info HTTP/1.1\\r\\n"; then R normal /api/info requests
    are timed one after the other; reports their median and max latency.
 
 Usage: viewer_load.py BINARY [VOLUME] [--clients 40] [--iso 40] [--step 0.37] [--half-open 300]
+       [--endpoint export|mesh|check] [--max-memory BYTES]
 (VOLUME absent: the demo fields, client i asking n=100+i; a VOLUME path that does not exist is skipped with a
 message.)
 """
@@ -55,8 +57,12 @@ def main():
     ap.add_argument("--step", type=float, default=0.37)
     ap.add_argument("--half-open", type=int, default=300)
     ap.add_argument("--probes", type=int, default=30)
+    ap.add_argument("--endpoint", choices=["export", "mesh", "check"], default="export")
+    ap.add_argument("--max-memory", help="passed to `view --max-memory`")
     a = ap.parse_args()
     args = [a.binary, "view"]
+    if a.max_memory:
+        args += ["--max-memory", a.max_memory]
     if a.volume:
         if not os.path.exists(a.volume):
             print(f"skipped: {a.volume} is absent")
@@ -75,7 +81,12 @@ def main():
             # The demo: one distinct resolution per client instead of one iso each.
             q = f"iso={iso:.4f}" if a.volume else f"n={100 + i}"
             t = time.monotonic()
-            code, n = request(addr, f"/api/export?format=obj&method=surface-nets&{q}")
+            path = {
+                "export": f"/api/export?format=obj&method=surface-nets&{q}",
+                "mesh": f"/api/mesh?method=surface-nets&level=full&{q}",
+                "check": f"/api/check?method=surface-nets&{q}",
+            }[a.endpoint]
+            code, n = request(addr, path)
             results[i] = (code, n, time.monotonic() - t)
 
         t0 = time.monotonic()
@@ -97,7 +108,10 @@ def main():
         peak = status_of(pid, "VmHWM")
         time.sleep(2)
         idle = status_of(pid, "VmRSS")
-        print(f"exports: {a.clients} clients, {wall:.1f} s, {total / 2**20:.0f} MiB sent, codes {codes}, "
+        lat = sorted(d for c, _, d in results if c == 200)
+        med = f"{statistics.median(lat):.1f}" if lat else "-"
+        print(f"{a.endpoint}: {a.clients} clients, answer time median {med} s, max {max(lat, default=0):.1f} s, "
+              f"whole run {wall:.1f} s, {total / 2**20:.0f} MiB sent, codes {codes}, "
               f"peak RSS {peak / 2**20:.0f} MiB, idle RSS {idle / 2**20:.0f} MiB, "
               f"/api/info under load {info_under_load * 1000:.0f} ms (code {code})")
 

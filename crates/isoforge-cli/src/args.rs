@@ -554,8 +554,8 @@ pub struct ViewArgs {
     /// Which side of iso is inside for a volume: below or above.
     #[arg(long, value_name = "below|above", default_value = "below")]
     pub inside: String,
-    /// Memory the meshes of exports in flight may hold together (default 1 GiB); an export that
-    /// does not fit waits, then gets 503 with Retry-After.
+    /// Memory the meshes, checks and exports in flight may hold together (default 1 GiB); a
+    /// request that does not fit waits, then gets 503 with Retry-After.
     #[arg(long, value_name = "BYTES", allow_hyphen_values = true)]
     pub max_memory: Option<String>,
 }

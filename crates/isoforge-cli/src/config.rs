@@ -103,7 +103,7 @@ pub struct DemoConfig {
 /// threads); the page's queries fill in method, iso and region through the same parsers.
 pub struct ViewConfig {
     pub port: u16,
-    /// `--max-memory`: the viewer's budget for exports in flight.
+    /// `--max-memory`: the viewer's budget for meshes, checks and exports in flight.
     pub max_memory: Option<u64>,
     pub shown: Shown,
     pub request: Request,

@@ -574,3 +574,144 @@ fn issue_50_max_memory_sets_the_budget() {
     });
     assert_eq!(codes, [200, 200, 200]);
 }
+
+#[test]
+fn issue_50_trickled_bodies_hold_no_worker() {
+    // Issue 50: a body trickled byte by byte was read by a fast-lane worker until the request
+    // deadline; two such clients stalled the page and /api/info for 5 s.
+    let v = Viewer::start(&[]);
+    let mut tricklers: Vec<TcpStream> = (0..4)
+        .map(|_| {
+            let mut s = TcpStream::connect(&v.addr).unwrap();
+            write!(s, "GET /api/info HTTP/1.1\r\nHost: {}\r\nContent-Length: 1000\r\n\r\n", v.addr).unwrap();
+            s
+        })
+        .collect();
+    let start = Instant::now();
+    while start.elapsed() < Duration::from_millis(1500) {
+        for s in &mut tricklers {
+            let _ = s.write_all(b"x");
+        }
+        let t = Instant::now();
+        assert_eq!(v.get("/api/info").0, 200);
+        assert!(t.elapsed() < Duration::from_secs(1), "/api/info took {:?}", t.elapsed());
+        std::thread::sleep(Duration::from_millis(50));
+    }
+    // A body that does arrive whole is read and the request answered.
+    let with_body = format!("GET /api/info HTTP/1.1\r\nHost: {}\r\nContent-Length: 5\r\n\r\nhello", v.addr);
+    assert_eq!(v.raw(with_body.as_bytes()).0, 200);
+}
+
+#[test]
+fn issue_50_head_of_an_export_does_no_work() {
+    // Issue 50: HEAD /api/export extracted the whole mesh to answer headers only.
+    let v = Viewer::start(&[]);
+    let t = Instant::now();
+    let mut s = TcpStream::connect(&v.addr).unwrap();
+    write!(s, "HEAD /api/export?format=obj&n=160&method=mt-bcc HTTP/1.1\r\nHost: {}\r\n\r\n", v.addr).unwrap();
+    let mut out = String::new();
+    s.read_to_string(&mut out).unwrap();
+    assert!(t.elapsed() < Duration::from_millis(500), "answered after {:?}", t.elapsed());
+    assert!(out.starts_with("HTTP/1.1 405 ") && out.contains("\r\nAllow: GET\r\n"), "{out}");
+    for path in ["/api/mesh?n=160", "/api/check?n=160"] {
+        let (code, _) = v.raw(format!("HEAD {path} HTTP/1.1\r\nHost: {}\r\n\r\n", v.addr).as_bytes());
+        assert_eq!(code, 405, "{path}");
+    }
+    // A bad format is refused before any work too.
+    let t = Instant::now();
+    assert_eq!(v.get("/api/export?format=xyz&n=160&method=mt-bcc").0, 400);
+    assert!(t.elapsed() < Duration::from_millis(500), "refused after {:?}", t.elapsed());
+    // Nothing was reserved or extracted: the budget is whole, and HEAD of the page still works.
+    let status = v.json("/api/status");
+    assert_eq!(status["memory"]["reserved"], 0, "{status}");
+    assert_eq!(v.raw(format!("HEAD / HTTP/1.1\r\nHost: {}\r\n\r\n", v.addr).as_bytes()).0, 200);
+}
+
+/// A connection that sent `request` and reads nothing, its receive buffer shrunk so the server's
+/// writes block once its send buffer is full.
+#[cfg(unix)]
+fn stalled_client(addr: &str, request: &str) -> TcpStream {
+    use std::os::unix::io::AsRawFd;
+    let mut s = TcpStream::connect(addr).unwrap();
+    let small: libc::c_int = 4096;
+    // SAFETY: a valid socket, an int option of the size given.
+    let rc = unsafe {
+        libc::setsockopt(
+            s.as_raw_fd(),
+            libc::SOL_SOCKET,
+            libc::SO_RCVBUF,
+            (&small as *const libc::c_int).cast(),
+            std::mem::size_of::<libc::c_int>() as libc::socklen_t,
+        )
+    };
+    assert_eq!(rc, 0);
+    write!(s, "GET {request} HTTP/1.1\r\nHost: {addr}\r\n\r\n").unwrap();
+    s
+}
+
+#[test]
+#[cfg(unix)]
+fn issue_50_meshes_and_checks_hold_the_memory_budget() {
+    // Issue 50: only exports were under the memory budget; /api/mesh built its whole answer in
+    // memory (82 MB on the shoulder CT) and any number of them ran at once. Now every
+    // extracting endpoint reserves its share before it extracts and keeps it until its answer
+    // is written (streamed).
+    let dir = tempfile::tempdir().unwrap();
+    let vol = dir.path().join("crate.nrrd");
+    write_crate(&vol, 130); // a 9 MB answer at iso 127.5
+                            // A budget of one byte: one request at a time.
+    let v = Viewer::start(&[p(&vol), "--inside", "above", "--max-memory", "1"]);
+    let stalled = stalled_client(&v.addr, "/api/mesh?iso=127.5&level=full");
+    let start = Instant::now();
+    while v.json("/api/status")["memory"]["reserved"] != 1 {
+        assert!(start.elapsed() < Duration::from_secs(10), "the stalled mesh holds no share of the budget");
+        std::thread::sleep(Duration::from_millis(20));
+    }
+    let v = &v;
+    std::thread::scope(|sc| {
+        let mesh = sc.spawn(move || (v.mesh("iso=100&level=full"), Instant::now()));
+        let check = sc.spawn(move || (v.get("/api/check?iso=110").0, Instant::now()));
+        // While the stalled answer holds the budget, the others wait (the page is still served).
+        std::thread::sleep(Duration::from_millis(1500));
+        assert!(!mesh.is_finished() && !check.is_finished(), "a request ran beside the one holding the budget");
+        assert_eq!(v.get("/api/info").0, 200);
+        let freed = Instant::now();
+        drop(stalled);
+        let (decoded, t) = mesh.join().unwrap();
+        assert!(t > freed && decoded.triangles.len() > 1000 && decoded.head["level"] == "full");
+        let (code, t) = check.join().unwrap();
+        assert!(code == 200 && t > freed);
+    });
+    assert_eq!(v.json("/api/status")["memory"]["reserved"], 0, "every share given back");
+}
+
+#[test]
+fn issue_50_a_client_leaving_mid_export_stops_it() {
+    // The client reads the head and a little of a large export, then closes: the next write
+    // fails, the export stops there (counted abandoned, not served) and its share of the
+    // budget is given back at once.
+    let dir = tempfile::tempdir().unwrap();
+    let vol = dir.path().join("crate.nrrd");
+    write_crate(&vol, 130);
+    let v = Viewer::start(&[p(&vol), "--inside", "above"]);
+    let ask = "/api/export?format=obj&iso=127.5";
+    let mut s = TcpStream::connect(&v.addr).unwrap();
+    write!(s, "GET {ask} HTTP/1.1\r\nHost: {}\r\n\r\n", v.addr).unwrap();
+    let mut first = vec![0u8; 64 * 1024];
+    s.read_exact(&mut first).unwrap();
+    assert!(first.starts_with(b"HTTP/1.1 200"));
+    drop(s);
+    let left = Instant::now();
+    for asked in 0u64.. {
+        let status = v.json("/api/status");
+        if status["abandoned"] == 1 && status["memory"]["reserved"] == 0 {
+            assert_eq!(status["served"], asked, "only the status requests were served: {status}");
+            break;
+        }
+        assert!(left.elapsed() < Duration::from_secs(2), "still exporting: {status}");
+        std::thread::sleep(Duration::from_millis(20));
+    }
+    // The whole file is far larger than what was read before the client left.
+    let (code, body) = v.get(ask);
+    assert!(code == 200 && body.len() > 10 * first.len(), "{code}, {} bytes", body.len());
+}

@@ -21,65 +21,87 @@
 use isoforge::mesh::Mesh;
 use rayon::prelude::*;
 use serde_json::Value;
+use std::io::Write;
 
 /// Largest quantised coordinate.
 const Q: f32 = 65535.0;
 
 /// The mesh's positions, normals and triangles in the form above, after `head` (to which the
-/// box and the index encoding are added). Each part is encoded in parallel chunks.
-pub fn encode_mesh(mesh: &Mesh, mut head: Value) -> Vec<u8> {
+/// box and the index encoding are added), written to `w` as it is encoded: [`BATCH`] vertices
+/// or triangles at a time, each batch in parallel chunks. What this holds besides the mesh is
+/// the vertex normals (12 bytes a vertex) and one batch's bytes, never the whole body.
+pub fn write_mesh(w: &mut dyn Write, mesh: &Mesh, mut head: Value) -> std::io::Result<()> {
     let (lo, hi) = bounds(&mesh.positions);
     let v = mesh.positions.len();
     let varint = v > 1 << 16;
     head["box"] = serde_json::json!({ "min": lo, "max": hi });
     head["index"] = serde_json::json!({ "encoding": if varint { "varint" } else { "u16" } });
-    let mut out = Vec::with_capacity(1024 + v * 8 + mesh.triangles.len() * 6);
+    let mut out = Vec::with_capacity(6 * BATCH.min(v.max(mesh.triangles.len())) + 1024);
     push_head(&mut out, &head);
+    w.write_all(&out)?;
     let scale: [f32; 3] = [0, 1, 2].map(|a| if hi[a] > lo[a] { Q / (hi[a] - lo[a]) } else { 0.0 });
-    let at = out.len();
-    out.resize(at + v * 6, 0);
-    out[at..].par_chunks_mut(6 * CHUNK).zip(mesh.positions.par_chunks(CHUNK)).for_each(|(bytes, points)| {
-        for (b, p) in bytes.chunks_exact_mut(6).zip(points) {
-            for a in 0..3 {
-                let q = ((p[a] - lo[a]) * scale[a]).round().clamp(0.0, Q) as u16;
-                b[2 * a..2 * a + 2].copy_from_slice(&q.to_le_bytes());
+    for batch in mesh.positions.chunks(BATCH) {
+        out.clear();
+        out.resize(batch.len() * 6, 0);
+        out.par_chunks_mut(6 * CHUNK).zip(batch.par_chunks(CHUNK)).for_each(|(bytes, points)| {
+            for (b, p) in bytes.chunks_exact_mut(6).zip(points) {
+                for a in 0..3 {
+                    let q = ((p[a] - lo[a]) * scale[a]).round().clamp(0.0, Q) as u16;
+                    b[2 * a..2 * a + 2].copy_from_slice(&q.to_le_bytes());
+                }
             }
-        }
-    });
-    pad(&mut out, 0);
+        });
+        w.write_all(&out)?;
+    }
+    w.write_all(&[0u8; 4][..(4 - v * 6 % 4) % 4])?;
     let normals = vertex_normals(mesh);
-    let at = out.len();
-    out.resize(at + v * 2, 0);
-    out[at..].par_chunks_mut(2 * CHUNK).zip(normals.par_chunks(CHUNK)).for_each(|(bytes, normals)| {
-        for (b, n) in bytes.chunks_exact_mut(2).zip(normals) {
-            let [x, y] = octahedral(*n);
-            b.copy_from_slice(&[x as u8, y as u8]);
-        }
-    });
-    pad(&mut out, 0);
-    if varint {
-        // Each chunk starts from the last index of the chunk before it.
-        let parts: Vec<Vec<u8>> = mesh
-            .triangles
-            .par_chunks(CHUNK)
-            .enumerate()
-            .map(|(c, tris)| {
-                let prev = if c == 0 { 0 } else { mesh.triangles[c * CHUNK - 1][2] };
-                delta_varint(tris, prev)
-            })
-            .collect();
-        for p in parts {
-            out.extend_from_slice(&p);
-        }
-    } else {
-        for t in &mesh.triangles {
-            for &i in t {
-                out.extend_from_slice(&(i as u16).to_le_bytes());
+    for batch in normals.chunks(BATCH) {
+        out.clear();
+        out.resize(batch.len() * 2, 0);
+        out.par_chunks_mut(2 * CHUNK).zip(batch.par_chunks(CHUNK)).for_each(|(bytes, normals)| {
+            for (b, n) in bytes.chunks_exact_mut(2).zip(normals) {
+                let [x, y] = octahedral(*n);
+                b.copy_from_slice(&[x as u8, y as u8]);
             }
+        });
+        w.write_all(&out)?;
+    }
+    drop(normals);
+    w.write_all(&[0u8; 4][..(4 - v * 2 % 4) % 4])?;
+    for (n, batch) in mesh.triangles.chunks(BATCH).enumerate() {
+        out.clear();
+        if varint {
+            // Each chunk starts from the last index of the chunk before it.
+            let first = n * BATCH;
+            let parts: Vec<Vec<u8>> = batch
+                .par_chunks(CHUNK)
+                .enumerate()
+                .map(|(c, tris)| {
+                    let at = first + c * CHUNK;
+                    let prev = if at == 0 { 0 } else { mesh.triangles[at - 1][2] };
+                    delta_varint(tris, prev)
+                })
+                .collect();
+            for p in parts {
+                w.write_all(&p)?;
+            }
+        } else {
+            for t in batch {
+                for &i in t {
+                    out.extend_from_slice(&(i as u16).to_le_bytes());
+                }
+            }
+            w.write_all(&out)?;
         }
     }
-    out
+    Ok(())
 }
+
+/// Vertices or triangles per written batch: 16 parallel chunks.
+const BATCH: usize = 16 * CHUNK;
+
+/// Most bytes [`write_mesh`] holds for one batch (its varint indices: up to 5 bytes an index).
+pub const BATCH_BYTES: u64 = (BATCH * 15) as u64;
 
 /// Vertices or triangles per parallel task.
 const CHUNK: usize = 1 << 16;
@@ -260,5 +282,64 @@ mod tests {
         }
         assert_eq!(out, tris.concat());
         assert_eq!(delta_varint(&[[0, 1, 0]], 0), vec![0, 2, 1], "zigzag: +1 → 2, −1 → 1");
+    }
+
+    /// A writer that keeps what it gets and the largest single write.
+    #[derive(Default)]
+    struct Recorder {
+        bytes: Vec<u8>,
+        largest: usize,
+    }
+
+    impl Write for Recorder {
+        fn write(&mut self, buf: &[u8]) -> std::io::Result<usize> {
+            self.largest = self.largest.max(buf.len());
+            self.bytes.extend_from_slice(buf);
+            Ok(buf.len())
+        }
+        fn flush(&mut self) -> std::io::Result<()> {
+            Ok(())
+        }
+    }
+
+    #[test]
+    fn meshes_are_written_a_batch_at_a_time() {
+        // More than one batch of vertices and of triangles: no write is larger than a batch of
+        // positions, and the varint indices carry across batches.
+        let v = BATCH + BATCH / 2;
+        let positions: Vec<[f32; 3]> = (0..v).map(|i| [i as f32, (i % 7) as f32, (i % 3) as f32]).collect();
+        let triangles: Vec<[u32; 3]> =
+            (0..v as u32 - 2).map(|i| [i, i + 2, (i as u64 * 7919 % v as u64) as u32]).collect();
+        let mesh = Mesh { positions, triangles, ..Mesh::default() };
+        let mut w = Recorder::default();
+        write_mesh(&mut w, &mesh, serde_json::json!({})).unwrap();
+        assert!(w.largest <= 6 * BATCH, "a write of {} bytes", w.largest);
+        let body = w.bytes;
+        let n = u32::from_le_bytes(body[..4].try_into().unwrap()) as usize;
+        let head: Value = serde_json::from_slice(&body[4..4 + n]).unwrap();
+        assert_eq!(head["index"]["encoding"], "varint");
+        let at = ((4 + n).div_ceil(4) * 4 + 6 * v).div_ceil(4) * 4 + 2 * v;
+        let (mut out, mut prev, mut z, mut shift) = (Vec::new(), 0i64, 0u64, 0);
+        for &b in &body[at..] {
+            z |= ((b & 0x7f) as u64) << shift;
+            shift += 7;
+            if b < 0x80 {
+                prev += (z >> 1) as i64 ^ -((z & 1) as i64);
+                out.push(prev as u32);
+                (z, shift) = (0, 0);
+            }
+        }
+        assert_eq!(out, mesh.triangles.concat());
+        // A failed write stops the encoding with its error.
+        struct Broken;
+        impl Write for Broken {
+            fn write(&mut self, _: &[u8]) -> std::io::Result<usize> {
+                Err(std::io::ErrorKind::BrokenPipe.into())
+            }
+            fn flush(&mut self) -> std::io::Result<()> {
+                Ok(())
+            }
+        }
+        assert!(write_mesh(&mut Broken, &mesh, serde_json::json!({})).is_err());
     }
 }

@@ -1,16 +1,19 @@
 //! The viewer's HTTP/1.1 server: `GET` and `HEAD`, one request per connection
 //! (`Connection: close`), hardened for a loopback port any local page or process can reach.
 //!
-//! - One thread accepts and reads requests on non-blocking sockets (`poll`), holding up to
-//!   [`Limits::pending`] incomplete ones and dropping the oldest when full; only complete request
-//!   heads reach the workers, in two lanes (work: mesh/check/export; fast: the rest) so the page and
-//!   `/api/info` are not queued behind exports. A full lane queue is answered 503 at once.
+//! - One thread accepts and reads requests on non-blocking sockets (`poll`; where there is none,
+//!   a 5 ms sleep and a try of each), holding up to [`Limits::pending`] incomplete ones and
+//!   dropping the oldest when full. It owns the whole request: the head is checked there (caps,
+//!   method, `Host`) and the body read there (capped, dropped), so only complete, checked
+//!   requests reach the workers, in two lanes (work: mesh/check/export; fast: the rest) so the
+//!   page and `/api/info` are not queued behind exports. A full lane queue is answered 503 at once.
 //! - Malformed input (a first byte that is not a method letter, as a TLS ClientHello; LF-only line
-//!   endings) is refused as soon as it arrives.
+//!   endings) is refused as soon as it arrives; so is every other refusal of the head.
 //! - The request line, the header block and the body are capped ([`Limits`]) and must arrive
-//!   within one deadline, so a client that trickles bytes (slowloris) holds a worker for a bounded
-//!   time; a response must be read at [`Limits::min_read_rate`], so a client that never reads
-//!   frees its worker too.
+//!   within one deadline, so a client that trickles bytes (slowloris) holds one pending slot for
+//!   a bounded time and no worker; a response must be read at [`Limits::min_read_rate`], so a
+//!   client that never reads frees its worker too.
+//! - `HEAD` of a work endpoint is 405 (`Allow: GET`): its headers would need the work done.
 //! - `Host` must name this server (`127.0.0.1:PORT`, `localhost:PORT` or `[::1]:PORT`): a page
 //!   whose DNS name was rebound to 127.0.0.1 still sends its own name and gets 403.
 //! - A handler can ask [`Request::is_abandoned`] between steps of long work: true once the client
@@ -18,7 +21,6 @@
 
 use std::io::{ErrorKind, Read, Write};
 use std::net::{Shutdown, TcpListener, TcpStream};
-use std::os::fd::AsRawFd;
 use std::sync::atomic::{AtomicU64, Ordering};
 use std::sync::mpsc::{sync_channel, Receiver, TrySendError};
 use std::sync::{Arc, Mutex};
@@ -200,19 +202,20 @@ pub type Handler = dyn Fn(&Request) -> Response + Send + Sync;
 ///
 /// Reading is one `poll` loop over non-blocking sockets holding up to [`Limits::pending`]
 /// incomplete requests (the oldest is dropped when a new one needs room), so silent or trickling
-/// clients hold no worker. A complete request head goes to one of two lanes: `/api/mesh`,
-/// `/api/check` and `/api/export` to the work lane ([`Limits::workers`]), everything else (the page,
-/// `/api/info`, `/api/status`, refusals) to the fast lane ([`Limits::fast_workers`]).
+/// clients hold no worker. This thread owns the whole request: it checks the head (limits, method,
+/// `Host`) and reads the body (capped at [`Limits::body`], dropped: the API takes none) before a
+/// worker sees it. A complete request goes to one of two lanes: `/api/mesh`, `/api/check` and
+/// `/api/export` to the work lane ([`Limits::workers`]), everything else (the page, `/api/info`,
+/// `/api/status`) to the fast lane ([`Limits::fast_workers`]).
 pub fn serve(listener: TcpListener, limits: Limits, stats: Arc<Stats>, handler: Arc<Handler>) {
     let port = listener.local_addr().map(|a| a.port()).unwrap_or(0);
-    let hosts = Arc::new([format!("127.0.0.1:{port}"), format!("localhost:{port}"), format!("[::1]:{port}")]);
+    let hosts = [format!("127.0.0.1:{port}"), format!("localhost:{port}"), format!("[::1]:{port}")];
     let lane = |workers: usize| {
         let (tx, rx) = sync_channel::<Head>(limits.queue);
         let rx = Arc::new(Mutex::new(rx));
         for _ in 0..workers.max(1) {
-            let (rx, limits, stats, handler, hosts) =
-                (rx.clone(), limits.clone(), stats.clone(), handler.clone(), hosts.clone());
-            std::thread::spawn(move || worker(&rx, &limits, &stats, &*handler, &hosts));
+            let (rx, limits, stats, handler) = (rx.clone(), limits.clone(), stats.clone(), handler.clone());
+            std::thread::spawn(move || worker(&rx, &limits, &stats, &*handler));
         }
         tx
     };
@@ -221,41 +224,36 @@ pub fn serve(listener: TcpListener, limits: Limits, stats: Arc<Stats>, handler: 
         return;
     }
     let mut pending: Vec<Head> = Vec::new();
-    let mut fds: Vec<libc::pollfd> = Vec::new();
     loop {
-        fds.clear();
-        fds.push(libc::pollfd { fd: listener.as_raw_fd(), events: libc::POLLIN, revents: 0 });
-        fds.extend(pending.iter().map(|h| libc::pollfd { fd: h.stream.as_raw_fd(), events: libc::POLLIN, revents: 0 }));
-        // SAFETY: `fds` is a valid array of `fds.len()` pollfd for the duration of the call.
-        let n = unsafe { libc::poll(fds.as_mut_ptr(), fds.len() as libc::nfds_t, 100) };
-        if n < 0 && std::io::Error::last_os_error().kind() != ErrorKind::Interrupted {
-            return;
-        }
+        let Ok(readable) = wait_readable(&listener, &pending) else { return };
         let now = Instant::now();
         let mut kept = Vec::with_capacity(pending.len());
-        for (mut h, fd) in pending.drain(..).zip(&fds[1..]) {
-            let step = if fd.revents != 0 { read_more(&mut h, &limits) } else { Step::Wait };
+        for (mut h, ready) in pending.drain(..).zip(readable) {
+            let step = if ready { read_more(&mut h, &limits, &hosts) } else { Step::Wait };
             let step = match step {
-                Step::Wait if now >= h.deadline => {
-                    Step::Refuse(408, format!("request not received within {:?}", limits.request_deadline))
-                }
+                Step::Wait if now >= h.deadline => Step::Refuse(Refusal::new(
+                    408,
+                    format!("request not received within {:?}", limits.request_deadline),
+                )),
                 s => s,
             };
             match step {
                 Step::Wait => kept.push(h),
                 Step::Drop => {}
-                Step::Refuse(status, message) => {
+                Step::Refuse(r) => {
                     stats.refused.fetch_add(1, Ordering::Relaxed);
-                    refuse_now(h.stream, status, message);
+                    refuse_now(h.stream, r);
                 }
                 Step::Ready => {
-                    let tx = if is_work(&h.buf) { &work } else { &fast };
+                    let tx = if h.parsed.as_ref().is_some_and(|p| is_work(&p.path)) { &work } else { &fast };
                     let _ = h.stream.set_nonblocking(false);
                     match tx.try_send(h) {
                         Ok(()) => {}
                         Err(TrySendError::Full(h)) => {
                             stats.refused.fetch_add(1, Ordering::Relaxed);
-                            refuse_now(h.stream, 503, "busy: too many requests, retry later".into());
+                            let mut r = Refusal::new(503, "busy: too many requests, retry later".into());
+                            r.headers.push(("Retry-After", "1".into()));
+                            refuse_now(h.stream, r);
                         }
                         Err(TrySendError::Disconnected(_)) => return,
                     }
@@ -275,7 +273,13 @@ pub fn serve(listener: TcpListener, limits: Limits, stats: Arc<Stats>, handler: 
                         pending.remove(0);
                         stats.refused.fetch_add(1, Ordering::Relaxed);
                     }
-                    pending.push(Head { stream, buf: Vec::new(), deadline: Instant::now() + limits.request_deadline });
+                    pending.push(Head {
+                        stream,
+                        buf: Vec::new(),
+                        deadline: Instant::now() + limits.request_deadline,
+                        parsed: None,
+                        body_left: 0,
+                    });
                 }
                 Err(e) if e.kind() == ErrorKind::WouldBlock => break,
                 Err(e) if e.kind() == ErrorKind::Interrupted => continue,
@@ -292,79 +296,153 @@ pub fn serve(listener: TcpListener, limits: Limits, stats: Arc<Stats>, handler: 
     }
 }
 
-/// A connection and the bytes of its request read so far.
+/// Waits (at most 100 ms) until the listener or a pending connection has input; says which
+/// pending connections have.
+#[cfg(unix)]
+fn wait_readable(listener: &TcpListener, pending: &[Head]) -> std::io::Result<Vec<bool>> {
+    use std::os::fd::AsRawFd;
+    let mut fds = Vec::with_capacity(pending.len() + 1);
+    fds.push(libc::pollfd { fd: listener.as_raw_fd(), events: libc::POLLIN, revents: 0 });
+    fds.extend(pending.iter().map(|h| libc::pollfd { fd: h.stream.as_raw_fd(), events: libc::POLLIN, revents: 0 }));
+    // SAFETY: `fds` is a valid array of `fds.len()` pollfd for the duration of the call.
+    let n = unsafe { libc::poll(fds.as_mut_ptr(), fds.len() as libc::nfds_t, 100) };
+    if n < 0 {
+        let e = std::io::Error::last_os_error();
+        if e.kind() != ErrorKind::Interrupted {
+            return Err(e);
+        }
+    }
+    Ok(fds[1..].iter().map(|f| f.revents != 0).collect())
+}
+
+/// Without `poll`: a short sleep, then every pending connection is tried (a non-blocking read of
+/// a connection with nothing to read returns at once).
+#[cfg(not(unix))]
+fn wait_readable(_listener: &TcpListener, pending: &[Head]) -> std::io::Result<Vec<bool>> {
+    std::thread::sleep(Duration::from_millis(5));
+    Ok(vec![true; pending.len()])
+}
+
+/// A connection, the bytes of its request head read so far, and once the head is checked, the
+/// request and the body bytes still to come.
 struct Head {
     stream: TcpStream,
     buf: Vec<u8>,
     deadline: Instant,
+    parsed: Option<Parsed>,
+    body_left: usize,
+}
+
+/// A checked request head.
+struct Parsed {
+    method: &'static str,
+    path: String,
+    query: String,
 }
 
 enum Step {
     /// Incomplete: keep reading.
     Wait,
-    /// The head is complete (or over a cap, which the worker answers).
+    /// The request (head and body) is complete and checked.
     Ready,
     /// Closed before sending anything, or reset.
     Drop,
     /// Answered at once by the reading thread.
-    Refuse(u16, String),
+    Refuse(Refusal),
 }
 
-/// Reads what the non-blocking `h.stream` holds and says whether the head is complete.
-fn read_more(h: &mut Head, limits: &Limits) -> Step {
+/// Why a request was not handed to the handler: the status, the message, extra headers.
+struct Refusal {
+    status: u16,
+    message: String,
+    headers: Vec<(&'static str, String)>,
+}
+
+impl Refusal {
+    fn new(status: u16, message: String) -> Refusal {
+        Refusal { status, message, headers: Vec::new() }
+    }
+}
+
+/// Reads what the non-blocking `h.stream` holds: the head (checked as soon as it is complete,
+/// malformed input refused as soon as it arrives), then the body, dropped.
+fn read_more(h: &mut Head, limits: &Limits, hosts: &[String; 3]) -> Step {
     let cap = limits.request_line + 2 + limits.headers + 2;
     let mut chunk = [0u8; 4096];
-    let closed = loop {
-        if h.buf.len() >= cap {
-            break false;
+    loop {
+        if h.parsed.is_some() {
+            if h.body_left == 0 {
+                return Step::Ready;
+            }
+            match h.stream.read(&mut chunk[..h.body_left.min(4096)]) {
+                Ok(0) => return Step::Refuse(Refusal::new(400, "connection closed inside the body".into())),
+                Ok(n) => h.body_left -= n,
+                Err(e) if e.kind() == ErrorKind::Interrupted => {}
+                Err(e) if e.kind() == ErrorKind::WouldBlock => return Step::Wait,
+                Err(_) => return Step::Drop,
+            }
+            continue;
         }
-        let room = (cap - h.buf.len()).min(chunk.len());
-        match h.stream.read(&mut chunk[..room]) {
-            Ok(0) => break true,
-            Ok(n) => h.buf.extend_from_slice(&chunk[..n]),
-            Err(e) if e.kind() == ErrorKind::Interrupted => {}
-            Err(e) if e.kind() == ErrorKind::WouldBlock => break false,
+        let room = (cap - h.buf.len().min(cap)).min(chunk.len());
+        // (bytes read, connection closed)
+        let (got, closed) = match h.stream.read(&mut chunk[..room]) {
+            _ if room == 0 => (0, false),
+            Ok(0) => (0, true),
+            Ok(n) => {
+                h.buf.extend_from_slice(&chunk[..n]);
+                (n, false)
+            }
+            Err(e) if e.kind() == ErrorKind::Interrupted => continue,
+            Err(e) if e.kind() == ErrorKind::WouldBlock => (0, false),
             Err(_) => return Step::Drop,
+        };
+        if let Some(&b) = h.buf.first() {
+            if !b.is_ascii_uppercase() {
+                return Step::Refuse(Refusal::new(400, "not an HTTP request (TLS is not served: use http://)".into()));
+            }
         }
-    };
-    if let Some(&b) = h.buf.first() {
-        if !b.is_ascii_uppercase() {
-            return Step::Refuse(400, "not an HTTP request (TLS is not served: use http://)".into());
+        let bare_lf = h.buf.iter().enumerate().any(|(i, &b)| b == b'\n' && (i == 0 || h.buf[i - 1] != b'\r'));
+        if bare_lf {
+            return Step::Refuse(Refusal::new(400, "lines must end with CRLF".into()));
         }
-    }
-    let bare_lf = h.buf.iter().enumerate().any(|(i, &b)| b == b'\n' && (i == 0 || h.buf[i - 1] != b'\r'));
-    if bare_lf {
-        return Step::Refuse(400, "lines must end with CRLF".into());
-    }
-    if h.buf.windows(4).any(|w| w == b"\r\n\r\n") || h.buf.len() >= cap {
-        return Step::Ready;
-    }
-    let line_end = h.buf.windows(2).position(|w| w == b"\r\n").unwrap_or(h.buf.len());
-    if line_end > limits.request_line {
-        return Step::Ready; // the worker answers 414
-    }
-    match (closed, h.buf.is_empty()) {
-        (true, true) => Step::Drop,
-        (true, false) => Step::Refuse(400, "connection closed inside the request".into()),
-        (false, _) => Step::Wait,
+        if let Some(end) = h.buf.windows(4).position(|w| w == b"\r\n\r\n") {
+            let (parsed, length) = match parse_head(&h.buf[..end], limits, hosts) {
+                Ok(p) => p,
+                Err(r) => return Step::Refuse(r),
+            };
+            h.body_left = length.saturating_sub(h.buf.len() - (end + 4));
+            h.parsed = Some(parsed);
+            h.buf = Vec::new();
+            continue;
+        }
+        let line_end = h.buf.windows(2).position(|w| w == b"\r\n").unwrap_or(h.buf.len());
+        if line_end > limits.request_line {
+            return Step::Refuse(Refusal::new(414, format!("request line longer than {} bytes", limits.request_line)));
+        }
+        if h.buf.len() >= cap {
+            return Step::Refuse(Refusal::new(431, format!("headers longer than {} bytes", limits.headers)));
+        }
+        if got > 0 && got == room {
+            continue; // a full chunk: there may be more
+        }
+        return match (closed, h.buf.is_empty()) {
+            (true, true) => Step::Drop,
+            (true, false) => Step::Refuse(Refusal::new(400, "connection closed inside the request".into())),
+            (false, _) => Step::Wait,
+        };
     }
 }
 
 /// True when the request's path is one of the expensive endpoints.
-fn is_work(buf: &[u8]) -> bool {
-    let line = buf.split(|&b| b == b'\r').next().unwrap_or(&[]);
-    let target = line.split(|&b| b == b' ').nth(1).unwrap_or(&[]);
-    let path = target.split(|&b| b == b'?').next().unwrap_or(&[]);
-    matches!(path, b"/api/mesh" | b"/api/check" | b"/api/export")
+fn is_work(path: &str) -> bool {
+    matches!(path, "/api/mesh" | "/api/check" | "/api/export")
 }
 
 /// Answers a refusal from the reading thread: a short head on a fresh socket fits its buffer, so the
 /// non-blocking write does not wait; then the connection is closed.
-fn refuse_now(mut stream: TcpStream, status: u16, message: String) {
-    let mut r = Response::error(status, message);
-    if status == 503 {
-        r.headers.push(("Retry-After", "1".into()));
-    }
+fn refuse_now(mut stream: TcpStream, refusal: Refusal) {
+    let mut r = Response::error(refusal.status, refusal.message);
+    r.headers = refusal.headers;
     let Body::Owned(body) = &r.body else { return };
     let mut out = Vec::new();
     let _ = write_head(&mut out, &r, Some(body.len()));
@@ -373,7 +451,7 @@ fn refuse_now(mut stream: TcpStream, status: u16, message: String) {
     let _ = stream.shutdown(Shutdown::Write);
 }
 
-fn worker(rx: &Mutex<Receiver<Head>>, limits: &Limits, stats: &Stats, handler: &Handler, hosts: &[String; 3]) {
+fn worker(rx: &Mutex<Receiver<Head>>, limits: &Limits, stats: &Stats, handler: &Handler) {
     loop {
         let next = match rx.lock() {
             Ok(rx) => rx.recv(),
@@ -381,34 +459,22 @@ fn worker(rx: &Mutex<Receiver<Head>>, limits: &Limits, stats: &Stats, handler: &
         };
         let Ok(head) = next else { return };
         let _ = head.stream.set_nodelay(true);
-        connection(head, limits, stats, handler, hosts);
+        connection(head, limits, stats, handler);
     }
 }
 
-/// Why a request was not handed to the handler.
-struct Refusal(u16, String);
-
-fn connection(head: Head, limits: &Limits, stats: &Stats, handler: &Handler, hosts: &[String; 3]) {
-    let Head { mut stream, buf, deadline } = head;
-    let response = match read_request(&mut stream, buf, limits, deadline, hosts) {
-        Ok((method, path, query)) => {
-            let req = Request { path, query, stream: &stream };
-            // A panic in a handler is a bug; it costs this request, not the server.
-            let r = std::panic::catch_unwind(std::panic::AssertUnwindSafe(|| handler(&req)))
-                .unwrap_or_else(|_| Response::error(500, "internal error: this is a bug, please report it"));
-            if r.status == STATUS_ABANDONED {
-                stats.abandoned.fetch_add(1, Ordering::Relaxed);
-                return;
-            }
-            (r, method == "HEAD")
-        }
-        Err(Refusal(0, _)) => return, // the client closed before sending a request
-        Err(Refusal(status, message)) => {
-            stats.refused.fetch_add(1, Ordering::Relaxed);
-            (Response::error(status, message), false)
-        }
-    };
-    let (mut response, head_only) = response;
+fn connection(head: Head, limits: &Limits, stats: &Stats, handler: &Handler) {
+    let Head { mut stream, parsed, .. } = head;
+    let Some(Parsed { method, path, query }) = parsed else { return };
+    let req = Request { path, query, stream: &stream };
+    // A panic in a handler is a bug; it costs this request, not the server.
+    let mut response = std::panic::catch_unwind(std::panic::AssertUnwindSafe(|| handler(&req)))
+        .unwrap_or_else(|_| Response::error(500, "internal error: this is a bug, please report it"));
+    if response.status == STATUS_ABANDONED {
+        stats.abandoned.fetch_add(1, Ordering::Relaxed);
+        return;
+    }
+    let head_only = method == "HEAD";
     if let Body::Stream(_) = response.body {
         let Body::Stream(writer) = std::mem::replace(&mut response.body, Body::Static(b"")) else { return };
         let written = write_head(&mut stream, &response, None).and_then(|()| {
@@ -451,116 +517,78 @@ fn connection(head: Head, limits: &Limits, stats: &Stats, handler: &Handler, hos
     }
 }
 
-/// Reads and checks the request line and headers, and reads (and drops) the body.
-fn read_request(
-    stream: &mut TcpStream,
-    mut buf: Vec<u8>,
-    limits: &Limits,
-    deadline: Instant,
-    hosts: &[String; 3],
-) -> Result<(&'static str, String, String), Refusal> {
-    let cap = limits.request_line + 2 + limits.headers + 2;
-    let end = loop {
-        if let Some(p) = buf.windows(4).position(|w| w == b"\r\n\r\n") {
-            break p;
-        }
-        let line_end = buf.windows(2).position(|w| w == b"\r\n");
-        if line_end.unwrap_or(buf.len()) > limits.request_line {
-            return Err(Refusal(414, format!("request line longer than {} bytes", limits.request_line)));
-        }
-        if buf.len() >= cap {
-            return Err(Refusal(431, format!("headers longer than {} bytes", limits.headers)));
-        }
-        let mut chunk = [0u8; 4096];
-        let room = (cap - buf.len()).min(chunk.len());
-        match read_by(stream, &mut chunk[..room], deadline, limits)? {
-            0 if buf.is_empty() => return Err(Refusal(0, String::new())),
-            0 => return Err(Refusal(400, "connection closed inside the request".into())),
-            n => buf.extend_from_slice(&chunk[..n]),
-        }
-    };
-    let head = std::str::from_utf8(&buf[..end]).map_err(|_| Refusal(400, "request head is not UTF-8".into()))?;
+/// Checks a complete request head (without its blank line): the request line, the headers,
+/// `Host`; answers the request and the length of its body.
+fn parse_head(head: &[u8], limits: &Limits, hosts: &[String; 3]) -> Result<(Parsed, usize), Refusal> {
+    let bad = |m: String| Refusal::new(400, m);
+    let head = std::str::from_utf8(head).map_err(|_| bad("request head is not UTF-8".into()))?;
     let mut lines = head.split("\r\n");
     let line = lines.next().unwrap_or("");
     if line.len() > limits.request_line {
-        return Err(Refusal(414, format!("request line longer than {} bytes", limits.request_line)));
+        return Err(Refusal::new(414, format!("request line longer than {} bytes", limits.request_line)));
     }
-    if end - line.len() > limits.headers + 2 {
-        return Err(Refusal(431, format!("headers longer than {} bytes", limits.headers)));
+    if head.len() - line.len() > limits.headers + 2 {
+        return Err(Refusal::new(431, format!("headers longer than {} bytes", limits.headers)));
     }
     let mut parts = line.split(' ');
     let (Some(method), Some(target), Some(version), None) = (parts.next(), parts.next(), parts.next(), parts.next())
     else {
-        return Err(Refusal(400, "malformed request line".into()));
+        return Err(bad("malformed request line".into()));
     };
     let method = match method {
         "GET" => "GET",
         "HEAD" => "HEAD",
-        m => return Err(Refusal(405, format!("method {m:?}: only GET and HEAD"))),
+        m => {
+            let mut r = Refusal::new(405, format!("method {m:?}: only GET and HEAD"));
+            r.headers.push(("Allow", "GET, HEAD".into()));
+            return Err(r);
+        }
     };
     if version != "HTTP/1.1" && version != "HTTP/1.0" {
-        return Err(Refusal(505, format!("{version:?}: only HTTP/1.0 and HTTP/1.1")));
+        return Err(Refusal::new(505, format!("{version:?}: only HTTP/1.0 and HTTP/1.1")));
     }
     if !target.starts_with('/') {
-        return Err(Refusal(400, "the request target must be a path".into()));
+        return Err(Refusal::new(400, "the request target must be a path".into()));
     }
     let (mut host, mut length): (Option<&str>, Option<usize>) = (None, None);
     for h in lines {
-        let (name, value) = h.split_once(':').ok_or_else(|| Refusal(400, format!("malformed header {h:?}")))?;
+        let (name, value) = h.split_once(':').ok_or_else(|| bad(format!("malformed header {h:?}")))?;
         let value = value.trim();
         if name.eq_ignore_ascii_case("host") {
             if host.is_some() {
-                return Err(Refusal(400, "more than one Host header".into()));
+                return Err(bad("more than one Host header".into()));
             }
             host = Some(value);
         } else if name.eq_ignore_ascii_case("content-length") {
-            let n = value.parse().map_err(|_| Refusal(400, format!("Content-Length {value:?}: not a number")))?;
+            let n = value.parse().map_err(|_| bad(format!("Content-Length {value:?}: not a number")))?;
             if length.is_some_and(|l| l != n) {
-                return Err(Refusal(400, "conflicting Content-Length headers".into()));
+                return Err(bad("conflicting Content-Length headers".into()));
             }
             length = Some(n);
         } else if name.eq_ignore_ascii_case("transfer-encoding") {
-            return Err(Refusal(501, "Transfer-Encoding in a request is not accepted".into()));
+            return Err(Refusal::new(501, "Transfer-Encoding in a request is not accepted".into()));
         }
     }
     match host {
-        None => return Err(Refusal(400, "Host header required".into())),
+        None => return Err(bad("Host header required".into())),
         Some(h) if !hosts.iter().any(|ok| ok.eq_ignore_ascii_case(h)) => {
-            return Err(Refusal(403, format!("Host {h:?} is not this server (accepted: {})", hosts.join(", "))));
+            let accepted = hosts.join(", ");
+            return Err(Refusal::new(403, format!("Host {h:?} is not this server (accepted: {accepted})")));
         }
         Some(_) => {}
     }
     let length = length.unwrap_or(0);
     if length > limits.body {
-        return Err(Refusal(413, format!("body of {length} bytes: at most {}", limits.body)));
-    }
-    // The body (if any) is read to its end so the response is not lost to a reset.
-    let mut left = length.saturating_sub(buf.len() - (end + 4));
-    let mut sink = [0u8; 4096];
-    while left > 0 {
-        let room = left.min(sink.len());
-        match read_by(stream, &mut sink[..room], deadline, limits)? {
-            0 => return Err(Refusal(400, "connection closed inside the body".into())),
-            n => left -= n,
-        }
+        return Err(Refusal::new(413, format!("body of {length} bytes: at most {}", limits.body)));
     }
     let (path, query) = target.split_once('?').unwrap_or((target, ""));
-    Ok((method, path.to_string(), query.to_string()))
-}
-
-/// One read that must make progress before `deadline` (and within `io_timeout`).
-fn read_by(stream: &mut TcpStream, buf: &mut [u8], deadline: Instant, limits: &Limits) -> Result<usize, Refusal> {
-    let timeout = || Refusal(408, format!("request not received within {:?}", limits.request_deadline));
-    let left = deadline.checked_duration_since(Instant::now()).filter(|d| !d.is_zero()).ok_or_else(timeout)?;
-    let _ = stream.set_read_timeout(Some(left.min(limits.io_timeout)));
-    loop {
-        match stream.read(buf) {
-            Ok(n) => return Ok(n),
-            Err(e) if e.kind() == ErrorKind::Interrupted => continue,
-            Err(e) if matches!(e.kind(), ErrorKind::WouldBlock | ErrorKind::TimedOut) => return Err(timeout()),
-            Err(_) => return Err(Refusal(0, String::new())),
-        }
+    if method == "HEAD" && is_work(path) {
+        // Its headers would need the work done (or started): refused before any is.
+        let mut r = Refusal::new(405, format!("HEAD {path}: only GET (its answer is made by extracting)"));
+        r.headers.push(("Allow", "GET".into()));
+        return Err(r);
     }
+    Ok((Parsed { method, path: path.to_string(), query: query.to_string() }, length))
 }
 
 fn write_head(stream: &mut impl Write, r: &Response, len: Option<usize>) -> std::io::Result<()> {
@@ -572,9 +600,6 @@ fn write_head(stream: &mut impl Write, r: &Response, len: Option<usize>) -> std:
         reason(r.status),
         r.content_type
     );
-    if r.status == 405 {
-        head.push_str("Allow: GET, HEAD\r\n");
-    }
     for (k, v) in &r.headers {
         head.push_str(&format!("{k}: {v}\r\n"));
     }

@@ -12,7 +12,13 @@
 //!   full-resolution mesh, then its defect edges (boundary and non-manifold) as vertex pairs.
 //!   Deferred because it costs more than the extraction on large meshes.
 //! - `GET /api/export?format=ply|obj|stl|glb&…` → the full-resolution mesh as a file.
-//! - `GET /api/status` → JSON counters of the server (served, abandoned, refused requests).
+//! - `GET /api/status` → JSON counters of the server (served, abandoned, refused requests) and
+//!   its memory budget (`memory.budget`, `memory.reserved`, bytes).
+//!
+//! Every endpoint that extracts (`/api/mesh`, `/api/check`, `/api/export`) holds a share of one
+//! memory [`Budget`]: reserved before the work from the last mesh of its level, resized to its
+//! own mesh, given back once its answer is written (answers are streamed, not built whole);
+//! without room for [`BUDGET_WAIT`] the answer is 503 with `Retry-After`.
 //!
 //! Parameters: `method`, `iso` (volumes and the demo), `roi` (volumes: `i0:i1,j0:j1,k0:k1`),
 //! `field` (`metaballs|lines|height`), `n` (8–160) and `t` (animation time) for the demo. Each is
@@ -29,6 +35,7 @@ mod codec;
 mod http;
 
 use std::net::TcpListener;
+use std::sync::atomic::AtomicU64;
 use std::sync::{Arc, Mutex, MutexGuard};
 use std::time::{Duration, Instant};
 
@@ -150,10 +157,13 @@ struct Viewer {
     /// Held while a check runs (one at a time).
     checking: Mutex<()>,
     stats: Arc<Stats>,
-    /// The memory budget of exports in flight.
+    /// The memory budget of everything that extracts (meshes, checks, exports in flight).
     budget: Arc<Budget>,
-    /// Bytes of the last exported mesh: the next export's estimate.
-    last_export_bytes: std::sync::atomic::AtomicU64,
+    /// Bytes of the last full-resolution mesh: the estimate of the next (the whole budget until
+    /// one was made: the first runs alone).
+    full_estimate: AtomicU64,
+    /// Bytes of the last preview mesh: the estimate of the next.
+    preview_estimate: AtomicU64,
 }
 
 /// Why a request ended without an answer: its client went away.
@@ -167,13 +177,18 @@ enum Failure {
     Busy,
 }
 
-/// Memory that meshes held for exports in flight may take together, bytes (the volume itself and
-/// the one extraction running at a time come on top).
+/// Memory that the requests in flight on `/api/mesh`, `/api/check` and `/api/export` may take
+/// together, bytes: their meshes, encodings and checks (the volume itself, the last mesh kept for
+/// reuse and the working memory of the one full-resolution extraction running at a time come on
+/// top).
 pub const MEMORY_BUDGET: u64 = 1 << 30;
-/// How long an export waits for room in the budget before it is answered 503.
+/// How long a request waits for room in the budget before it is answered 503.
 const BUDGET_WAIT: Duration = Duration::from_secs(30);
-/// What an export reserves before its mesh is known, when no export was made yet.
-const FIRST_ESTIMATE: u64 = 64 << 20;
+/// What a preview reserves before its mesh is known, when no preview was made yet (a preview
+/// grid has at most [`PREVIEW_POINTS`] points).
+const FIRST_PREVIEW_ESTIMATE: u64 = 64 << 20;
+/// A check holds its mesh and about three times it in edge tables: it reserves this many meshes.
+const CHECK_MESHES: u64 = 4;
 
 /// One memory budget for everything in flight: a request reserves before it allocates, waits
 /// while the budget is taken, and gives its share back when its answer is written.
@@ -253,6 +268,12 @@ fn mesh_bytes(m: &Mesh) -> u64 {
         as u64
 }
 
+/// Bytes a `/api/mesh` answer holds while it is written: its mesh, the vertex normals of the
+/// encoding and one batch of bytes.
+fn answer_bytes(m: &Mesh) -> u64 {
+    mesh_bytes(m) + 12 * m.positions.len() as u64 + codec::BATCH_BYTES
+}
+
 impl From<anyhow::Error> for Failure {
     fn from(e: anyhow::Error) -> Self {
         Failure::Bad(e)
@@ -316,7 +337,8 @@ impl Viewer {
             checking: Mutex::new(()),
             stats: Arc::new(Stats::default()),
             budget: Budget::new(MEMORY_BUDGET, BUDGET_WAIT),
-            last_export_bytes: std::sync::atomic::AtomicU64::new(FIRST_ESTIMATE),
+            full_estimate: AtomicU64::new(u64::MAX),
+            preview_estimate: AtomicU64::new(FIRST_PREVIEW_ESTIMATE),
         }
     }
 
@@ -343,7 +365,7 @@ impl Viewer {
             Err(Failure::Abandoned) => Response::abandoned(),
             Err(Failure::Bad(e)) => Response::error(400, format!("{e:#}")),
             Err(Failure::Busy) => {
-                let mut r = Response::error(503, "busy: exports in flight hold the memory budget, retry later");
+                let mut r = Response::error(503, "busy: requests in flight hold the memory budget, retry later");
                 r.headers.push(("Retry-After", "5".into()));
                 r
             }
@@ -403,6 +425,7 @@ impl Viewer {
             "served": self.stats.served.load(Relaxed),
             "abandoned": self.stats.abandoned.load(Relaxed),
             "refused": self.stats.refused.load(Relaxed),
+            "memory": { "budget": self.budget.limit, "reserved": *lock(&self.budget.used) },
         })
     }
 
@@ -451,7 +474,27 @@ impl Viewer {
         Ok(q)
     }
 
+    /// True when `/api/mesh` with `level=preview` (`preview`) answers a coarser mesh than the full.
+    fn has_preview(&self, q: &Query, preview: bool) -> Result<bool> {
+        Ok(preview
+            && match &self.shown {
+                Shown::Volume { grid, .. } => {
+                    let points = match &q.request.region.roi {
+                        None => grid.lattice().num_points(),
+                        Some(roi) => {
+                            let (lo, hi) = roi.point_box(grid.lattice())?;
+                            (0..3).map(|a| u64::from(hi[a] - lo[a])).product()
+                        }
+                    };
+                    preview_step(points) > 1
+                }
+                Shown::Sparse { grid, .. } => sparse_preview_level(grid) > 0,
+                Shown::Demo | Shown::Mesh { .. } => false,
+            })
+    }
+
     fn mesh_reply(&self, params: &[(String, String)], req: &Request) -> Result<Response, Failure> {
+        use std::sync::atomic::Ordering::Relaxed;
         let level = get(params, "level").unwrap_or("full");
         let q = self.query(params, &["level"])?;
         let preview = match level {
@@ -460,6 +503,12 @@ impl Viewer {
             l => return Err(Failure::Bad(anyhow!("level={l:?}: preview or full"))),
         };
         still_wanted(req)?;
+        let estimate = if self.has_preview(&q, preview)? { &self.preview_estimate } else { &self.full_estimate };
+        // A mesh of V vertices holds 12 V bytes of positions and about 24 V of triangles; the
+        // encoding's normals add 12 V, a third.
+        let e = estimate.load(Relaxed);
+        let mut held =
+            self.budget.reserve(e.saturating_add(e / 3).saturating_add(codec::BATCH_BYTES), || req.is_abandoned())?;
         let start = Instant::now();
         let sparse_level = match &self.shown {
             Shown::Sparse { grid, .. } if preview => sparse_preview_level(grid),
@@ -479,12 +528,20 @@ impl Viewer {
             None => (self.full_mesh(&q, req)?, 1),
         };
         let ms = start.elapsed().as_secs_f64() * 1e3;
+        let estimate = if step > 1 { &self.preview_estimate } else { &self.full_estimate };
+        estimate.store(mesh_bytes(&mesh).max(1 << 20), Relaxed);
+        held.resize(answer_bytes(&mesh));
         still_wanted(req)?;
         let head = json!({
             "level": if step > 1 { "preview" } else { "full" }, "step": step, "method": q.method().name(),
             "vertices": mesh.num_vertices(), "triangles": mesh.num_triangles(), "extraction_ms": ms,
         });
-        Ok(Response::ok("application/octet-stream", Body::Owned(codec::encode_mesh(&mesh, head))))
+        // Streamed as it is encoded; the share of the budget is given back once it is written.
+        let writer: http::Writer = Box::new(move |w: &mut dyn std::io::Write| {
+            let _held = held;
+            codec::write_mesh(w, &mesh, head)
+        });
+        Ok(Response::ok("application/octet-stream", Body::Stream(writer)))
     }
 
     fn iso(&self, q: &Query) -> Result<Iso> {
@@ -569,7 +626,12 @@ impl Viewer {
         if let Some(b) = cached() {
             return Ok(Response::ok("application/octet-stream", Body::Owned(b.to_vec())));
         }
+        use std::sync::atomic::Ordering::Relaxed;
+        let estimate = self.full_estimate.load(Relaxed).saturating_mul(CHECK_MESHES);
+        let mut held = self.budget.reserve(estimate, || req.is_abandoned())?;
         let mesh = self.full_mesh(&q, req)?;
+        self.full_estimate.store(mesh_bytes(&mesh).max(1 << 20), Relaxed);
+        held.resize(mesh_bytes(&mesh) * CHECK_MESHES);
         let _turn = lock_or_abandon(&self.checking, req)?;
         if let Some(b) = cached() {
             return Ok(Response::ok("application/octet-stream", Body::Owned(b.to_vec())));
@@ -598,11 +660,6 @@ impl Viewer {
     fn export_reply(&self, params: &[(String, String)], req: &Request) -> Result<Response, Failure> {
         let q = self.query(params, &["format"])?;
         use std::sync::atomic::Ordering::Relaxed;
-        let mut held = self.budget.reserve(self.last_export_bytes.load(Relaxed), || req.is_abandoned())?;
-        let mesh = self.full_mesh(&q, req)?;
-        let bytes = mesh_bytes(&mesh);
-        self.last_export_bytes.store(bytes.max(1 << 20), Relaxed);
-        held.resize(bytes);
         let (mime, file) = match get(params, "format").unwrap_or("ply") {
             "ply" => ("application/octet-stream", "ply"),
             "obj" => ("text/plain; charset=utf-8", "obj"),
@@ -610,15 +667,24 @@ impl Viewer {
             "glb" => ("model/gltf-binary", "glb"),
             f => return Err(Failure::Bad(anyhow!("format={f:?}: ply, obj, stl or glb"))),
         };
+        let mut held = self.budget.reserve(self.full_estimate.load(Relaxed), || req.is_abandoned())?;
+        let mesh = self.full_mesh(&q, req)?;
+        let bytes = mesh_bytes(&mesh);
+        self.full_estimate.store(bytes.max(1 << 20), Relaxed);
+        held.resize(bytes);
         // Streamed to the client as it is written: the body is never whole in memory.
-        let writer: http::Writer = Box::new(move |w: &mut dyn std::io::Write| match file {
-            "ply" => isoforge_io::write::ply::write_ply(w, &mesh, false),
-            "obj" => isoforge_io::write::obj::write_obj(w, &mesh),
-            "stl" => isoforge_io::write::stl::write_stl(w, &mesh),
-            _ => {
-                let data = isoforge_io::MeshData::default();
-                let named = [isoforge_io::NamedMesh { name: "isosurface", mesh: &mesh, data: &data }];
-                isoforge_io::write::gltf::write_glb(w, &named)
+        // The share of the budget is given back once the file is written.
+        let writer: http::Writer = Box::new(move |w: &mut dyn std::io::Write| {
+            let _held = held;
+            match file {
+                "ply" => isoforge_io::write::ply::write_ply(w, &mesh, false),
+                "obj" => isoforge_io::write::obj::write_obj(w, &mesh),
+                "stl" => isoforge_io::write::stl::write_stl(w, &mesh),
+                _ => {
+                    let data = isoforge_io::MeshData::default();
+                    let named = [isoforge_io::NamedMesh { name: "isosurface", mesh: &mesh, data: &data }];
+                    isoforge_io::write::gltf::write_glb(w, &named)
+                }
             }
         });
         let mut r = Response::ok(mime, Body::Stream(writer));
