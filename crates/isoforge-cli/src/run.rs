@@ -99,8 +99,21 @@ fn open_input(input: &InputConfig, budget: Option<&Budget>, prefer_stream: bool)
     if raw.is_none() && isoforge_io::VolumeFormat::from_path(path) == Some(isoforge_io::VolumeFormat::Vdb) {
         return Ok(Loaded::Sparse(Box::new(read_sparse_within(path, &input.limits, budget)?)));
     }
-    let open_limits = if budget.is_some() { Limits::new(u64::MAX) } else { input.limits };
-    let reader = open_reader(path, raw.as_ref(), &open_limits)?;
+    // A reader that streams opens by its header; one that decodes the file whole (images, DICOM,
+    // VTI) stops at the budget instead of reading past it.
+    let whole = raw.is_none() && !streams(path);
+    let open_limits = match budget {
+        Some(b) if whole => Limits::new(input.limits.max_bytes.min(b.bytes)),
+        Some(_) => Limits::new(u64::MAX),
+        None => input.limits,
+    };
+    let reader = open_reader(path, raw.as_ref(), &open_limits).map_err(|e| match budget {
+        Some(b) if whole && b.bytes < input.limits.max_bytes && is_limit(&e) => anyhow!(
+            "{name}: images, DICOM series and VTI files are read whole, and its samples need more than --max-memory {}",
+            size(b.bytes)
+        ),
+        _ => e,
+    })?;
     if let Some(b) = budget {
         let need = in_memory_estimate(&reader, b);
         if need > b.bytes {
@@ -150,6 +163,11 @@ fn read_sparse_within(path: &Path, limits: &Limits, budget: Option<&Budget>) -> 
         }
         _ => e.into(),
     })
+}
+
+/// Whether `e` is a reader's refusal of a size over its limits.
+fn is_limit(e: &anyhow::Error) -> bool {
+    matches!(e.downcast_ref::<isoforge_io::Error>(), Some(isoforge_io::Error::Limit { .. }))
 }
 
 /// The memory meshing the sparse grid `g` at `iso` in memory can need at most: its samples and

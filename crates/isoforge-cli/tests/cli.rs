@@ -1692,6 +1692,23 @@ fn issue_50_every_streaming_format_holds_the_cap() {
         .concat();
     std::fs::remove_file(&out).unwrap();
     fails(&args, "streaming it slab by slab holds at least 6 MiB", &out);
+    // A file read whole (VTI) over the cap: refused by its header, before its samples are read.
+    let n = 64usize;
+    let mut vti = format!(
+        "<?xml version=\"1.0\"?>\n<VTKFile type=\"ImageData\" version=\"1.0\" byte_order=\"LittleEndian\" \
+         header_type=\"UInt32\">\n<ImageData WholeExtent=\"0 {m} 0 {m} 0 {m}\" Origin=\"0 0 0\" Spacing=\"1 1 1\">\n\
+         <Piece Extent=\"0 {m} 0 {m} 0 {m}\"><PointData Scalars=\"v\"><DataArray type=\"UInt8\" Name=\"v\" \
+         format=\"appended\" offset=\"0\"/></PointData></Piece>\n</ImageData>\n<AppendedData encoding=\"raw\">_",
+        m = n - 1
+    )
+    .into_bytes();
+    vti.extend((n.pow(3) as u32).to_le_bytes());
+    vti.extend((0..n.pow(3)).map(|i| (i % 251) as u8));
+    vti.extend(b"\n</AppendedData>\n</VTKFile>\n");
+    let file = dir.path().join("g.vti");
+    std::fs::write(&file, vti).unwrap();
+    let args = ["extract", "-i", p(&file), "--iso", "100", "--max-memory", "100K", "-o", p(&out)];
+    fails(&args, "are read whole, and its samples need more than --max-memory 100 KiB", &out);
 }
 
 /// Collects a streamed mesh and checks it as it streams.
