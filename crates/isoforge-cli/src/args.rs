@@ -576,6 +576,10 @@ pub struct CheckArgs {
     /// Largest mesh the reader may allocate, in bytes (suffixes K, M, G accepted).
     #[arg(long, value_name = "BYTES", allow_hyphen_values = true)]
     pub max_bytes: Option<String>,
+    /// Also report the Hausdorff distance to this mesh (each one's vertices to the other's
+    /// surface, exact point–triangle distances, in world units).
+    #[arg(long, value_name = "MESH")]
+    pub reference: Option<PathBuf>,
 }
 
 #[derive(Debug, ClapArgs)]
@@ -626,6 +630,7 @@ mod tests {
     const NOT_NUMERIC: &[&str] = &[
         "input",
         "skeleton",
+        "reference",
         "grid_out",
         "grid",
         "grid_class",

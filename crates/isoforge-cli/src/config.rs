@@ -89,6 +89,8 @@ pub struct CheckConfig {
     pub require: Vec<Guarantee>,
     pub examples: usize,
     pub limits: Limits,
+    /// `--reference`: the mesh the Hausdorff distance is measured to.
+    pub reference: Option<PathBuf>,
 }
 
 pub struct DemoConfig {
@@ -767,6 +769,7 @@ impl CheckConfig {
             require: guarantees(&a.require)?,
             examples: a.examples,
             limits: limits(a.max_bytes.as_deref())?,
+            reference: a.reference.clone(),
         })
     }
 }

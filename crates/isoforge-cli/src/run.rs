@@ -1075,15 +1075,40 @@ pub fn simplify(c: &SimplifyConfig) -> Result<Outcome> {
 
 pub fn check(c: &CheckConfig) -> Result<Outcome> {
     let mesh = spin(format!("reading {}", c.mesh.display()), || isoforge_io::read_mesh(&c.mesh, &c.limits))?;
+    let reference = match &c.reference {
+        Some(r) => Some((r, spin(format!("reading {}", r.display()), || isoforge_io::read_mesh(r, &c.limits))?)),
+        None => None,
+    };
     let rep = check_mesh(&mesh, &CheckOptions { max_examples: c.examples, lattice: None });
+    let distance =
+        reference.as_ref().map(|(_, r)| spin("measuring the Hausdorff distance", || topo::hausdorff(&mesh, r)));
     if c.json {
         let mut v = report::mesh_json(&rep);
         v["file"] = json!(c.mesh.display().to_string());
         v["failed"] = json!(failed(&rep, &c.require));
+        if let (Some((path, _)), Some(h)) = (&reference, distance) {
+            v["reference"] = json!({
+                "file": path.display().to_string(),
+                "hausdorff": h.max(),
+                "to_reference": h.forward,
+                "from_reference": h.backward,
+                "mean": h.mean,
+            });
+        }
         println!("{}", serde_json::to_string_pretty(&v)?);
     } else {
         println!("file:        {}", c.mesh.display());
         print!("{}", report::mesh_text(&rep));
+        if let (Some((path, _)), Some(h)) = (&reference, distance) {
+            println!(
+                "reference:   {}: Hausdorff {:.6} (to it {:.6}, from it {:.6}, mean {:.6}; vertices to surfaces)",
+                path.display(),
+                h.max(),
+                h.forward,
+                h.backward,
+                h.mean
+            );
+        }
     }
     Ok(verdict(&c.mesh, &rep, &c.require))
 }

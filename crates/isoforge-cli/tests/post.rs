@@ -305,3 +305,36 @@ fn engine_ct_decimation_keeps_topology_and_error_bound() {
     );
     assert!(worst <= 0.5 + 1e-6, "{worst}");
 }
+
+/// Issue 49: `check --reference` reports the Hausdorff distance to another mesh, both ways: a
+/// mesh decimated within a bound is within it of the original, and a mesh is 0 from itself.
+#[test]
+fn check_reports_the_hausdorff_distance_to_a_reference() {
+    let dir = tempfile::tempdir().unwrap();
+    let vol = binary_torus(dir.path());
+    let (full, coarse) = (dir.path().join("full.ply"), dir.path().join("coarse.ply"));
+    let o = isoforge(&["extract", "-i", p(&vol), "--iso", "0.5", "-o", p(&full)]);
+    assert_eq!(o.status.code(), Some(0), "{}", stderr(&o));
+    let o = isoforge(&["simplify", p(&full), "--max-error", "0.4", "-o", p(&coarse)]);
+    assert_eq!(o.status.code(), Some(0), "{}", stderr(&o));
+    let c = isoforge(&["check", p(&coarse), "--reference", p(&full), "--json"]);
+    assert_eq!(c.status.code(), Some(0), "{}", stderr(&c));
+    let r: serde_json::Value = serde_json::from_slice(&c.stdout).unwrap();
+    let h = r["reference"]["hausdorff"].as_f64().unwrap();
+    assert!(h > 0.0 && h <= 0.4 + 1e-6, "{r}");
+    assert_eq!(
+        h,
+        r["reference"]["to_reference"].as_f64().unwrap().max(r["reference"]["from_reference"].as_f64().unwrap())
+    );
+    let same = isoforge(&["check", p(&full), "--reference", p(&full)]);
+    assert!(
+        String::from_utf8_lossy(&same.stdout).contains("Hausdorff 0.000000"),
+        "{}",
+        String::from_utf8_lossy(&same.stdout)
+    );
+    // A reference that cannot be read: one line naming it, exit 2.
+    let missing = dir.path().join("missing.ply");
+    let bad = isoforge(&["check", p(&full), "--reference", p(&missing)]);
+    assert_eq!(bad.status.code(), Some(2));
+    assert!(stderr(&bad).contains("missing.ply") && stderr(&bad).trim_end().lines().count() == 1, "{}", stderr(&bad));
+}
