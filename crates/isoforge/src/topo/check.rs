@@ -366,7 +366,7 @@ pub fn check_with_progress(mesh: &Mesh, opts: &CheckOptions, progress: Option<&d
             edges.push((key, (ti << 1) | forward));
         }
     }
-    edges.sort_unstable();
+    sort_by_vertex(&mut edges, nv, |e| (e.0 >> 32) as u32);
     let finding = |key: u64, faces: usize| {
         let (a, b) = ((key >> 32) as u32, key as u32);
         EdgeFinding::new(a, b, faces, pos(a), pos(b), opts.lattice.as_ref())
@@ -410,21 +410,30 @@ pub fn check_with_progress(mesh: &Mesh, opts: &CheckOptions, progress: Option<&d
             links.push((t[s], t[(s + 1) % 3], t[(s + 2) % 3]));
         }
     }
-    links.sort_unstable();
+    sort_by_vertex(&mut links, nv, |l| l.0);
     let mut non_manifold_vertices = Findings::default();
-    let mut local: Vec<u32> = Vec::new();
-    let mut parent: Vec<usize> = Vec::new();
-    let mut i = 0;
-    while i < links.len() {
-        let v = links[i].0;
-        let mut j = i;
-        while j < links.len() && links[j].0 == v {
-            j += 1;
+    // In pieces over the threads, cut between vertices; found in vertex order.
+    let mut pieces = Vec::new();
+    let mut lo = 0;
+    while lo < links.len() {
+        let mut hi = (lo + PIECE).min(links.len());
+        while hi < links.len() && links[hi].0 == links[hi - 1].0 {
+            hi += 1;
         }
-        if fans(&links[i..j], &mut local, &mut parent) > 1 {
-            non_manifold_vertices.push(v, max);
+        pieces.push(&links[lo..hi]);
+        lo = hi;
+    }
+    let found = crate::walk::flying_edges::map_tasks(pieces, &|piece: &[(u32, u32, u32)]| {
+        let (mut local, mut parent, mut bad) = (Vec::new(), Vec::new(), Vec::new());
+        for group in piece.chunk_by(|a, b| a.0 == b.0) {
+            if fans(group, &mut local, &mut parent) > 1 {
+                bad.push(group[0].0);
+            }
         }
-        i = j;
+        bad
+    });
+    for v in found.into_iter().flatten() {
+        non_manifold_vertices.push(v, max);
     }
 
     stage(4);
@@ -438,7 +447,7 @@ pub fn check_with_progress(mesh: &Mesh, opts: &CheckOptions, progress: Option<&d
             (t, ti)
         })
         .collect();
-    sorted.sort_unstable();
+    sort_by_vertex(&mut sorted, nv, |t| t.0[0]);
     let mut duplicates = Findings::default();
     for w in sorted.windows(2) {
         if w[0].0 == w[1].0 {
@@ -480,17 +489,80 @@ pub fn check_with_progress(mesh: &Mesh, opts: &CheckOptions, progress: Option<&d
     }
 }
 
+/// Items per piece of the parallel passes (fixed, so results do not depend on the threads).
+const PIECE: usize = 1 << 16;
+
+/// Sorts `items` as `sort_unstable` would, when their order starts with `vertex(item)` (< `nv`):
+/// a counting sort by that vertex, then each vertex's few items sorted in place (linear, where one
+/// sort of tens of millions of items took most of a check).
+fn sort_by_vertex<T: Ord + Copy + Send>(items: &mut Vec<T>, nv: usize, vertex: impl Fn(&T) -> u32 + Sync) {
+    let mut start = vec![0u32; nv + 1];
+    for it in items.iter() {
+        start[vertex(it) as usize + 1] += 1;
+    }
+    for v in 0..nv {
+        start[v + 1] += start[v];
+    }
+    let mut at = start.clone();
+    let mut out: Vec<T> = Vec::with_capacity(items.len());
+    let spare = out.spare_capacity_mut();
+    for &it in items.iter() {
+        let slot = &mut at[vertex(&it) as usize];
+        spare[*slot as usize].write(it);
+        *slot += 1;
+    }
+    // SAFETY: every one of the `items.len()` slots was written once: the counts' prefix sums
+    // give each item its own slot.
+    unsafe { out.set_len(items.len()) };
+    // Each vertex's run sorted; runs split over the threads at vertex boundaries.
+    let mut rest: &mut [T] = &mut out;
+    let mut pieces = Vec::new();
+    let per_piece = (items.len() / 64).max(1 << 14);
+    let mut v = 0;
+    while v < nv {
+        let mut w = v;
+        while w < nv && (start[w + 1] - start[v]) as usize <= per_piece {
+            w += 1;
+        }
+        let w = w.max(v + 1);
+        let (piece, tail) = rest.split_at_mut((start[w] - start[v]) as usize);
+        pieces.push((v, piece));
+        rest = tail;
+        v = w;
+    }
+    crate::walk::flying_edges::map_tasks(pieces, &|(v0, piece): (usize, &mut [T])| {
+        let base = start[v0];
+        let mut v = v0;
+        let mut lo = 0usize;
+        while lo < piece.len() {
+            while start[v + 1] - base <= lo as u32 {
+                v += 1;
+            }
+            let hi = (start[v + 1] - base) as usize;
+            piece[lo..hi].sort_unstable();
+            lo = hi;
+        }
+    });
+    *items = out;
+}
+
 /// Mean and minimum over the triangles of the smallest interior angle, in degrees (triangles of
 /// zero area are left out).
 fn min_angles(mesh: &Mesh, triangles: &[u32]) -> (f64, f64) {
-    let (mut sum, mut min, mut n) = (0.0, f64::INFINITY, 0usize);
-    for &ti in triangles {
-        if let Some(angle) = smallest_angle(mesh.triangles[ti as usize].map(|v| mesh.positions[v as usize])) {
-            sum += angle;
-            min = min.min(angle);
-            n += 1;
+    // Summed in fixed pieces, then the pieces in order: the same figure for any thread count.
+    let parts = crate::walk::flying_edges::map_tasks(triangles.chunks(PIECE).collect(), &|piece: &[u32]| {
+        let (mut sum, mut min, mut n) = (0.0, f64::INFINITY, 0usize);
+        for &ti in piece {
+            if let Some(angle) = smallest_angle(mesh.triangles[ti as usize].map(|v| mesh.positions[v as usize])) {
+                sum += angle;
+                min = min.min(angle);
+                n += 1;
+            }
         }
-    }
+        (sum, min, n)
+    });
+    let (sum, min, n) =
+        parts.into_iter().fold((0.0, f64::INFINITY, 0usize), |(s, m, k), (ps, pm, pk)| (s + ps, m.min(pm), k + pk));
     if n == 0 {
         (0.0, 0.0)
     } else {
