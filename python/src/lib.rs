@@ -9,15 +9,18 @@
 mod contours;
 
 use std::path::Path;
+use std::sync::atomic::{AtomicBool, Ordering};
 use std::sync::Arc;
+use std::time::Duration;
 
 use isoforge::extract::PointMask;
 use isoforge::grid::{AnyGrid, DenseGrid, Lattice, Sample};
 use isoforge::mesh::{Mesh, Normals};
 use isoforge::pipeline::{extract_grid, Method, Options};
 use isoforge::volume::Iso;
+use isoforge::walk::Progress;
 use numpy::{PyArray1, PyArrayMethods, PyReadonlyArray2, PyReadonlyArray3, PyUntypedArray, PyUntypedArrayMethods};
-use pyo3::exceptions::{PyMemoryError, PyValueError};
+use pyo3::exceptions::{PyMemoryError, PyRuntimeError, PyValueError};
 use pyo3::prelude::*;
 use pyo3::types::PyDict;
 
@@ -37,6 +40,46 @@ fn grid_of<T: Sample + numpy::Element>(
         _ => a.as_array().iter().copied().collect(),
     };
     DenseGrid::new(lattice, data).map_err(value_error)
+}
+
+/// Cancels a walk once the watcher has seen a signal handler raise (Ctrl-C).
+struct Interrupt(AtomicBool);
+
+impl Progress for Interrupt {
+    fn advance(&self, _: u64, _: u64) {}
+    fn cancelled(&self) -> bool {
+        self.0.load(Ordering::Relaxed)
+    }
+}
+
+/// Runs `f` on a worker thread with the GIL released; meanwhile this thread takes the GIL every
+/// 20 ms to run Python's signal handlers. When one raises (KeyboardInterrupt on Ctrl-C), the walk
+/// is cancelled and that exception is returned once the worker has stopped.
+fn cancellable<T: Send>(py: Python<'_>, f: impl FnOnce(&dyn Progress) -> isoforge::Result<T> + Send) -> PyResult<T> {
+    let stop = Interrupt(AtomicBool::new(false));
+    let (result, raised) = py.detach(|| {
+        std::thread::scope(|s| {
+            let worker = s.spawn(|| f(&stop));
+            let mut raised = None;
+            while !worker.is_finished() {
+                std::thread::sleep(Duration::from_millis(20));
+                if raised.is_none() {
+                    if let Err(e) = Python::attach(|py| py.check_signals()) {
+                        stop.0.store(true, Ordering::Relaxed);
+                        raised = Some(e);
+                    }
+                }
+            }
+            (worker.join(), raised)
+        })
+    });
+    if let Some(e) = raised {
+        return Err(e);
+    }
+    match result {
+        Ok(r) => r.map_err(library_error),
+        Err(_) => Err(PyRuntimeError::new_err("isoforge: the extraction panicked (a bug, please report it)")),
+    }
 }
 
 fn value_error(e: impl std::fmt::Display) -> PyErr {
@@ -136,7 +179,7 @@ fn extract_array<'py>(
         mask,
         ..Options::default()
     };
-    let mut ex = py.detach(|| extract_grid(&grid, Iso::above(level), &opts, None)).map_err(library_error)?;
+    let mut ex = cancellable(py, |p| extract_grid(&grid, Iso::above(level), &opts, Some(p)))?;
     ex.mesh.triangulate();
     let m = ex.mesh;
     let values = py.detach(|| isoforge::with_grid!(&grid, g => spreads(g, &m.positions)));
@@ -236,7 +279,7 @@ fn extract_mesh<'py>(
         threads,
         ..Options::default()
     };
-    let mut ex = py.detach(|| extract_grid(&grid, Iso::below(iso), &opts, None)).map_err(library_error)?;
+    let mut ex = cancellable(py, |p| extract_grid(&grid, Iso::below(iso), &opts, Some(p)))?;
     ex.mesh.triangulate();
     mesh_arrays(py, ex.mesh)
 }
