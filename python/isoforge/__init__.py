@@ -1,10 +1,14 @@
-"""isoforge: isosurface extraction, with scikit-image's ``marching_cubes`` as a drop-in."""
+"""isoforge: isosurface extraction, with scikit-image's ``marching_cubes`` and ``find_contours``
+as drop-ins and isoforge's own API (``extract``, ``Mesh``, ``read_volume``)."""
+
+import os
 
 import numpy as np
 
+from . import _isoforge
 from ._isoforge import contour_array, extract_array
 
-__all__ = ["find_contours", "marching_cubes"]
+__all__ = ["Mesh", "extract", "find_contours", "marching_cubes", "read_volume"]
 
 
 def marching_cubes(volume, level=None, *, spacing=(1.0, 1.0, 1.0), gradient_direction="descent",
@@ -42,13 +46,17 @@ def marching_cubes(volume, level=None, *, spacing=(1.0, 1.0, 1.0), gradient_dire
         raise ValueError("step_size must be at least one.")
     if gradient_direction not in ("descent", "ascent"):
         raise ValueError(f"Incorrect input {gradient_direction} in `gradient_direction`, see docstring.")
+    cells = None
     if mask is not None:
         if mask.shape != volume.shape:
             raise ValueError("volume and mask must have the same shape.")
-        raise NotImplementedError("mask: not yet supported by isoforge.marching_cubes")
+        # scikit-image keeps a cell iff the mask holds at its far corner (i0+1, i1+1, i2+1) (in
+        # steps of step_size); the native side takes one flag per cell.
+        st = step_size
+        cells = np.ascontiguousarray(np.asarray(mask, dtype=bool)[st::st, st::st, st::st])
     sampled = volume[::step_size, ::step_size, ::step_size] if step_size > 1 else volume
     step = np.asarray([float(s) * step_size for s in spacing])
-    verts, faces, normals, values = extract_array(sampled, level, tuple(step), name, True, threads)
+    verts, faces, normals, values = extract_array(sampled, level, tuple(step), name, True, threads, cells)
     if len(verts) == 0:
         raise RuntimeError("No surface found at the given iso value.")
     if gradient_direction == "ascent":
@@ -74,28 +82,115 @@ def _drop_degenerate(verts, faces):
 def find_contours(image, level=None, fully_connected="low", positive_orientation="low", *, mask=None):
     """Marching squares with ``skimage.measure.find_contours``'s arguments and results.
 
-    Returns a list of ``(n, 2)`` arrays of ``(row, col)`` points; a closed contour repeats its
-    first point at its end.
+    Returns a list of ``(n, 2)`` float64 arrays of ``(row, col)`` points, the same points in the
+    same order as scikit-image (a closed contour repeats its first point at its end). Squares
+    with a NaN corner, or a corner where ``mask`` is False, produce nothing.
     """
     image = np.asarray(image)
-    if image.ndim != 2:
-        raise ValueError("Only 2D arrays are supported.")
     if fully_connected not in ("low", "high"):
         raise ValueError('Parameters "fully_connected" must be either "high" or "low".')
     if positive_orientation not in ("low", "high"):
         raise ValueError('Parameters "positive_orientation" must be either "high" or "low".')
+    if image.ndim != 2:
+        raise ValueError("Only 2D arrays are supported.")
+    if image.shape[0] < 2 or image.shape[1] < 2:
+        raise ValueError("Input array must be at least 2x2.")
     if mask is not None:
-        raise NotImplementedError("mask: not yet supported by isoforge.find_contours")
-    image = np.asarray(image, dtype=np.float64)
+        mask = np.asarray(mask)
+        if mask.shape != image.shape:
+            raise ValueError('Parameters "array" and "mask" must have same shape.')
+        if not np.can_cast(mask.dtype, bool, casting="safe"):
+            raise TypeError('Parameter "mask" must be a binary array.')
+        mask = np.ascontiguousarray(mask, dtype=bool)
+    image = np.ascontiguousarray(image, dtype=np.float64)
     if level is None:
         level = (np.nanmin(image) + np.nanmax(image)) / 2.0
-    out = []
-    for points, closed in contour_array(image, float(level), fully_connected == "low"):
-        if closed and len(points):
-            points = np.vstack([points, points[:1]])
-        # isoforge runs counter-clockwise around low values with rows up, which is clockwise in
-        # (row, col); skimage's 'low' is counter-clockwise around low values in (row, col).
-        if positive_orientation == "low":
-            points = points[::-1]
-        out.append(np.ascontiguousarray(points))
-    return out
+    contours = contour_array(image, float(level), fully_connected == "high", mask)
+    if positive_orientation == "high":
+        contours = [np.ascontiguousarray(c[::-1]) for c in contours]
+    return contours
+
+
+class Mesh:
+    """A triangle mesh from :func:`extract`: ``vertices`` ``(n, 3)`` float32 in world ``(x, y, z)``,
+    ``faces`` ``(m, 3)`` int64 (counter-clockwise seen from outside, where values are ≥ iso),
+    ``normals`` ``(n, 3)`` float32 unit normals pointing outside (empty when not computed)."""
+
+    def __init__(self, vertices, faces, normals=None):
+        """A mesh from arrays (``faces`` index ``vertices``); ``normals`` optional."""
+        self.vertices = np.ascontiguousarray(vertices, dtype=np.float32).reshape(-1, 3)
+        self.faces = np.ascontiguousarray(faces, dtype=np.int64).reshape(-1, 3)
+        if normals is None:
+            normals = np.zeros((0, 3), np.float32)
+        self.normals = np.ascontiguousarray(normals, dtype=np.float32).reshape(-1, 3)
+
+    def __repr__(self):
+        return f"Mesh({len(self.vertices)} vertices, {len(self.faces)} faces)"
+
+    def check(self):
+        """The library's topology report as a dict: ``closed``, ``manifold``, ``oriented``,
+        ``watertight``, ``genus`` (None unless closed, manifold and oriented), ``components``,
+        ``euler``, counts of ``boundary_edges``, ``non_manifold_edges``,
+        ``non_manifold_vertices``, ``inconsistent_edges``, ``isolated_vertices``,
+        ``collapsed_triangles``, ``zero_area_triangles``, ``duplicate_triangles``, and ``area``,
+        ``volume``, ``vertices``, ``triangles``, ``edges``."""
+        return _isoforge.mesh_check(self.vertices, self.faces)
+
+    def save(self, path):
+        """Writes the mesh with isoforge's writer for the extension of ``path`` (``.ply``,
+        ``.obj``, ``.stl``, ``.off``, ``.glb``/``.gltf``); ValueError on an unknown extension or
+        an unwritable path."""
+        _isoforge.mesh_save(os.fspath(path), self.vertices, self.faces, self.normals)
+
+
+def extract(source, iso, *, method="mc33", spacing=(1.0, 1.0, 1.0), origin=(0.0, 0.0, 0.0),
+            shape=None, threads=None, normals=True):
+    """The isosurface at ``iso`` (inside ⇔ value < iso) as a :class:`Mesh`, by isoforge's walker.
+
+    ``source`` is a 3D numpy array (``(nz, ny, nx)``: x is its last axis), a path to a volume
+    file (read by isoforge's readers with the file's own spacing and origin; ``spacing`` and
+    ``origin`` are then ignored), or a callable ``f(x, y, z) -> array`` evaluated once,
+    vectorised, on the world coordinates of a lattice of ``shape = (nx, ny, nz)`` points.
+    ``spacing`` and ``origin`` are ``(x, y, z)``. ``method`` is one of the CLI's method names
+    (``mc``, ``mc33``, ``mt5``, ``mt6``, ``surface-nets``, ``dc``…); quads are split into
+    triangles.
+    ``threads=None`` uses every core. The GIL is released during the extraction.
+
+    Raises ValueError for bad arguments or files (the library's one-line message) and
+    MemoryError for requests over the library's size limits.
+    """
+    spacing = tuple(float(s) for s in spacing)
+    origin = tuple(float(o) for o in origin)
+    if len(spacing) != 3 or len(origin) != 3:
+        raise ValueError("spacing and origin: three numbers each (x, y, z)")
+    if isinstance(source, (str, bytes, os.PathLike)):
+        v, f, n = _isoforge.extract_mesh(None, os.fsdecode(source), float(iso), method, spacing, origin,
+                                          threads, normals)
+        return Mesh(v, f, n)
+    if callable(source):
+        if shape is None or len(shape) != 3:
+            raise ValueError("extract: a callable needs shape=(nx, ny, nz)")
+        nx, ny, nz = (int(s) for s in shape)
+        if min(nx, ny, nz) < 2:
+            raise ValueError(f"shape {tuple(shape)}: at least 2 points per axis")
+        # One broadcast evaluation on the lattice's points (each axis a 1D array of coordinates).
+        z = origin[2] + spacing[2] * np.arange(nz, dtype=np.float64)[:, None, None]
+        y = origin[1] + spacing[1] * np.arange(ny, dtype=np.float64)[None, :, None]
+        x = origin[0] + spacing[0] * np.arange(nx, dtype=np.float64)[None, None, :]
+        values = np.broadcast_to(np.asarray(source(x, y, z)), (nz, ny, nx))
+        source = np.ascontiguousarray(values, dtype=np.float32 if values.dtype != np.float64 else np.float64)
+    if not isinstance(source, np.ndarray):
+        raise ValueError(f"extract: source of type {type(source).__name__}: expected an array, a path or a callable")
+    if source.dtype == bool:
+        source = source.astype(np.uint8)
+    v, f, n = _isoforge.extract_mesh(source, None, float(iso), method, spacing, origin, threads, normals)
+    return Mesh(v, f, n)
+
+
+def read_volume(path):
+    """Reads a volume file with isoforge's readers (by extension: .nrrd, .nii(.gz), .mha/.mhd,
+    .mrc, .vtk, .tif, .png stacks, DICOM…). Returns ``(array, lattice)``: the samples as an
+    ``(nz, ny, nx)`` array in the file's dtype, and a dict with ``dims`` ``(nx, ny, nz)``,
+    ``spacing`` and ``origin`` (``(x, y, z)``). ValueError for unreadable files, MemoryError over
+    the size limit."""
+    return _isoforge.read_volume(os.fspath(path))

@@ -20,6 +20,9 @@ pub enum Error {
     /// Reading the input or writing the output failed (out-of-core extraction).
     #[error("{0}")]
     External(Box<dyn std::error::Error + Send + Sync>),
+    /// The caller cancelled the walk ([`Progress::cancelled`](crate::walk::Progress::cancelled)).
+    #[error("cancelled")]
+    Cancelled,
     /// An internal invariant failed: this is a bug, please report it.
     #[error("internal error (this is a bug, please report it): {0}")]
     Internal(String),

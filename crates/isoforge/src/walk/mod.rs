@@ -87,10 +87,23 @@ impl WalkStats {
     }
 }
 
-/// Reports progress of long walks (one call per slab or task).
+/// Reports progress of long walks (one call per slab or task), and lets the caller cancel them.
 pub trait Progress: Sync {
     /// `done` of `total` units of work are finished.
     fn advance(&self, done: u64, total: u64);
+
+    /// Whether the caller wants the walk stopped. The in-memory Flying Edges walk asks once per
+    /// plane task before its fill (classification, counting) and then returns
+    /// [`Error::Cancelled`](crate::Error::Cancelled); the fill, once started, runs to its end.
+    fn cancelled(&self) -> bool {
+        false
+    }
+}
+
+/// Whether `progress` asks for the walk to stop.
+#[inline]
+pub(crate) fn is_cancelled(progress: Option<&dyn Progress>) -> bool {
+    progress.is_some_and(|p| p.cancelled())
 }
 
 /// The crossing on lattice edge `key` (offset values `d0` at its origin, `d1` at its end): its

@@ -247,6 +247,11 @@ fn walk_in_memory<V: SampleSlabs + Sync, X: Extractor + Sync>(
         None => {
             // PASS 1: classify every row.
             classify_planes(vol, &bx, iso, &mut bits);
+            if crate::walk::is_cancelled(w.progress) {
+                scratch.bits = bits.data;
+                scratch.keep();
+                return Err(crate::Error::Cancelled);
+            }
             if Paths::<X>::COUNTED {
                 p.counted(&p.on(vol), &bits, out, w.progress, &mut scratch)
             } else {
@@ -377,8 +382,15 @@ impl<X: Extractor + Sync> Passes<'_, Cells<'_>, X> {
         // their values (handed back to the extractor in the fill).
         let mut cell_stats = vec![([0u64; 2], Vec::new()); nz];
         for_each_chunk_with(&mut counts, ny, &mut cell_stats, &|k, plane, (cs, decisions)| {
-            *cs = self.count_plane(bits, k, plane, decisions, zeroed);
+            // Cancelled: the counts are never used (the walk returns before its fill).
+            if !crate::walk::is_cancelled(progress) {
+                *cs = self.count_plane(bits, k, plane, decisions, zeroed);
+            }
         });
+        if crate::walk::is_cancelled(progress) {
+            scratch.counts = counts;
+            return Err(crate::Error::Cancelled);
+        }
         let mut stats = WalkStats { cells: self.range.num_cells(), ..Default::default() };
         stats.cells_outside = cell_stats.iter().map(|c| c.0[0]).sum();
         stats.cells_inside = cell_stats.iter().map(|c| c.0[1]).sum();
@@ -518,6 +530,45 @@ mod tests {
             let c = dims.map(|n| (n - 1) as f32 / 2.0);
             (0..3).map(|a| (p[a] as f32 - c[a]).powi(2)).sum::<f32>().sqrt() - r
         })
+    }
+
+    /// Cancels once `after` plane tasks asked (counting the asks).
+    struct CancelAfter {
+        asks: std::sync::atomic::AtomicU64,
+        after: u64,
+    }
+
+    impl Progress for CancelAfter {
+        fn advance(&self, _: u64, _: u64) {}
+        fn cancelled(&self) -> bool {
+            self.asks.fetch_add(1, std::sync::atomic::Ordering::Relaxed) >= self.after
+        }
+    }
+
+    #[test]
+    fn a_cancelled_walk_stops_before_its_fill_and_an_uncancelled_one_is_unchanged() {
+        let g = ball([24, 20, 16], 6.0);
+        let reference = walk(&g, &MarchingCubes33);
+        let run = |after| {
+            let p = CancelAfter { asks: Default::default(), after };
+            let mut out = MeshBuilder::new(Normals::Gradient);
+            let r = FlyingEdgesWalker::new().with_progress(&p).walk(
+                &GridVolume::new(&g),
+                Iso::below(0.0),
+                &MarchingCubes33,
+                &mut out,
+            );
+            (r.map(|_| out.finish().unwrap()), p.asks.into_inner())
+        };
+        // Cancelled at once (after classification), and in the middle of the count.
+        for after in [0, 5] {
+            let (r, _) = run(after);
+            assert!(matches!(r, Err(crate::Error::Cancelled)), "after {after}: {r:?}");
+        }
+        // Never cancelled: the same mesh; asked once after classifying, once per plane, once after.
+        let (r, asks) = run(u64::MAX);
+        assert_eq!(r.unwrap(), reference);
+        assert_eq!(asks, 1 + 16 + 1);
     }
 
     /// Marching cubes through `process`, with counts off by `extra` triangles per active cell:

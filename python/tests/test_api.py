@@ -1,0 +1,124 @@
+"""isoforge's own API: extract (arrays, files, callables), Mesh.check/save, read_volume, errors."""
+
+import math
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+import isoforge
+
+TESTDATA = Path(__file__).resolve().parents[2] / "testdata" / "volumes"
+
+
+def ball(n=41, r=15.0):
+    z, y, x = np.mgrid[:n, :n, :n].astype(np.float32) - (n - 1) / 2
+    return np.sqrt(x**2 + y**2 + z**2)
+
+
+@pytest.mark.parametrize("method", ["mc", "mc33", "mt6", "surface-nets", "dc"])
+def test_ball_is_a_closed_sphere_of_the_right_size(method):
+    r = 15.0
+    mesh = isoforge.extract(ball(), r, method=method, spacing=(0.5, 0.5, 0.5))
+    rep = mesh.check()
+    assert rep["closed"] and rep["manifold"] and rep["oriented"]
+    assert rep["genus"] == 0 and rep["components"] == 1 and rep["boundary_edges"] == 0
+    # Spacing 0.5: the world radius is 7.5; outward faces give a positive volume.
+    assert rep["area"] == pytest.approx(4 * math.pi * 7.5**2, rel=0.02)
+    assert rep["volume"] == pytest.approx(4 / 3 * math.pi * 7.5**3, rel=0.02)
+    assert mesh.vertices.dtype == np.float32 and mesh.faces.dtype == np.int64
+    assert mesh.normals.shape == mesh.vertices.shape
+
+
+def test_origin_and_axis_order():
+    # Values grow along x (the array's last axis) only: the plane x = 2.5 (index) crosses there.
+    vol = np.broadcast_to(np.arange(6, dtype=np.float32), (4, 5, 6)).copy()
+    mesh = isoforge.extract(vol, 2.5, method="mc", spacing=(2.0, 1.0, 1.0), origin=(10.0, 0.0, -1.0))
+    np.testing.assert_allclose(mesh.vertices[:, 0], 10.0 + 2.0 * 2.5)
+    assert mesh.vertices[:, 1].max() == pytest.approx(4.0) and mesh.vertices[:, 2].min() == pytest.approx(-1.0)
+    assert mesh.check()["boundary_edges"] > 0  # an open plane
+
+
+def test_callable_field_is_evaluated_on_the_lattice_points():
+    calls = []
+
+    def f(x, y, z):
+        calls.append((x.shape, y.shape, z.shape))
+        return x * x + y * y + z * z
+
+    mesh = isoforge.extract(f, 1.0, shape=(33, 33, 33), spacing=(1 / 16,) * 3, origin=(-1.0, -1.0, -1.0))
+    assert calls == [((1, 1, 33), (1, 33, 1), (33, 1, 1))]  # once, vectorised
+    np.testing.assert_allclose(np.linalg.norm(mesh.vertices, axis=1), 1.0, atol=0.01)
+    assert mesh.check()["genus"] == 0
+
+
+def test_save_and_read_back(tmp_path):
+    mesh = isoforge.extract(ball(21, 6.0), 6.0)
+    for ext in ("ply", "obj", "stl", "off"):
+        path = tmp_path / f"ball.{ext}"
+        mesh.save(path)
+        assert path.stat().st_size > 0
+    text = (tmp_path / "ball.obj").read_text()
+    assert text.count("\nf ") + text.startswith("f ") == len(mesh.faces)
+    with pytest.raises(ValueError, match="xyz"):
+        mesh.save(tmp_path / "ball.xyz")
+
+
+def test_read_volume_keeps_the_dtype_and_geometry():
+    arr, lat = isoforge.read_volume(TESTDATA / "i16_gzip.nrrd")
+    assert arr.dtype == np.int16 and arr.ndim == 3
+    nx, ny, nz = lat["dims"]
+    assert arr.shape == (nz, ny, nx)
+    assert len(lat["spacing"]) == 3 and len(lat["origin"]) == 3
+    # The file through extract gives the same mesh as its array with its geometry.
+    a = isoforge.extract(TESTDATA / "i16_gzip.nrrd", float(arr.mean()), method="mc")
+    b = isoforge.extract(arr, float(arr.mean()), method="mc", spacing=lat["spacing"], origin=lat["origin"])
+    np.testing.assert_allclose(a.vertices, b.vertices, atol=1e-5)
+    np.testing.assert_array_equal(a.faces, b.faces)
+
+
+def test_errors_are_value_and_memory_errors(tmp_path):
+    with pytest.raises(ValueError, match="nope.nrrd"):
+        isoforge.read_volume(tmp_path / "nope.nrrd")
+    with pytest.raises(ValueError, match="method"):
+        isoforge.extract(ball(9, 3.0), 3.0, method="nope")
+    with pytest.raises(ValueError, match="3 dimensions|expected 3"):
+        isoforge.extract(np.zeros((4, 4)), 0.5)
+    with pytest.raises(ValueError, match="shape"):
+        isoforge.extract(lambda x, y, z: x, 0.5)
+    # A header claiming far more samples than the size limit: refused before allocating.
+    big = tmp_path / "big.nrrd"
+    big.write_bytes(b"NRRD0004\ntype: float\ndimension: 3\nsizes: 100000 100000 100000\nendian: little\nencoding: raw\n\n")
+    with pytest.raises(MemoryError):
+        isoforge.read_volume(big)
+    with pytest.raises(ValueError, match="faces"):
+        isoforge.Mesh(np.zeros((3, 3)), [[0, 1, 5]]).check()
+
+
+def test_marching_cubes_mask_keeps_the_cells_of_skimage():
+    measure = pytest.importorskip("skimage.measure")
+    vol = ball(25, 9.0)
+    mask = np.ones(vol.shape, bool)
+    mask[:12] = False
+    mask[:, :, 18:] = False
+    for step in (1, 2):
+        a = measure.marching_cubes(vol, 9.0, mask=mask, step_size=step, method="lorensen")
+        b = isoforge.marching_cubes(vol, 9.0, mask=mask, step_size=step, method="lorensen")
+        assert a[0].shape == b[0].shape and a[1].shape == b[1].shape
+        np.testing.assert_allclose(a[0][np.lexsort(a[0].T)], b[0][np.lexsort(b[0].T)], atol=1e-5)
+
+
+def test_find_contours_same_points_in_the_same_order_as_skimage():
+    measure = pytest.importorskip("skimage.measure")
+    rng = np.random.default_rng(3)
+    image = rng.random((30, 40))
+    image[rng.random(image.shape) < 0.05] = np.nan
+    mask = rng.random(image.shape) > 0.05
+    for fc in ("low", "high"):
+        for po in ("low", "high"):
+            for m in (None, mask):
+                a = measure.find_contours(image, 0.5, fc, po, mask=m)
+                b = isoforge.find_contours(image, 0.5, fc, po, mask=m)
+                assert len(a) == len(b) > 10
+                for x, y in zip(a, b):
+                    np.testing.assert_array_equal(x, y)
