@@ -8,7 +8,7 @@ import numpy as np
 from . import _isoforge
 from ._isoforge import contour_array, extract_array
 
-__all__ = ["Mesh", "extract", "find_contours", "marching_cubes", "read_volume"]
+__all__ = ["Mesh", "extract", "find_contours", "marching_cubes", "read_volume", "repair", "voxelize"]
 
 
 def marching_cubes(volume, level=None, *, spacing=(1.0, 1.0, 1.0), gradient_direction="descent",
@@ -194,3 +194,38 @@ def read_volume(path):
     ``spacing`` and ``origin`` (``(x, y, z)``). ValueError for unreadable files, MemoryError over
     the size limit."""
     return _isoforge.read_volume(os.fspath(path))
+
+
+def _mesh_arrays(mesh, faces):
+    if isinstance(mesh, Mesh):
+        if faces is not None:
+            raise ValueError("pass a Mesh, or vertices and faces")
+        return mesh.vertices, mesh.faces
+    if faces is None:
+        raise ValueError("pass a Mesh, or vertices and faces")
+    vertices = np.ascontiguousarray(mesh, dtype=np.float32).reshape(-1, 3)
+    return vertices, np.ascontiguousarray(faces, dtype=np.int64).reshape(-1, 3)
+
+
+def voxelize(mesh, faces=None, *, resolution=128, voxel_size=None, band=3.0, values="sdf"):
+    """A mesh (a :class:`Mesh`, or ``vertices`` and ``faces`` arrays) as a dense volume, robust to
+    broken input: holes, flipped and duplicated faces, nested shells (generalised winding
+    numbers after the mesh is cleaned and its patches oriented; exact distances within ``band``
+    cells of the surface). The lattice has ``resolution`` cells along the mesh's longest side
+    (or spacing ``voxel_size``) and ``band + 1`` cells of margin. ``values``: ``"sdf"`` (float32
+    signed distances in world units, negative inside) or ``"occupancy"`` (uint8, 1 inside).
+    Returns ``(array, lattice)`` as :func:`read_volume` does. ValueError for bad arguments or a
+    mesh with nothing to voxelize, MemoryError over the size limits."""
+    v, f = _mesh_arrays(mesh, faces)
+    return _isoforge.voxelize_mesh(v, f, int(resolution), None if voxel_size is None else float(voxel_size),
+                                   float(band), values)
+
+
+def repair(mesh, faces=None, *, resolution=128, voxel_size=None, band=3.0):
+    """PolyMender's repair: the mesh voxelized as :func:`voxelize` does, then contoured (MC33) into
+    a closed, manifold, oriented :class:`Mesh` near the input (holes closed, flipped faces
+    ignored)."""
+    v, f = _mesh_arrays(mesh, faces)
+    return Mesh(*_isoforge.repair_mesh(v, f, int(resolution), None if voxel_size is None else float(voxel_size),
+                                       float(band)))
+

@@ -56,3 +56,22 @@ def extract(
     normals: bool = ...,
 ) -> Mesh: ...
 def read_volume(path: _Path) -> Tuple[np.ndarray, dict[str, Tuple[float, float, float]]]: ...
+
+def voxelize(
+    mesh: Union[Mesh, np.ndarray],
+    faces: Optional[np.ndarray] = None,
+    *,
+    resolution: int = 128,
+    voxel_size: Optional[float] = None,
+    band: float = 3.0,
+    values: str = "sdf",
+) -> Tuple[np.ndarray, dict[str, Tuple[float, float, float]]]: ...
+
+def repair(
+    mesh: Union[Mesh, np.ndarray],
+    faces: Optional[np.ndarray] = None,
+    *,
+    resolution: int = 128,
+    voxel_size: Optional[float] = None,
+    band: float = 3.0,
+) -> Mesh: ...
