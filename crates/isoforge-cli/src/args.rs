@@ -128,6 +128,9 @@ pub struct VoxelArgs {
     /// The lattice's spacing, in the mesh's units.
     #[arg(long, value_name = "H", allow_hyphen_values = true)]
     pub voxel_size: Option<String>,
+    /// PolyMender's octree depth: 2^D cells along the longest side (--resolution 2^D).
+    #[arg(long, value_name = "D", allow_hyphen_values = true, conflicts_with_all = ["resolution", "voxel_size"])]
+    pub depth: Option<String>,
     /// Half-width of the band of exact distances, in cells (default 3).
     #[arg(long, value_name = "W", allow_hyphen_values = true)]
     pub band: Option<String>,

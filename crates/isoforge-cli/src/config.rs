@@ -813,7 +813,15 @@ impl VoxelConfig {
                     let v = h.trim().parse::<f64>().ok().filter(|v| v.is_finite() && *v > 0.0);
                     Resolution::Spacing(v.ok_or_else(|| anyhow!("--voxel-size {h:?}: expected a positive length"))?)
                 }
-                (None, None) => Resolution::Cells(128),
+                (None, None) => match &a.depth {
+                    Some(d) => {
+                        let depth = d.trim().parse::<u32>().ok().filter(|&d| (1..=14).contains(&d));
+                        Resolution::Cells(
+                            1 << depth.ok_or_else(|| anyhow!("--depth {d:?}: expected a whole number from 1 to 14"))?,
+                        )
+                    }
+                    None => Resolution::Cells(128),
+                },
             };
         let band = match a.band.as_deref() {
             None => isoforge::voxelize::VoxelizeOptions::default().band,

@@ -93,6 +93,18 @@ fn issue_46_an_open_cube_repairs_to_a_closed_box_and_voxelizes_with_its_geometry
     assert_eq!(tree.depth(), 5);
     let r = isoforge::topo::check(&isoforge::extract::contour_octree(&tree).mesh);
     assert!(r.is_closed() && r.is_oriented() && r.genus() == Some(0), "{r:?}");
+    // PolyMender's --depth: 2^D cells, the same octree as the resolution it stands for.
+    let by_depth = dir.path().join("depth.sog");
+    let o = isoforge(&["voxelize", p(&cube), "-o", p(&by_depth), "--depth", "5"]);
+    assert_eq!(o.status.code(), Some(0), "{}", String::from_utf8_lossy(&o.stderr));
+    let by_resolution = dir.path().join("resolution.sog");
+    let o = isoforge(&["voxelize", p(&cube), "-o", p(&by_resolution), "--resolution", "32"]);
+    assert_eq!(o.status.code(), Some(0), "{}", String::from_utf8_lossy(&o.stderr));
+    assert_eq!(std::fs::read(&by_depth).unwrap(), std::fs::read(&by_resolution).unwrap());
+    let o = isoforge(&["repair", p(&cube), "-o", p(&dir.path().join("d.ply")), "--depth", "4", "--json"]);
+    assert_eq!(o.status.code(), Some(0), "{}", String::from_utf8_lossy(&o.stderr));
+    let j: serde_json::Value = serde_json::from_slice(&o.stdout).unwrap();
+    assert_eq!(j["genus"], 0, "{j}");
 }
 
 #[test]
@@ -103,6 +115,8 @@ fn issue_46_bad_requests_exit_2_with_one_line_and_no_file() {
     let c = p(&cube);
     fails(&["voxelize", c, "-o", p(&out), "--resolution", "0"], "--resolution \"0\"", &out);
     fails(&["voxelize", c, "-o", p(&out), "--resolution", "x"], "--resolution \"x\"", &out);
+    fails(&["voxelize", c, "-o", p(&out), "--depth", "15"], "--depth \"15\"", &out);
+    fails(&["voxelize", c, "-o", p(&out), "--depth", "4", "--resolution", "8"], "--depth", &out);
     fails(&["voxelize", c, "-o", p(&out), "--voxel-size", "-1"], "--voxel-size \"-1\"", &out);
     fails(&["voxelize", c, "-o", p(&out), "--band", "0.5"], "--band \"0.5\"", &out);
     fails(&["voxelize", c, "-o", p(&out), "--values", "mass"], "--values \"mass\"", &out);
