@@ -324,17 +324,28 @@ pub struct ExtractArgs {
     /// Extraction method: mc33 (default: marching cubes 33, the topology of the trilinear
     /// interpolant), mc (classic marching cubes: exactly vtkFlyingEdges3D's triangles), mt5 / mt6 /
     /// mt-bcc (marching tetrahedra with 5, 6 or body-centred tetrahedra per cell), surface-nets,
-    /// dc (dual contouring: sharp corners and creases from the volume's gradients).
-    #[arg(long, default_value = "mc33", value_name = "mc33|mc|mt5|mt6|mt-bcc|surface-nets|dc")]
+    /// dc (dual contouring: sharp corners and creases from the volume's gradients; manifold, with
+    /// the trilinear interpolant's topology), emc (extended marching cubes: MC33 with a feature
+    /// vertex where the surface bends more than --feature-angle).
+    #[arg(long, default_value = "mc33", value_name = "mc33|mc|mt5|mt6|mt-bcc|surface-nets|dc|emc")]
     pub method: String,
     /// With --method dc: keep quads (one per crossed lattice edge) instead of splitting each
     /// along its shorter diagonal.
     #[arg(long)]
     pub quads: bool,
     /// With --method dc: one vertex per marching-cubes patch of a cell instead of one per cell
-    /// (a cell holding two sheets gives each its own vertex: fewer non-manifold edges).
+    /// (a cell holding two sheets gives each its own vertex: fewer non-manifold edges). Implies
+    /// --no-manifold.
     #[arg(long)]
     pub split: bool,
+    /// With --method dc: plain dual contouring [Ju 2002] (surface nets' connectivity: one vertex
+    /// per active cell, non-manifold where a cell holds two sheets) instead of the manifold mode.
+    #[arg(long)]
+    pub no_manifold: bool,
+    /// With --method emc: degrees between two crossings' normals above which a cell's loop is a
+    /// feature and gets a vertex of its own (default 30).
+    #[arg(long, value_name = "DEG")]
+    pub feature_angle: Option<f64>,
     /// Walk a sparse grid: a built-in field sampled only near its surface (blocks of 8³ points,
     /// memory growing with the surface; skipped boxes are proven empty with --lipschitz or the
     /// field's own bound), or a volume's blocks near the surface (the same mesh as without).

@@ -312,12 +312,29 @@ fn flag(flag: &str) -> impl Fn(ParseError) -> anyhow::Error + '_ {
     move |e| anyhow!("{flag} {e}")
 }
 
-/// `method` with `--quads` and `--split` applied: dual contouring's options; other methods refuse them.
-fn dc_options(method: Method, quads: bool, split: bool) -> Result<Method> {
+/// `method` with `--quads`, `--split`, `--no-manifold` and `--feature-angle` applied: dual
+/// contouring's and extended marching cubes' options; other methods refuse them.
+fn method_options(method: Method, a: &ExtractArgs) -> Result<Method> {
+    let dc = a.quads || a.split || a.no_manifold;
     match method {
-        Method::DualContouring { .. } => Ok(Method::DualContouring { quads, split }),
-        _ if quads => bail!("--quads applies to --method dc (surface-nets always makes quads; the others triangles)"),
-        _ if split => bail!("--split applies to --method dc"),
+        Method::DualContouring { .. } => {
+            if a.feature_angle.is_some() {
+                bail!("--feature-angle applies to --method emc");
+            }
+            Ok(Method::DualContouring { quads: a.quads, split: a.split, manifold: !(a.split || a.no_manifold) })
+        }
+        Method::ExtendedMarchingCubes { feature_angle } if !dc => {
+            let feature_angle = match a.feature_angle {
+                Some(d) if (0.0..=180.0).contains(&d) && d.fract() == 0.0 => d as u8,
+                Some(d) => bail!("--feature-angle {d}: expected whole degrees from 0 to 180"),
+                None => feature_angle,
+            };
+            Ok(Method::ExtendedMarchingCubes { feature_angle })
+        }
+        _ if a.quads => bail!("--quads applies to --method dc (surface-nets always makes quads; the others triangles)"),
+        _ if a.split => bail!("--split applies to --method dc"),
+        _ if a.no_manifold => bail!("--no-manifold applies to --method dc"),
+        _ if a.feature_angle.is_some() => bail!("--feature-angle applies to --method emc"),
         m => Ok(m),
     }
 }
@@ -345,7 +362,7 @@ impl ExtractConfig {
             labels,
             region: region(a)?,
             options: Options {
-                method: dc_options(a.method.parse().map_err(flag("--method"))?, a.quads, a.split)?,
+                method: method_options(a.method.parse().map_err(flag("--method"))?, a)?,
                 normals: a.normals.parse().map_err(flag("--normals"))?,
                 threads,
                 sparse: a.sparse.then_some(true),

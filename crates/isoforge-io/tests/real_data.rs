@@ -181,16 +181,23 @@ fn issue_10_every_method_is_manifold_on_every_real_scan() {
     assert!(failures.is_empty(), "{} defects:\n{}", failures.len(), failures.join("\n"));
 }
 
-/// Issue 45: dual contouring on every real scan at its sidecar isos, one vertex per cell and split
-/// per marching-cubes patch: closed off the lattice's faces, and the non-manifold edges and
-/// vertices each leaves, printed (the dual methods promise no manifoldness yet; the figures are
-/// what `--split` buys).
+/// Issue 45: extended marching cubes and manifold dual contouring on every real scan at its
+/// sidecar isos, padded with one layer of outside points (`--close`): closed, manifold and
+/// oriented, with MC33's components and genera (so the trilinear interpolant's); and plain dual
+/// contouring's non-manifold edges and vertices (one vertex per cell, and per marching-cubes
+/// patch with `--split`), printed for comparison.
 #[test]
 #[cfg_attr(debug_assertions, ignore = "release only: cargo test --release -p isoforge-io --test real_data")]
-fn issue_45_dual_contouring_on_every_real_scan() {
+fn issue_45_sharp_methods_on_every_real_scan() {
+    use isoforge::pipeline::Region;
     let Some(volumes) = scans() else {
         eprintln!("real_data: skipped, no data folder at ../shared/data/volumes");
         return;
+    };
+    let genera = |r: &MeshReport| {
+        let mut g: Vec<i64> = r.components.iter().map(|c| c.genus.unwrap_or(-99)).collect();
+        g.sort();
+        g
     };
     let mut failures = Vec::new();
     for path in &volumes {
@@ -198,24 +205,46 @@ fn issue_45_dual_contouring_on_every_real_scan() {
         let grid = isoforge_io::read_volume(path, &isoforge_io::Limits::new(u64::MAX))
             .unwrap_or_else(|e| panic!("{}: {e}", path.display()));
         for iso in sidecar_isos(&path.with_extension("json")) {
-            for split in [false, true] {
+            let closed = Region { close: true, ..Region::default() }.apply(grid.clone(), iso + 1.0).expect("pad");
+            let run = |method: Method| {
                 let t = Instant::now();
-                let opts = Options { method: Method::DualContouring { quads: false, split }, ..Options::default() };
-                let e = extract_grid(&grid, Iso::below(iso), &opts, None)
-                    .unwrap_or_else(|e| panic!("{name} at {iso} with dc: {e}"));
-                let (r, found) = defects(&e.mesh, grid.lattice(), false);
+                let e = extract_grid(&closed, Iso::below(iso), &Options { method, ..Options::default() }, None)
+                    .unwrap_or_else(|e| panic!("{name} at {iso} with {}: {e}", method.name()));
+                (e.mesh, t.elapsed().as_secs_f64())
+            };
+            let (m33, t33) = run(Method::MarchingCubes33);
+            let want = genera(&check_with(&m33, &CheckOptions::default()));
+            let plain = |split| Method::DualContouring { quads: false, split, manifold: false };
+            for method in [Method::parse("emc").unwrap(), Method::parse("dc").unwrap(), plain(false), plain(true)] {
+                let (mesh, t) = run(method);
+                let (r, mut found) = defects(&mesh, closed.lattice(), method.is_manifold());
+                if method.is_manifold() {
+                    if !r.is_closed() {
+                        found.push(format!("{} boundary edges", r.boundary_edges.count));
+                    }
+                    if genera(&r) != want {
+                        found.push(format!("{} components (mc33 {}), genera differ", r.components.len(), want.len()));
+                    }
+                }
+                let label = match method {
+                    Method::DualContouring { manifold: false, split, .. } => {
+                        format!("dc plain{}", if split { " split" } else { "" })
+                    }
+                    m => m.name().to_string(),
+                };
                 eprintln!(
-                    "{name:<30} iso {iso:<9} dc{:<6} {:>9} triangles {:>6.2} s  {} non-manifold edges, {} non-manifold \
-                     vertices, {} inconsistently oriented edges  {}",
-                    if split { " split" } else { "" },
+                    "{name:<30} iso {iso:<9} {label:<14} {:>9} vertices {:>9} triangles {:>6.2} s (mc33 {:>5.2} s)  \
+                     {} non-manifold edges, {} non-manifold vertices, {} inconsistent  {}",
+                    r.vertices,
                     r.triangles,
-                    t.elapsed().as_secs_f64(),
+                    t,
+                    t33,
                     r.non_manifold_edges.count,
                     r.non_manifold_vertices.count,
                     r.inconsistent_edges.count,
                     if found.is_empty() { "ok".to_string() } else { found.join("; ") }
                 );
-                failures.extend(found.into_iter().map(|f| format!("{name} at iso {iso} with dc (split {split}): {f}")));
+                failures.extend(found.into_iter().map(|f| format!("{name} at iso {iso} with {label}: {f}")));
             }
         }
     }

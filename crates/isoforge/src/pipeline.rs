@@ -19,8 +19,8 @@ pub use request::{NoSurface, ParseError, Region, Request, Roi};
 use crate::cube::{CellRange, VertexKey};
 use crate::error::{Error, Result};
 use crate::extract::{
-    BodyCentredTetrahedra, Counting, Decomposition, DualContouring, Extractor, MarchingCubes, MarchingCubes33,
-    MarchingTetrahedra, Masked, PointMask, SurfaceNets,
+    BodyCentredTetrahedra, Counting, Decomposition, DualContouring, ExtendedMarchingCubes, Extractor, MarchingCubes,
+    MarchingCubes33, MarchingTetrahedra, Masked, PointMask, SurfaceNets,
 };
 use crate::grid::{AnyGrid, AnySparse, DType, DenseGrid, Sample, SparseGrid};
 use crate::mesh::post::PostProcess;
@@ -60,24 +60,40 @@ pub enum Method {
         /// Keep quads instead of splitting them along their shorter diagonal.
         quads: bool,
         /// One vertex per marching-cubes patch of a cell instead of one per cell
-        /// ([`DualContouring::split`]).
+        /// ([`DualContouring::split`]; plain mode only).
         split: bool,
+        /// The manifold mode ([`DualContouring::manifold`], the default); `false`: plain \[Ju02\].
+        manifold: bool,
+    },
+    /// Extended marching cubes ([`ExtendedMarchingCubes`]): MC33 with a feature vertex where the
+    /// normals of a loop spread wider than `feature_angle` (whole degrees), creases flipped to
+    /// run between feature vertices.
+    ExtendedMarchingCubes {
+        /// Degrees ([`ExtendedMarchingCubes::feature_angle`]).
+        feature_angle: u8,
     },
 }
 
+/// `--method dc`: manifold dual contouring's triangles.
+const DC: Method = Method::DualContouring { quads: false, split: false, manifold: true };
+/// `--method emc` with the default feature angle.
+const EMC: Method =
+    Method::ExtendedMarchingCubes { feature_angle: crate::extract::extended::DEFAULT_FEATURE_ANGLE as u8 };
+
 impl Method {
     /// Every method, in CLI order.
-    pub const ALL: [Method; 7] = [
+    pub const ALL: [Method; 8] = [
         Method::MarchingCubes,
         Method::MarchingCubes33,
         Method::Tetrahedra5,
         Method::Tetrahedra6,
         Method::TetrahedraBcc,
         Method::SurfaceNets,
-        Method::DualContouring { quads: false, split: false },
+        DC,
+        EMC,
     ];
 
-    /// The short CLI name (`mc`, `mc33`, `mt5`, `mt6`, `mt-bcc`, `surface-nets`, `dc`).
+    /// The short CLI name (`mc`, `mc33`, `mt5`, `mt6`, `mt-bcc`, `surface-nets`, `dc`, `emc`).
     pub fn name(self) -> &'static str {
         match self {
             Method::MarchingCubes => "mc",
@@ -87,18 +103,19 @@ impl Method {
             Method::TetrahedraBcc => "mt-bcc",
             Method::SurfaceNets => "surface-nets",
             Method::DualContouring { .. } => "dc",
+            Method::ExtendedMarchingCubes { .. } => "emc",
         }
     }
 
     /// Whether the mesh is guaranteed edge- and vertex-manifold and consistently oriented (closed
-    /// when the surface stays inside the lattice). Every method but the dual ones (surface nets,
-    /// dual contouring), whose cells holding two sheets give them one shared vertex.
+    /// when the surface stays inside the lattice). Every method but surface nets and plain dual
+    /// contouring, whose cells holding two sheets give them one shared vertex.
     pub fn is_manifold(self) -> bool {
-        !matches!(self, Method::SurfaceNets | Method::DualContouring { .. })
+        !matches!(self, Method::SurfaceNets | Method::DualContouring { manifold: false, .. })
     }
 
-    /// Parses a short CLI name (`dc` gives plain dual contouring's triangles:
-    /// `Method::DualContouring { quads: false, split: false }`).
+    /// Parses a short CLI name (`dc` gives manifold dual contouring's triangles, `emc` extended
+    /// marching cubes at the default feature angle).
     pub fn parse(s: &str) -> Option<Method> {
         Method::ALL.into_iter().find(|m| m.name() == s)
     }
@@ -191,8 +208,11 @@ pub fn with_extractor<Vis: ExtractorVisitor>(method: Method, v: Vis) -> Vis::Out
         Method::Tetrahedra6 => v.visit(tetrahedra(Decomposition::Six)),
         Method::TetrahedraBcc => v.visit(BodyCentredTetrahedra),
         Method::SurfaceNets => v.visit(SurfaceNets),
-        Method::DualContouring { quads, split } => {
-            v.visit(DualContouring { quads, split, ..DualContouring::default() })
+        Method::DualContouring { quads, split, manifold } => {
+            v.visit(DualContouring { quads, split, manifold, ..DualContouring::default() })
+        }
+        Method::ExtendedMarchingCubes { feature_angle } => {
+            v.visit(ExtendedMarchingCubes { feature_angle: feature_angle.into(), ..ExtendedMarchingCubes::default() })
         }
     }
 }

@@ -139,7 +139,8 @@ fn issue_45_dc_keeps_the_corners_of_a_rotated_box_that_mc_cuts() {
     ];
     for (i, b) in boxes.into_iter().enumerate() {
         let worst = |m: &Mesh| b.corners().iter().map(|&c| distance_to_mesh(m, c)).fold(0.0, f64::max) / h;
-        let dc = extract_field(b, lattice.clone(), Method::DualContouring { quads: false, split: false });
+        let dc =
+            extract_field(b, lattice.clone(), Method::DualContouring { quads: false, split: false, manifold: true });
         let wide = dc_with_margin(b, lattice.clone());
         let mc = extract_field(b, lattice.clone(), Method::MarchingCubes);
         let (e_dc, e_wide, e_mc) = (worst(&dc), worst(&wide), worst(&mc));
@@ -168,8 +169,10 @@ fn issue_45_dc_sphere_is_closed_oriented_and_on_the_surface() {
     let g = DenseGrid::from_fn(lattice.clone(), |[i, j, k]| {
         sphere(Vec3::from([i, j, k].map(|x| -1.0 + 2.0 * x as f32 / (n - 1) as f32)))
     });
-    let tri = Options { method: Method::DualContouring { quads: false, split: false }, ..Options::default() };
-    let quad = Options { method: Method::DualContouring { quads: true, split: false }, ..Options::default() };
+    let tri =
+        Options { method: Method::DualContouring { quads: false, split: false, manifold: true }, ..Options::default() };
+    let quad =
+        Options { method: Method::DualContouring { quads: true, split: false, manifold: true }, ..Options::default() };
     let from_grid =
         |o: &Options| pipeline::extract_grid(&AnyGrid::F32(g.clone()), Iso::below(0.0), o, None).unwrap().mesh;
     let from_field =
@@ -192,7 +195,7 @@ fn issue_45_dc_sphere_is_closed_oriented_and_on_the_surface() {
     }
 }
 
-/// On random lattices dc has surface nets' connectivity (the same quads, vertex for vertex) with
+/// On random lattices plain dc (`manifold: false`) has surface nets' connectivity (the same quads, vertex for vertex) with
 /// each vertex inside its cell; its triangles are closed and oriented wherever surface nets' quads
 /// are, on every walker alike.
 #[test]
@@ -212,11 +215,11 @@ fn issue_45_dc_has_the_connectivity_of_surface_nets_on_random_lattices() {
         let vol = GridVolume::new(&g);
         let iso = Iso::below(0.0);
         let sn = common::walk_with(&mut FlyingEdgesWalker::new(), &vol, iso, &SurfaceNets).0;
-        let dcq = DualContouring { quads: true, ..DualContouring::default() };
+        let dcq = DualContouring { quads: true, manifold: false, ..DualContouring::default() };
         let dc = common::walk_with(&mut FlyingEdgesWalker::new(), &vol, iso, &dcq).0;
         assert_eq!(dc.quads, sn.quads, "trial {trial}: the quads of surface nets");
         assert_eq!(dc.positions.len(), sn.positions.len(), "trial {trial}");
-        let dct = DualContouring::default();
+        let dct = DualContouring { manifold: false, ..DualContouring::default() };
         let tri = common::walk_with(&mut FlyingEdgesWalker::new(), &vol, iso, &dct).0;
         assert_eq!(tri.triangles.len(), 2 * sn.quads.len(), "trial {trial}");
         for (name, other) in [
@@ -402,7 +405,7 @@ fn issue_45_split_vertices_on_random_lattices() {
         let vol = GridVolume::new(&g);
         let iso = Iso::below(0.0);
         let dc = |split: bool| {
-            let x = DualContouring { split, ..DualContouring::default() };
+            let x = DualContouring { split, manifold: false, ..DualContouring::default() };
             topo::check(&common::walk_with(&mut FlyingEdgesWalker::new(), &vol, iso, &x).0)
         };
         let (a, b) = (dc(false), dc(true));

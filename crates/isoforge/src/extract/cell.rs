@@ -17,7 +17,7 @@ use crate::{cube::VertexKey, volume::Volume};
 /// normals as [`Hermite::local_normal`], the plane's covector in cell coordinates scaled so that
 /// `local_normal · (u − local)` is the world distance of cell point `u` from the crossing's
 /// tangent plane (spacing and direction applied). World data ([`Hermite::point`],
-/// [`Hermite::normal`], [`placed_point`](Cell::placed_point)) is what the mesh stores.
+/// [`Hermite::normal`], [`Placed::point`]) is what the mesh stores.
 ///
 /// Vertices come in three kinds, each created once per walk and shared through the walker's
 /// caches: crossings on lattice edges ([`edge_vertex`](Cell::edge_vertex)), crossings on other
@@ -65,16 +65,29 @@ pub trait Cell {
     /// neighbour lies outside the lattice.
     #[inline]
     fn placed_vertex(&mut self, offset: [i8; 3], e: CubeEdge) -> Option<VertexId> {
-        self.placed_point(offset, e).map(|(v, _)| v)
+        self.placed(offset, e).map(|p| p.vertex)
     }
-    /// [`placed_vertex`](Cell::placed_vertex) with the vertex's world position (as the mesh
-    /// stores it): what a dual method needs to split a quad along its shorter diagonal.
-    fn placed_point(&mut self, offset: [i8; 3], e: CubeEdge) -> Option<(VertexId, [f32; 3])>;
+    /// [`placed_vertex`](Cell::placed_vertex) with its world position (what a dual method needs
+    /// to split a quad along its shorter diagonal) and the edges it serves in its own cell (what
+    /// tells a method which of the neighbour's loops or patches the vertex stands for).
+    fn placed(&mut self, offset: [i8; 3], e: CubeEdge) -> Option<Placed>;
 
     /// Emits a triangle (wound counter-clockwise seen from outside).
     fn push_triangle(&mut self, t: [VertexId; 3]);
     /// Emits a quad (wound counter-clockwise seen from outside).
     fn push_quad(&mut self, q: [VertexId; 4]);
+}
+
+/// A vertex a cell placed, as a neighbour sees it ([`Cell::placed`]).
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Placed {
+    /// The mesh vertex.
+    pub vertex: VertexId,
+    /// Its world position, as the mesh stores it.
+    pub point: [f32; 3],
+    /// The crossed cube edges it serves, numbered in the cell that placed it (the `edges` mask
+    /// of [`Cell::place_vertex`]).
+    pub edges: u16,
 }
 
 /// A crossing with its outward unit normal: the Hermite data dual methods fit vertices to, in

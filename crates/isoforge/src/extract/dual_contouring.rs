@@ -6,6 +6,7 @@
 //! Out: one vertex per active cell at the minimiser of its quadratic error function ([`Qef`]),
 //! and per crossed lattice edge a quad (or two triangles) joining the four cells around it.
 
+use super::fans::LoopFans;
 use super::qef::Qef;
 use super::{Extractor, MarchingCubes};
 use crate::cube::{CubeEdge, CASE_EDGES};
@@ -74,15 +75,32 @@ pub struct DualContouring {
     /// (vertex splitting, in the spirit of manifold dual contouring \[Schaefer07\]). Off by
     /// default: plain \[Ju02\], surface nets' connectivity.
     pub split: bool,
+    /// The manifold mode (the default): MC33's loops instead of cells, one vertex per loop that
+    /// spans a disk, and a crossing kept as a vertex wherever the dual quad around it would make
+    /// the mesh non-manifold (see [`ExtendedMarchingCubes`](super::ExtendedMarchingCubes)' fans
+    /// and the `fans` module): closed, manifold, oriented, with the trilinear interpolant's
+    /// components and genus. Off: plain \[Ju02\] (or `split`).
+    pub manifold: bool,
 }
 
 impl Default for DualContouring {
     fn default() -> Self {
-        DualContouring { quads: false, truncation: DEFAULT_TRUNCATION, margin: DEFAULT_MARGIN, split: false }
+        DualContouring {
+            quads: false,
+            truncation: DEFAULT_TRUNCATION,
+            margin: DEFAULT_MARGIN,
+            split: false,
+            manifold: true,
+        }
     }
 }
 
 impl DualContouring {
+    /// The manifold mode's construction: every disk loop fanned and merged.
+    fn fans(&self) -> LoopFans {
+        LoopFans { fit: *self, feature_cos: None, merge: true, quads: self.quads }
+    }
+
     /// The cell's vertex in its frame, fitted to the planes of the crossed edges in `crossed`:
     /// the QEF's minimiser when it lies within [`FIT_TOLERANCE`] of every plane and every normal
     /// crosses its edge ([`MIN_CROSSING_COSINE`]), the mass point (the crossings' mean) otherwise;
@@ -153,6 +171,9 @@ impl Extractor for DualContouring {
     const PLACES_VERTICES: bool = true;
 
     fn place<C: Cell>(&self, cell: &mut C) {
+        if self.manifold {
+            return self.fans().place(cell);
+        }
         let crossed = CASE_EDGES[cell.case() as usize];
         if self.split {
             for &patch in patches(cell.case()).iter().take_while(|&&m| m != 0) {
@@ -166,6 +187,9 @@ impl Extractor for DualContouring {
     }
 
     fn process<C: Cell>(&self, cell: &mut C) {
+        if self.manifold {
+            return self.fans().process(cell);
+        }
         let d = *cell.values();
         let crossed = CASE_EDGES[cell.case() as usize];
         for axis in 0..3 {
@@ -175,9 +199,9 @@ impl Extractor for DualContouring {
             }
             let mut q = [VertexId::NONE; 4];
             let mut p = [[0.0f32; 3]; 4];
-            let found = around.iter().enumerate().all(|(i, &o)| match cell.placed_point(o, e) {
-                Some((id, w)) => {
-                    (q[i], p[i]) = (id, w);
+            let found = around.iter().enumerate().all(|(i, &o)| match cell.placed(o, e) {
+                Some(v) => {
+                    (q[i], p[i]) = (v.vertex, v.point);
                     true
                 }
                 None => false,
@@ -231,7 +255,7 @@ fn patches(case: u8) -> [u16; 4] {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::extract::{Hermite, ProbeCell};
+    use crate::extract::{Hermite, Placed, ProbeCell};
 
     /// A cell whose Hermite data are given: the vertex [`DualContouring::fit`] places.
     struct Given {
@@ -271,8 +295,8 @@ mod tests {
         fn place_vertex(&mut self, local: [f32; 3], edges: u16) -> VertexId {
             self.probe.place_vertex(local, edges)
         }
-        fn placed_point(&mut self, offset: [i8; 3], e: CubeEdge) -> Option<(VertexId, [f32; 3])> {
-            self.probe.placed_point(offset, e)
+        fn placed(&mut self, offset: [i8; 3], e: CubeEdge) -> Option<Placed> {
+            self.probe.placed(offset, e)
         }
         fn push_triangle(&mut self, t: [VertexId; 3]) {
             self.probe.push_triangle(t)

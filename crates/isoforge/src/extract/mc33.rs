@@ -131,44 +131,49 @@ impl MarchingCubes33 {
         self.triangulate(cell, &CellTopology::of(&d));
     }
 
-    /// Triangulates a cell of topology `topo`: a band per tunnel, a disk per other loop. The
-    /// values are read only where the geometry needs them (bands, centroids); a cell of disks
-    /// without a centroid is a fan per loop, as in the case table.
+    /// Triangulates a cell of topology `topo`: a band per tunnel, a disk per other loop.
     fn triangulate<C: Cell>(&self, cell: &mut C, topo: &CellTopology) {
-        let needs_values = topo.n_tubes > 0 || topo.skeleton.twice != 0;
-        let d = if needs_values { *cell.values() } else { [0.0; 8] };
-        let d = &d;
-        let mut ids = [VertexId::NONE; 12];
-        let mut id = |cell: &mut C, e: u8| {
-            if ids[e as usize] == VertexId::NONE {
-                ids[e as usize] = cell.edge_vertex(CubeEdge(e));
-            }
-            ids[e as usize]
-        };
-        let mut in_tube = [false; MAX_LOOPS];
-        for &(a, b) in &topo.tubes[..topo.n_tubes] {
-            in_tube[a] = true;
-            in_tube[b] = true;
-            band(cell, d, topo.loop_edges(a), topo.loop_edges(b), &mut id);
+        triangulate(cell, topo, 0);
+    }
+}
+
+/// Triangulates a cell of topology `topo` but the loops in the bit mask `skip` (none in a
+/// tunnel; another method fans them): a band per tunnel, a disk per other loop. The values are
+/// read only where the geometry needs them (bands, centroids); a cell of disks without a
+/// centroid is a fan per loop, as in the case table.
+pub(crate) fn triangulate<C: Cell>(cell: &mut C, topo: &CellTopology, skip: u8) {
+    let needs_values = topo.n_tubes > 0 || topo.skeleton.twice & !skip != 0;
+    let d = if needs_values { *cell.values() } else { [0.0; 8] };
+    let d = &d;
+    let mut ids = [VertexId::NONE; 12];
+    let mut id = |cell: &mut C, e: u8| {
+        if ids[e as usize] == VertexId::NONE {
+            ids[e as usize] = cell.edge_vertex(CubeEdge(e));
         }
-        for l in 0..topo.n_loops() {
-            if in_tube[l] {
-                continue;
+        ids[e as usize]
+    };
+    let tubes = topo.tube_loops();
+    debug_assert_eq!(tubes & skip, 0, "a loop in a tunnel is not a disk");
+    for &(a, b) in &topo.tubes[..topo.n_tubes] {
+        band(cell, d, topo.loop_edges(a), topo.loop_edges(b), &mut id);
+    }
+    for l in 0..topo.n_loops() {
+        if (tubes | skip) >> l & 1 == 1 {
+            continue;
+        }
+        let edges = topo.loop_edges(l);
+        if topo.visits_a_face_twice(l) {
+            let c = centroid(d, edges);
+            let centre = cell.place_vertex(c, 0);
+            for i in 0..edges.len() {
+                let (p, q) = (id(cell, edges[i]), id(cell, edges[(i + 1) % edges.len()]));
+                cell.push_triangle([centre, q, p]);
             }
-            let edges = topo.loop_edges(l);
-            if topo.visits_a_face_twice(l) {
-                let c = centroid(d, edges);
-                let centre = cell.place_vertex(c, 0);
-                for i in 0..edges.len() {
-                    let (p, q) = (id(cell, edges[i]), id(cell, edges[(i + 1) % edges.len()]));
-                    cell.push_triangle([centre, q, p]);
-                }
-            } else {
-                let v0 = id(cell, edges[0]);
-                for i in 1..edges.len() - 1 {
-                    let (p, q) = (id(cell, edges[i]), id(cell, edges[i + 1]));
-                    cell.push_triangle([v0, q, p]);
-                }
+        } else {
+            let v0 = id(cell, edges[0]);
+            for i in 1..edges.len() - 1 {
+                let (p, q) = (id(cell, edges[i]), id(cell, edges[i + 1]));
+                cell.push_triangle([v0, q, p]);
             }
         }
     }
@@ -259,7 +264,12 @@ impl CellTopology {
         self.skeleton.n_loops as usize
     }
 
-    fn visits_a_face_twice(&self, l: usize) -> bool {
+    /// The loops in a tunnel, as a bit mask (bit l: loop l is one end of a band).
+    pub(crate) fn tube_loops(&self) -> u8 {
+        self.tubes[..self.n_tubes].iter().fold(0, |m, &(a, b)| m | 1 << a | 1 << b)
+    }
+
+    pub(crate) fn visits_a_face_twice(&self, l: usize) -> bool {
         self.skeleton.twice >> l & 1 == 1
     }
 
@@ -272,7 +282,7 @@ impl CellTopology {
 
     /// [`of`](CellTopology::of) for a cell of known `case`.
     #[inline]
-    fn of_case(case: u8, d: &[f32; 8]) -> Self {
+    pub(crate) fn of_case(case: u8, d: &[f32; 8]) -> Self {
         Self::of_case_with(case, d, true)
     }
 
@@ -596,7 +606,7 @@ fn skeletons() -> &'static Skeletons {
 
 /// The face shared by two edges that follow each other on a loop.
 #[inline]
-fn common_face(a: u8, b: u8) -> u8 {
+pub(crate) fn common_face(a: u8, b: u8) -> u8 {
     let [f0, f1] = EDGE_FACES[a as usize];
     if EDGE_FACES[b as usize].contains(&f0) {
         f0

@@ -23,6 +23,8 @@
 
 mod cell;
 pub mod dual_contouring;
+pub mod extended;
+mod fans;
 pub mod marching_cubes;
 pub mod masked;
 pub mod mc33;
@@ -32,8 +34,9 @@ pub mod squares;
 pub mod surface_nets;
 pub mod tetrahedra;
 
-pub use cell::{Cell, Hermite};
+pub use cell::{Cell, Hermite, Placed};
 pub use dual_contouring::DualContouring;
+pub use extended::ExtendedMarchingCubes;
 pub use marching_cubes::MarchingCubes;
 pub use masked::{Masked, PointMask};
 pub use mc33::MarchingCubes33;
@@ -264,7 +267,7 @@ impl Cell for ProbeCell {
         self.counts.placed += 1;
         VertexId(PROBE_PLACED + self.counts.placed as u32)
     }
-    fn placed_point(&mut self, _offset: [i8; 3], _e: CubeEdge) -> Option<(VertexId, [f32; 3])> {
+    fn placed(&mut self, _offset: [i8; 3], _e: CubeEdge) -> Option<Placed> {
         self.other_vertices = true;
         None
     }

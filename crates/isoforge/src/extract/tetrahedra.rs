@@ -18,7 +18,7 @@ use crate::cube::CellPoint;
 use crate::cube::CubeEdge;
 use crate::cube::Diagonals;
 use crate::cube::FACE_CORNERS;
-use crate::extract::{Cell, Hermite};
+use crate::extract::{Cell, Hermite, Placed};
 use crate::mesh::VertexId;
 
 /// How a cell is split into tetrahedra on its own corners (the body-centred split, which adds
@@ -448,7 +448,7 @@ impl Cell for SolidProbe {
     fn place_vertex(&mut self, _local: [f32; 3], _edges: u16) -> VertexId {
         unreachable!("tetrahedra place no vertex")
     }
-    fn placed_point(&mut self, _offset: [i8; 3], _e: CubeEdge) -> Option<(VertexId, [f32; 3])> {
+    fn placed(&mut self, _offset: [i8; 3], _e: CubeEdge) -> Option<Placed> {
         unreachable!("tetrahedra place no vertex")
     }
     fn push_triangle(&mut self, t: [VertexId; 3]) {
@@ -603,7 +603,7 @@ mod tests {
         fn place_vertex(&mut self, _local: [f32; 3], _edges: u16) -> VertexId {
             unreachable!()
         }
-        fn placed_point(&mut self, _offset: [i8; 3], _e: CubeEdge) -> Option<(VertexId, [f32; 3])> {
+        fn placed(&mut self, _offset: [i8; 3], _e: CubeEdge) -> Option<Placed> {
             unreachable!()
         }
         fn push_triangle(&mut self, t: [VertexId; 3]) {

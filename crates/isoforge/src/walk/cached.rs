@@ -17,19 +17,19 @@
 use super::segment::{self, SegmentCache};
 use super::{cell_crossing, edge_hermite, local_on_edge, push_edge_vertex, Cell, Hermite};
 use crate::cube::{Axis, CellPoint, CubeEdge, EdgeKey, SegmentKey};
+use crate::extract::Placed;
 use crate::mesh::{MeshBuilder, VertexId};
 use crate::volume::{Iso, Volume};
 
-/// Vertices placed by one layer of cells: for each cell its entries `(vertex, edge mask, world
-/// position)`.
+/// Vertices placed by one layer of cells: for each cell its entries.
 #[derive(Debug, Default)]
-struct Placed {
+struct PlacedLayer {
     start: Vec<u32>,
     count: Vec<u8>,
-    entries: Vec<(VertexId, u16, [f32; 3])>,
+    entries: Vec<Placed>,
 }
 
-impl Placed {
+impl PlacedLayer {
     fn reset(&mut self, n: usize) {
         self.start.clear();
         self.start.resize(n, 0);
@@ -38,7 +38,7 @@ impl Placed {
         self.entries.clear();
     }
 
-    fn of(&self, cell: usize) -> &[(VertexId, u16, [f32; 3])] {
+    fn of(&self, cell: usize) -> &[Placed] {
         let (s, c) = (self.start[cell] as usize, self.count[cell] as usize);
         &self.entries[s..s + c]
     }
@@ -216,7 +216,7 @@ pub(crate) struct LayerCaches {
     /// Segments the tables do not cover.
     other: SegmentCache,
     /// Only used by extractors that place vertices (sized on first use).
-    placed: [Placed; 2],
+    placed: [PlacedLayer; 2],
     /// Hermite data per edge slot, like the ids (allocated on the first request).
     hermite: Option<Box<[Stamped<Hermite>; 5]>>,
     /// Crossing parameters per edge slot, like the ids (allocated on the first request).
@@ -647,12 +647,12 @@ impl<V: Volume + ?Sized> Cell for CachedCell<'_, V> {
                 layer.start[c] = layer.entries.len() as u32;
             }
             layer.count[c] += 1;
-            layer.entries.push((id, edges, w));
+            layer.entries.push(Placed { vertex: id, point: w, edges });
         }
         id
     }
 
-    fn placed_point(&mut self, offset: [i8; 3], e: CubeEdge) -> Option<(VertexId, [f32; 3])> {
+    fn placed(&mut self, offset: [i8; 3], e: CubeEdge) -> Option<Placed> {
         let key = EdgeKey::of_cell(self.ijk, e);
         let cell = segment::neighbour(self.ijk, offset)?;
         let ne = key.in_cell(cell)?;
@@ -665,7 +665,7 @@ impl<V: Volume + ?Sized> Cell for CachedCell<'_, V> {
             return None;
         }
         let c = self.caches.cell_index(cell);
-        layer.of(c).iter().find(|(_, m, _)| m & (1 << ne.0) != 0).map(|&(v, _, w)| (v, w))
+        layer.of(c).iter().find(|p| p.edges & (1 << ne.0) != 0).copied()
     }
 
     #[inline]

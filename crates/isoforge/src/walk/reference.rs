@@ -6,7 +6,7 @@ use super::{
 };
 use crate::cube::{case_of, CellPoint, CubeEdge, EdgeKey, SegmentKey, CORNER_OFFSETS};
 use crate::error::{Error, Result};
-use crate::extract::Extractor;
+use crate::extract::{Extractor, Placed};
 use crate::mesh::{MeshBuilder, VertexId};
 use crate::volume::{Iso, Volume};
 
@@ -209,12 +209,16 @@ impl<V: Volume + ?Sized> Cell for RefCell<'_, V> {
         self.placed.entry(self.ijk).or_default().push((id, edges, w));
         id
     }
-    fn placed_point(&mut self, offset: [i8; 3], e: CubeEdge) -> Option<(VertexId, [f32; 3])> {
+    fn placed(&mut self, offset: [i8; 3], e: CubeEdge) -> Option<Placed> {
         let key = EdgeKey::of_cell(self.ijk, e);
         let cell = segment::neighbour(self.ijk, offset)?;
         let ne = key.in_cell(cell)?;
         let entries = self.placed.get(&cell)?;
-        entries.iter().find(|(_, m, _)| m & (1 << ne.0) != 0).map(|&(v, _, w)| (v, w))
+        entries.iter().find(|(_, m, _)| m & (1 << ne.0) != 0).map(|&(vertex, edges, point)| Placed {
+            vertex,
+            point,
+            edges,
+        })
     }
     fn push_quad(&mut self, q: [VertexId; 4]) {
         self.out.push_quad(q);

@@ -11,6 +11,7 @@ use super::families::FAMILIES;
 use super::{map_tasks, Cells, Passes};
 use crate::cube::{cell_segment, CellPoint, CubeEdge, EdgeKey, VertexKey, CELL_SEGMENTS};
 use crate::error::{Error, Result};
+use crate::extract::Placed;
 use crate::extract::{Decision, Extractor};
 use crate::grid::Sample;
 use crate::mesh::{huge_capacity, Mesh, MeshBuilder, VertexId};
@@ -625,7 +626,7 @@ impl<X: Extractor, O: FillOut> Cell for FillCell<'_, X, O> {
         VertexId(id as u32)
     }
 
-    fn placed_point(&mut self, _offset: [i8; 3], _e: CubeEdge) -> Option<(VertexId, [f32; 3])> {
+    fn placed(&mut self, _offset: [i8; 3], _e: CubeEdge) -> Option<Placed> {
         debug_assert!(false, "an extractor with Counting::Known asked for a neighbour's placed vertex");
         None
     }
