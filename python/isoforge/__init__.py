@@ -152,7 +152,7 @@ def extract(source, iso, *, method="mc33", spacing=(1.0, 1.0, 1.0), origin=(0.0,
     ``origin`` are then ignored), or a callable ``f(x, y, z) -> array`` evaluated once,
     vectorised, on the world coordinates of a lattice of ``shape = (nx, ny, nz)`` points.
     ``spacing`` and ``origin`` are ``(x, y, z)``. ``method`` is one of the CLI's method names
-    (``mc``, ``mc33``, ``mt5``, ``mt6``, ``surface-nets``, ``dc``…); quads are split into
+    (``mc``, ``mc33``, ``mt5``, ``mt6``, ``surface-nets``, ``dc``, ``emc``…); quads are split into
     triangles.
     ``threads=None`` uses every core. The GIL is released during the extraction.
 

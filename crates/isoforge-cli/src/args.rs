@@ -344,8 +344,8 @@ pub struct ExtractArgs {
     pub no_manifold: bool,
     /// With --method emc: degrees between two crossings' normals above which a cell's loop is a
     /// feature and gets a vertex of its own (default 30).
-    #[arg(long, value_name = "DEG")]
-    pub feature_angle: Option<f64>,
+    #[arg(long, value_name = "DEG", allow_hyphen_values = true)]
+    pub feature_angle: Option<String>,
     /// Walk a sparse grid: a built-in field sampled only near its surface (blocks of 8³ points,
     /// memory growing with the surface; skipped boxes are proven empty with --lipschitz or the
     /// field's own bound), or a volume's blocks near the surface (the same mesh as without).

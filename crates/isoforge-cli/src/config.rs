@@ -324,9 +324,10 @@ fn method_options(method: Method, a: &ExtractArgs) -> Result<Method> {
             Ok(Method::DualContouring { quads: a.quads, split: a.split, manifold: !(a.split || a.no_manifold) })
         }
         Method::ExtendedMarchingCubes { feature_angle } if !dc => {
-            let feature_angle = match a.feature_angle {
-                Some(d) if (0.0..=180.0).contains(&d) && d.fract() == 0.0 => d as u8,
-                Some(d) => bail!("--feature-angle {d}: expected whole degrees from 0 to 180"),
+            let feature_angle = match a.feature_angle.as_deref().map(|s| parse_number("--feature-angle", s)) {
+                Some(Ok(d)) if (0.0..=180.0).contains(&d) && d.fract() == 0.0 => d as u8,
+                Some(Ok(d)) => bail!("--feature-angle {d}: expected whole degrees from 0 to 180"),
+                Some(Err(e)) => return Err(e),
                 None => feature_angle,
             };
             Ok(Method::ExtendedMarchingCubes { feature_angle })

@@ -479,6 +479,7 @@ fn streaming_by_default_gives_the_in_memory_bytes() {
         ("mc", "2", "gradient"),
         ("surface-nets", "1", "none"),
         ("dc", "2", "gradient"),
+        ("emc", "1", "gradient"),
         ("mt-bcc", "2", "none"),
         ("mc33", "2", "none"),
     ];
@@ -1796,4 +1797,38 @@ fn sog_files_extract_as_their_sign_grid() {
     let o = isoforge(&["info", p(&sog)]);
     assert_eq!(o.status.code(), Some(0), "{}", stderr(&o));
     assert!(String::from_utf8_lossy(&o.stdout).contains("33"), "{}", String::from_utf8_lossy(&o.stdout));
+}
+
+/// Issue 45: `--method emc` (and its `--feature-angle`) and `--method dc` (manifold by default,
+/// `--no-manifold` for plain dual contouring): watertight meshes, one-line refusals of options
+/// given to the wrong method.
+#[test]
+fn sharp_methods_and_their_options() {
+    let dir = tempfile::tempdir().unwrap();
+    let out = dir.path().join("m.ply");
+    for extra in [
+        &["--method", "emc"][..],
+        &["--method", "emc", "--feature-angle", "45"],
+        &["--method", "dc"],
+        &["--method", "dc", "--quads"],
+    ] {
+        let args =
+            [&["extract", "-i", "field:box?n=24", "-o", p(&out)][..], extra, &["--require", "watertight"]].concat();
+        let o = isoforge(&args);
+        assert_eq!(o.status.code(), Some(0), "{extra:?}: {}", stderr(&o));
+    }
+    // Plain dual contouring on a field whose cells hold two sheets: runs, promises less.
+    let o = isoforge(&["extract", "-i", "field:gyroid?n=24", "--method", "dc", "--no-manifold", "-o", p(&out)]);
+    assert_eq!(o.status.code(), Some(0), "{}", stderr(&o));
+    let bad = dir.path().join("bad.ply");
+    let field = ["extract", "-i", "field:box?n=16", "-o", p(&bad)];
+    fails(&[&field[..], &["--method", "emc", "--feature-angle", "200"]].concat(), "--feature-angle 200", &bad);
+    fails(&[&field[..], &["--method", "emc", "--feature-angle", "nan"]].concat(), "--feature-angle", &bad);
+    fails(
+        &[&field[..], &["--method", "dc", "--feature-angle", "30"]].concat(),
+        "--feature-angle applies to --method emc",
+        &bad,
+    );
+    fails(&[&field[..], &["--method", "mc", "--no-manifold"]].concat(), "--no-manifold applies to --method dc", &bad);
+    fails(&[&field[..], &["--method", "emc", "--quads"]].concat(), "--quads applies to --method dc", &bad);
 }

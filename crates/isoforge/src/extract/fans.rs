@@ -192,8 +192,7 @@ impl LoopFans {
         let flipped: [bool; 4] = std::array::from_fn(|i| flips(x[i], faces[i].0, x[(i + 1) % 4], faces[i].1));
         let id = |i: usize| x[i].map(|p| p.vertex).unwrap_or(VertexId::NONE);
         if self.merge && flipped.iter().all(|&f| f) {
-            let (q, pts) =
-                ([0, 1, 2, 3].map(id), [0, 1, 2, 3].map(|i| x[i].map(|p| p.point).unwrap_or_default()));
+            let (q, pts) = ([0, 1, 2, 3].map(id), [0, 1, 2, 3].map(|i| x[i].map(|p| p.point).unwrap_or_default()));
             // Outward is towards the edge's outside end: +axis when corner 0 is inside.
             let (q, pts) = if inside { (q, pts) } else { ([q[0], q[3], q[2], q[1]], [pts[0], pts[3], pts[2], pts[1]]) };
             if self.quads {
