@@ -106,6 +106,10 @@ pub struct Hermite {
     /// `local_normal · (u − local)` is the world distance of cell point `u` from the tangent
     /// plane (a unit vector on a lattice of unit spacing).
     pub local_normal: [f32; 3],
+    /// Whether the normal is the field's own gradient ([`Volume::exact_gradients`]: fields), not an
+    /// estimate from samples (central differences on grids): planes that meet at a point beyond
+    /// the cell then mark a true corner there, not an artefact of the estimate.
+    pub exact: bool,
 }
 
 impl Hermite {

@@ -19,15 +19,17 @@ use crate::mesh::VertexId;
 /// the spread of a smooth patch's normals across a cell.
 pub const DEFAULT_TRUNCATION: f32 = 0.1;
 
-/// How far beyond its cell a vertex may go by default, in cell widths: 0, every vertex in its
-/// cell. A box's corner can poke into a cell without crossing any of its edges (that cell is not
-/// even active): only a neighbour whose three planes meet there could put a vertex on it, outside
-/// its own cell. On 30 random rotated boxes at 32³ with exact normals (`tests/dual_contouring.rs`)
-/// the worst corner is 0.64 cell widths off the mesh with margin 0 (median 0.015), 0.26 with 0.5
-/// and 0.000 with 1 (about 5.6 % of the vertices then leave their cell). But on grids, central
-/// differences can agree on a wrong point: with margin 1, one of 1500 small integer lattices
-/// (`tests/properties.rs`) came out inside out. A margin suits fields with exact gradients.
-pub const DEFAULT_MARGIN: f32 = 0.0;
+/// How far beyond its cell a vertex may go by default, in cell widths, where the normals are
+/// exact ([`Hermite::exact`](crate::extract::Hermite::exact): fields) and its planes meet at one
+/// point ([`LEAVE_TOLERANCE`]): 1. A box's corner can poke into a cell without crossing any of its
+/// edges (that cell is not even active): only a neighbour whose three planes meet there could put
+/// a vertex on it, outside its own cell. On 30 random rotated boxes at 32³ with exact normals
+/// (`tests/dual_contouring.rs`) the worst corner is 0.64 cell widths off the mesh with margin 0
+/// (median 0.015), 0.26 with 0.5 and 0.000 with 1 (about 5.6 % of the vertices then leave their
+/// cell). On grids every vertex stays in its cell whatever the margin: central differences can
+/// agree on a wrong point (with margin 1, four of 1500 small integer lattices
+/// (`tests/properties.rs`) came out inside out).
+pub const DEFAULT_MARGIN: f32 = 1.0;
 
 /// Dual contouring: one vertex per active cell at the point that best fits the tangent planes
 /// of its edge crossings, and for every crossed lattice edge a quad joining the vertices of the
@@ -41,8 +43,9 @@ pub const DEFAULT_MARGIN: f32 = 0.0;
 /// normals do not cross their edges ([`MIN_CROSSING_COSINE`]), give the mass point instead
 /// (disagreeing normals: surface nets' vertex). The vertex is clamped into its cell, or into its
 /// cell grown by [`margin`](DualContouring::margin) on every side (each coordinate to
-/// [−margin, 1 + margin]) when it lies within [`LEAVE_TOLERANCE`] of every plane: a corner or
-/// crease the planes meet at may lie in a neighbouring cell; the mass point never leaves the cell.
+/// [−margin, 1 + margin]) when its normals are exact (fields) and it lies within
+/// [`LEAVE_TOLERANCE`] of every plane: a corner or crease the planes meet at may lie in a
+/// neighbouring cell; the mass point never leaves the cell, nor does any vertex on a grid.
 ///
 /// **Guarantees**: the connectivity of [`SurfaceNets`](super::SurfaceNets) (the same vertices,
 /// one per active cell, and one quad per crossed interior edge), so closed and consistently
@@ -66,8 +69,8 @@ pub struct DualContouring {
     pub quads: bool,
     /// Relative truncation of the QEF's singular values (see [`DEFAULT_TRUNCATION`]).
     pub truncation: f32,
-    /// How far beyond its cell a vertex may go, in cell widths (see [`DEFAULT_MARGIN`]; 0: strictly
-    /// inside its cell).
+    /// How far beyond its cell a vertex fitted to exact normals may go, in cell widths (see
+    /// [`DEFAULT_MARGIN`]; 0: strictly inside its cell).
     pub margin: f32,
     /// One vertex per marching-cubes patch of the cell (its crossed edges grouped by the
     /// triangles of [`MarchingCubes`]' case, whose face choices neighbours share) instead of one
@@ -104,17 +107,18 @@ impl DualContouring {
     /// The cell's vertex in its frame, fitted to the planes of the crossed edges in `crossed`:
     /// the QEF's minimiser when it lies within [`FIT_TOLERANCE`] of every plane and every normal
     /// crosses its edge ([`MIN_CROSSING_COSINE`]), the mass point (the crossings' mean) otherwise;
-    /// clamped into the cell grown by `margin` when it lies within [`LEAVE_TOLERANCE`] of every
-    /// plane, into the cell itself otherwise.
+    /// clamped into the cell grown by `margin` when every normal is exact ([`Hermite::exact`](crate::extract::Hermite::exact)) and
+    /// it lies within [`LEAVE_TOLERANCE`] of every plane, into the cell itself otherwise.
     #[inline]
     pub fn fit<C: Cell>(&self, cell: &mut C, crossed: u16) -> [f32; 3] {
         let d = *cell.values();
         let mut q = Qef::default();
         let mut planes = [([0.0f32; 3], [0.0f32; 3]); 12];
-        let (mut n, mut crossing_normals) = (0, true);
+        let (mut n, mut crossing_normals, mut exact) = (0, true, true);
         for e in 0..12u8 {
             if crossed & (1 << e) != 0 {
                 let h = cell.hermite(CubeEdge(e));
+                exact &= h.exact;
                 q.add(h.local, h.local_normal);
                 planes[n] = (h.local, h.local_normal);
                 n += 1;
@@ -131,8 +135,8 @@ impl DualContouring {
         // Normals along an edge, or planes that disagree (noise, integer data's plateaus), give a
         // minimiser that can fold the surface inside out: surface nets' vertex instead.
         let x = if crossing_normals && fits(&planes[..n], s.point, FIT_TOLERANCE) { s.point } else { mass };
-        // Out of the cell only to a point the planes meet at (a corner, a crease).
-        let reach = if fits(&planes[..n], x, LEAVE_TOLERANCE) { self.margin } else { 0.0 };
+        // Out of the cell only to a point exact planes meet at (a corner, a crease).
+        let reach = if exact && fits(&planes[..n], x, LEAVE_TOLERANCE) { self.margin } else { 0.0 };
         x.map(|c| (c as f32).clamp(-reach, 1.0 + reach))
     }
 }
@@ -275,7 +279,7 @@ mod tests {
         }
         fn hermite(&mut self, e: CubeEdge) -> Hermite {
             let &(_, local, n) = self.planes.iter().find(|p| p.0 == e.0).expect("a crossed edge");
-            Hermite { point: local, normal: n, local, local_normal: n }
+            Hermite { point: local, normal: n, local, local_normal: n, exact: true }
         }
         fn crossing(&mut self, e: CubeEdge) -> [f32; 3] {
             self.hermite(e).local

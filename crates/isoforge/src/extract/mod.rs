@@ -226,7 +226,7 @@ impl Cell for ProbeCell {
         self.case
     }
     fn hermite(&mut self, _e: CubeEdge) -> Hermite {
-        Hermite { point: [0.0; 3], normal: [0.0; 3], local: [0.0; 3], local_normal: [0.0; 3] }
+        Hermite { point: [0.0; 3], normal: [0.0; 3], local: [0.0; 3], local_normal: [0.0; 3], exact: false }
     }
     fn crossing(&mut self, e: CubeEdge) -> [f32; 3] {
         let mut p = e.origin_offset().map(|x| x as f32);

@@ -182,6 +182,14 @@ pub trait Volume {
     fn bounded_by_corners(&self) -> bool {
         false
     }
+
+    /// Whether [`gradient`](Volume::gradient) is the field's own gradient rather than an estimate
+    /// from samples (central differences): what lets a dual method trust tangent planes that meet
+    /// outside a cell. Fields by default: exactly the volumes not
+    /// [`bounded_by_corners`](Volume::bounded_by_corners) (sampled ones are).
+    fn exact_gradients(&self) -> bool {
+        !self.bounded_by_corners()
+    }
 }
 
 /// A volume stored as samples of a native type, offered slab by slab: what the Flying Edges

@@ -227,7 +227,7 @@ pub(crate) struct LayerCaches {
 }
 
 const NO_HERMITE: Hermite =
-    Hermite { point: [f32::NAN; 3], normal: [0.0; 3], local: [f32::NAN; 3], local_normal: [0.0; 3] };
+    Hermite { point: [f32::NAN; 3], normal: [0.0; 3], local: [f32::NAN; 3], local_normal: [0.0; 3], exact: false };
 
 impl LayerCaches {
     /// Empty caches for the box of `w × h` points from `origin`, starting at cell layer `k`.

@@ -140,7 +140,7 @@ pub fn edge_hermite<V: Volume + ?Sized>(vol: &V, key: EdgeKey, d0: f32, d1: f32,
     let normal = edge_normal(vol, key, t, d0, iso);
     let mut local = [0.0; 3];
     local[key.axis.index()] = t;
-    Hermite { point, normal, local, local_normal: local_covector(vol.lattice(), normal) }
+    Hermite { point, normal, local, local_normal: local_covector(vol.lattice(), normal), exact: vol.exact_gradients() }
 }
 
 /// A world normal `n` as a covector of cell (index) coordinates: `m_a = spacing_a · (direction_a ·
