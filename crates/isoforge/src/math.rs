@@ -168,10 +168,19 @@ impl std::hash::Hasher for KeyHasher {
     fn finish(&self) -> u64 {
         self.0
     }
+    /// Eight bytes a round (arrays of integers hash as one byte string: `[u32; 3]` is two
+    /// rounds, not twelve).
     #[inline]
     fn write(&mut self, bytes: &[u8]) {
-        for &b in bytes {
-            self.write_u64(b as u64);
+        let mut words = bytes.chunks_exact(8);
+        for w in &mut words {
+            self.write_u64(u64::from_le_bytes(w.try_into().expect("8 bytes")));
+        }
+        let rest = words.remainder();
+        if !rest.is_empty() {
+            let mut w = [0u8; 8];
+            w[..rest.len()].copy_from_slice(rest);
+            self.write_u64(u64::from_le_bytes(w));
         }
     }
     #[inline]

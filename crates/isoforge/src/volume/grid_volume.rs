@@ -232,6 +232,10 @@ impl<S: Sample> Volume for GridVolume<'_, S> {
     fn value_at(&self, p: [f64; 3], iso: Iso) -> f32 {
         iso.offset(trilinear_value(self.lattice.dims(), p, &|q| self.at(q)))
     }
+    #[inline]
+    fn value_at_point(&self, p: [u32; 3], iso: Iso) -> f32 {
+        iso.offset(self.at(p))
+    }
 
     fn gradient_at(&self, p: [f64; 3]) -> Vec3 {
         point_gradient_at(&self.lattice, p, &|q| self.at(q))

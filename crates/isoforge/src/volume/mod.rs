@@ -156,6 +156,13 @@ pub trait Volume {
     /// The world-space gradient at index-space point `p` (not normalised; may be zero).
     fn gradient_at(&self, p: [f64; 3]) -> Vec3;
 
+    /// The value offset by iso at lattice point `p`: [`value_at`](Volume::value_at) there,
+    /// which sampled volumes answer with one sample instead of an interpolation.
+    #[inline]
+    fn value_at_point(&self, p: [u32; 3], iso: Iso) -> f32 {
+        self.value_at(p.map(f64::from), iso)
+    }
+
     /// The crossing on the segment `p0` → `p1` (index space; a diagonal or a segment to a cell
     /// centre) as a parameter in [0, 1], given the offset values at its ends (one < 0, the other
     /// ≥ 0). Linear by default; fields refine it with their oracle.
@@ -239,6 +246,10 @@ impl<V: Volume + ?Sized> Volume for &V {
     #[inline]
     fn gradient_at(&self, p: [f64; 3]) -> Vec3 {
         (**self).gradient_at(p)
+    }
+    #[inline]
+    fn value_at_point(&self, p: [u32; 3], iso: Iso) -> f32 {
+        (**self).value_at_point(p, iso)
     }
     #[inline]
     fn segment_crossing(&self, p0: [f64; 3], p1: [f64; 3], d0: f32, d1: f32, iso: Iso) -> f32 {

@@ -401,6 +401,10 @@ impl<S: Sample> Volume for SparseVolume<'_, S> {
     fn value_at(&self, p: [f64; 3], iso: Iso) -> f32 {
         iso.offset(super::trilinear_value(self.grid.lattice().dims(), p, &|q| self.at(q)))
     }
+    #[inline]
+    fn value_at_point(&self, p: [u32; 3], iso: Iso) -> f32 {
+        iso.offset(self.at(p))
+    }
     fn gradient_at(&self, p: [f64; 3]) -> crate::math::Vec3 {
         super::point_gradient_at(self.grid.lattice(), p, &|q| self.at(q))
     }

@@ -13,9 +13,11 @@
 //!   walk      the cells found, sorted (z, y, x), by `walk_cells`: vertices joined by key
 //! ```
 
-use std::collections::HashSet;
+use std::collections::HashMap;
+use std::hash::BuildHasherDefault;
 
 use crate::cube::{CellRange, CORNER_OFFSETS};
+use crate::math::KeyHasher;
 use crate::volume::{Iso, Volume};
 
 /// What a follow did.
@@ -30,12 +32,61 @@ pub struct FollowStats {
     pub floods: u64,
 }
 
+/// A set of cells: a bit per cell in blocks of 8³ cells, the blocks in a hash map (a surface's
+/// cells fill few blocks densely; one hash per block instead of per cell).
+#[derive(Default)]
+struct CellSet {
+    blocks: HashMap<[u32; 3], [u64; 8], BuildHasherDefault<KeyHasher>>,
+    len: usize,
+}
+
+impl CellSet {
+    /// The block of cell `c` and the cell's word (its z in the block) and bit (x + 8 y) in it.
+    #[inline]
+    fn at(c: [u32; 3]) -> ([u32; 3], usize, u64) {
+        let (x, y, z) = (c[0] & 7, c[1] & 7, c[2] & 7);
+        (c.map(|v| v >> 3), z as usize, 1 << (x | y << 3))
+    }
+
+    fn contains(&self, c: [u32; 3]) -> bool {
+        let (b, w, bit) = Self::at(c);
+        self.blocks.get(&b).is_some_and(|words| words[w] & bit != 0)
+    }
+
+    /// Adds `c`; whether it was new.
+    fn insert(&mut self, c: [u32; 3]) -> bool {
+        let (b, w, bit) = Self::at(c);
+        let words = self.blocks.entry(b).or_default();
+        let new = words[w] & bit == 0;
+        words[w] |= bit;
+        self.len += usize::from(new);
+        new
+    }
+
+    /// The cells, sorted (z, y, x).
+    fn sorted(&self) -> Vec<[u32; 3]> {
+        let mut out = Vec::with_capacity(self.len);
+        for (&b, words) in &self.blocks {
+            for (w, &word) in words.iter().enumerate() {
+                let mut bits = word;
+                while bits != 0 {
+                    let xy = bits.trailing_zeros();
+                    bits &= bits - 1;
+                    out.push([b[0] << 3 | (xy & 7), b[1] << 3 | xy >> 3, b[2] << 3 | w as u32]);
+                }
+            }
+        }
+        out.sort_unstable_by_key(|c| (c[2], c[1], c[0]));
+        out
+    }
+}
+
 /// Flooding state: the crossed cells found so far.
 pub struct Follower<'v, V: ?Sized> {
     vol: &'v V,
     iso: Iso,
     cells: [u32; 3],
-    found: HashSet<[u32; 3]>,
+    found: CellSet,
     stats: FollowStats,
 }
 
@@ -43,14 +94,14 @@ impl<'v, V: Volume + ?Sized> Follower<'v, V> {
     /// A follower of the surface of `vol` at `iso`.
     pub fn new(vol: &'v V, iso: Iso) -> Self {
         let cells = vol.lattice().dims().map(|d| d.saturating_sub(1));
-        Follower { vol, iso, cells, found: HashSet::new(), stats: FollowStats::default() }
+        Follower { vol, iso, cells, found: CellSet::default(), stats: FollowStats::default() }
     }
 
     /// The signs (bit c set ⇔ corner c inside) of cell `c`.
     fn case(&self, c: [u32; 3]) -> u8 {
         let mut case = 0u8;
         for (n, o) in CORNER_OFFSETS.iter().enumerate() {
-            let v = self.vol.value_at([0, 1, 2].map(|a| (c[a] + o[a]) as f64), self.iso);
+            let v = self.vol.value_at_point([0, 1, 2].map(|a| c[a] + o[a]), self.iso);
             case |= u8::from(v < 0.0) << n;
         }
         case
@@ -64,7 +115,7 @@ impl<'v, V: Volume + ?Sized> Follower<'v, V> {
 
     /// Floods from cell `seed` when it is crossed and not yet found.
     pub fn flood(&mut self, seed: [u32; 3]) {
-        if (0..3).any(|a| seed[a] >= self.cells[a]) || self.found.contains(&seed) || !self.crossed(seed) {
+        if (0..3).any(|a| seed[a] >= self.cells[a]) || self.found.contains(seed) || !self.crossed(seed) {
             return;
         }
         self.stats.floods += 1;
@@ -114,7 +165,7 @@ impl<'v, V: Volume + ?Sized> Follower<'v, V> {
             [0, 1, 2].map(|a| (idx[a].floor().max(0.0) as u64).min(self.cells[a].saturating_sub(1) as u64) as u32);
         for x in c[0]..self.cells[0] {
             let cell = [x, c[1], c[2]];
-            if self.found.contains(&cell) {
+            if self.found.contains(cell) {
                 return;
             }
             if self.crossed(cell) {
@@ -125,14 +176,39 @@ impl<'v, V: Volume + ?Sized> Follower<'v, V> {
     }
 
     /// Floods from every crossed cell of `ranges` not yet found: with the ranges a min/max tree
-    /// proves hold every crossing, every component is found.
+    /// proves hold every crossing, every component is found. Each range's points are classified
+    /// once (a sign per point), its cells from their corners' signs.
     pub fn flood_ranges(&mut self, ranges: &[CellRange]) {
+        let mut inside = Vec::new();
         for r in ranges {
-            for z in r.lo[2]..r.hi[2] {
-                for y in r.lo[1]..r.hi[1] {
-                    for x in r.lo[0]..r.hi[0] {
-                        let c = [x, y, z];
-                        if !self.found.contains(&c) && self.crossed(c) {
+            let hi = [0, 1, 2].map(|a| r.hi[a].min(self.cells[a]));
+            if (0..3).any(|a| r.lo[a] >= hi[a]) {
+                continue;
+            }
+            // The range's points, x fastest: inside or not.
+            let n = [0, 1, 2].map(|a| (hi[a] - r.lo[a] + 1) as usize);
+            inside.clear();
+            for z in r.lo[2]..=hi[2] {
+                for y in r.lo[1]..=hi[1] {
+                    for x in r.lo[0]..=hi[0] {
+                        inside.push(self.vol.value_at_point([x, y, z], self.iso) < 0.0);
+                    }
+                }
+            }
+            let at = |p: [usize; 3]| inside[p[0] + n[0] * (p[1] + n[1] * p[2])];
+            for z in 0..n[2] - 1 {
+                for y in 0..n[1] - 1 {
+                    for x in 0..n[0] - 1 {
+                        let c = [x as u32 + r.lo[0], y as u32 + r.lo[1], z as u32 + r.lo[2]];
+                        if self.found.contains(c) {
+                            continue;
+                        }
+                        self.stats.examined += 1;
+                        let first = at([x, y, z]);
+                        let uniform = CORNER_OFFSETS
+                            .iter()
+                            .all(|o| at([x + o[0] as usize, y + o[1] as usize, z + o[2] as usize]) == first);
+                        if !uniform {
                             self.flood(c);
                         }
                     }
@@ -143,8 +219,6 @@ impl<'v, V: Volume + ?Sized> Follower<'v, V> {
 
     /// The crossed cells found, sorted (z, y, x), and what it took.
     pub fn finish(self) -> (Vec<[u32; 3]>, FollowStats) {
-        let mut cells: Vec<[u32; 3]> = self.found.into_iter().collect();
-        cells.sort_unstable_by_key(|c| (c[2], c[1], c[0]));
-        (cells, self.stats)
+        (self.found.sorted(), self.stats)
     }
 }

@@ -46,8 +46,8 @@ impl<V: Volume> Walker<V> for ReferenceWalker {
 }
 
 /// Walks exactly `cells` of `vol` (sorted (z, y, x), each once) with `x` at `iso`, as the
-/// reference walker does (values from [`Volume::value_at`] at the corners, vertices joined by key
-/// in maps): what surface following walks, the cells it found.
+/// reference walker does (values from [`Volume::value_at_point`] at the corners, vertices joined
+/// by key in maps): what surface following walks, the cells it found.
 ///
 /// # Errors
 /// [`Error::Internal`] when a crossing is not reproducible.
@@ -61,20 +61,23 @@ pub(crate) fn walk_cells<V: Volume + ?Sized, X: Extractor>(
     out.set_reverse_winding(vol.lattice().is_mirrored());
     let mut keyed = Keyed::default();
     for &c in cells {
-        let d = CORNER_OFFSETS.map(|o| vol.value_at([0, 1, 2].map(|a| (c[a] + o[a]) as f64), iso));
+        let d = CORNER_OFFSETS.map(|o| vol.value_at_point([0, 1, 2].map(|a| c[a] + o[a]), iso));
         keyed.visit(vol, iso, x, c, d, out);
     }
     keyed.finish()
 }
 
 /// Vertices placed per cell: `(vertex, edge mask, world position)`.
-type PlacedMap = HashMap<[u32; 3], Vec<(VertexId, u16, [f32; 3])>>;
+type PlacedMap = HashMap<[u32; 3], Vec<(VertexId, u16, [f32; 3])>, Fast>;
+
+/// The maps' hasher: lattice keys need no DoS resistance.
+type Fast = std::hash::BuildHasherDefault<crate::math::KeyHasher>;
 
 /// The maps of a walk without caches: vertices by key, placed vertices by cell.
 #[derive(Default)]
 struct Keyed {
-    ids: HashMap<EdgeKey, (VertexId, [f32; 3])>,
-    seg_ids: HashMap<SegmentKey, (VertexId, [f32; 3])>,
+    ids: HashMap<EdgeKey, (VertexId, [f32; 3]), Fast>,
+    seg_ids: HashMap<SegmentKey, (VertexId, [f32; 3]), Fast>,
     placed: PlacedMap,
     mismatch: Option<String>,
     stats: WalkStats,
@@ -134,8 +137,8 @@ struct RefCell<'a, V: ?Sized> {
     case: u8,
     vol: &'a V,
     iso: Iso,
-    ids: &'a mut HashMap<EdgeKey, (VertexId, [f32; 3])>,
-    seg_ids: &'a mut HashMap<SegmentKey, (VertexId, [f32; 3])>,
+    ids: &'a mut HashMap<EdgeKey, (VertexId, [f32; 3]), Fast>,
+    seg_ids: &'a mut HashMap<SegmentKey, (VertexId, [f32; 3]), Fast>,
     placed: &'a mut PlacedMap,
     n_placed: u8,
     memo: [f32; 7],
