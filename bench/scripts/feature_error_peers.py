@@ -1,5 +1,5 @@
 #!/usr/bin/python3
-"""Sharp-feature errors of peers on issue 45's CSG shapes (docs/BENCHMARKS.md §13).
+"""Sharp-feature errors of peers on issue 45's CSG shapes (docs/BENCHMARKS.md §15).
 
 The grids are the ones isoforge samples: `feature_error --dump DIR` writes SHAPE-N.npy (f32,
 [z][y][x], the lattice spanning [-1, 1]^3, h = 2/(N-1)) and SHAPE-N.json (the exact corners and
@@ -89,15 +89,18 @@ def mesh_worker(peer, npy, out):
 
 def nearest_point_d(points, verts):
     best = np.full(len(points), np.inf)
-    for s in range(0, len(verts), 20000):
-        v = verts[s : s + 20000]
+    chunk = max(1, 4_000_000 // max(1, len(points)))
+    for s in range(0, len(verts), chunk):
+        v = verts[s : s + chunk]
         d = np.sqrt(((points[:, None, :] - v[None, :, :]) ** 2).sum(-1)).min(1)
         best = np.minimum(best, d)
     return best
 
 
-def nearest_edge_d(points, a, b, chunk=4000):
-    """Distance from each point to the nearest segment a[i] b[i] (brute force in chunks)."""
+def nearest_edge_d(points, a, b):
+    """Distance from each point to the nearest segment a[i] b[i] (brute force in chunks of about
+    4 M point-segment pairs)."""
+    chunk = max(1, 4_000_000 // max(1, len(points)))
     ab = b - a
     len2 = np.maximum((ab**2).sum(-1), 1e-30)
     best = np.full(len(points), np.inf)

@@ -4,7 +4,7 @@
 //! (max over the true corners of the distance to the nearest vertex; all corners, and the convex
 //! ones only), crease error (max over crease samples h/8 apart of the distance to the nearest
 //! mesh edge), field error (max |field(vertex)| / h), triangles (quads count as two) and the
-//! check report's manifoldness. Prints a markdown table. See docs/BENCHMARKS.md §13.
+//! check report's manifoldness. Prints a markdown table. See docs/BENCHMARKS.md §15.
 //!
 //! ```text
 //! cargo build --release -p isoforge-bench --bin feature_error

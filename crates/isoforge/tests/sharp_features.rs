@@ -1,6 +1,6 @@
 //! Issue 45's sharp CSG shapes at n = 32: what the methods keep of their corners today (measured
 //! by `volume::sdf::features::measure`, in cell widths h; the table at 32/64/128 is in
-//! docs/BENCHMARKS.md §13), and the inside components of their sign grids.
+//! docs/BENCHMARKS.md §15), and the inside components of their sign grids.
 
 use isoforge::math::Vec3;
 use isoforge::pipeline::{extract_builtin, Method, Options};
