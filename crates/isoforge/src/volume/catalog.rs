@@ -9,18 +9,31 @@
 //! | `metaballs` (`t`) | [`ChargePoints`] at time t (0.5) | [0, 1]³ | 48, inside above |
 //! | `lines` (`t`) | [`ChargeLines`] at time t (0.5) | [0, 1]³ | 48, inside above |
 //! | `height` | [`HeightField`] | [0, 1]³ | 48, inside below |
+//! | `rotated-box` (`hx`, `hy`, `hz`; turn) | [`RotatedBox`], half sizes 0.6 × 0.45 × 0.35 | [-1, 1]³ | 0, inside below |
+//! | `cylinder` (`r`, `h`; turn) | capped [`Cylinder`], radius 0.4, half height 0.5 | [-1, 1]³ | 0, inside below |
+//! | `box-minus-sphere` (`h`, `r`; turn) | [`BoxMinusSphere`]: cube 0.55 minus a ball 0.5 on a corner | [-1, 1]³ | 0, inside below |
+//! | `fandisk` (turn) | [`Fandisk`]: a box with a cylindrical groove and a chamfer | [-1, 1]³ | 0, inside below |
+//! | `plates` (`count`, `t`, `gap`; turn) | [`Plates`]: 2 plates `t` = 0.3 cell widths thick, 0.4 apart | [-1, 1]³ | 0, inside below |
+//! | `two-spheres` (`r`, `gap`) | [`TwoSpheres`] of radius 0.45, `gap` = 0.1 cell widths apart, the gap's middle on a lattice plane | [-1, 1]³ | 0, inside below |
 //!
-//! Every name takes `n` (points per axis, default 64, at least 2).
+//! Every name takes `n` (points per axis, default 64, at least 2). The sharp CSG shapes (issue
+//! 45; their exact corners and creases: [`sharp_features`]) take a turn `ax`, `ay`, `az`, `angle`
+//! (an axis and degrees; default 30° about (1, 2, 3), so that no corner or crease lies on a
+//! lattice plane). The thickness of `plates` and the gap of `two-spheres` are in cell widths of
+//! the field's `n`: they follow `n`.
 
 use super::classic::{ChargeLines, ChargePoints, HeightField, CLASSIC_ISO};
-use super::sdf::{Cuboid, Gyroid, Sphere, Torus};
+use super::sdf::sharp::{default_rotation, Frame};
+use super::sdf::{
+    BoxMinusSphere, Cuboid, Cylinder, Fandisk, Features, Gyroid, Plates, RotatedBox, Sphere, Torus, TwoSpheres,
+};
 use super::{FieldVisitor, Iso};
 use crate::error::{Error, Result};
 use crate::grid::Lattice;
 use crate::math::Vec3;
 
 /// Names and one-line descriptions of the built-in fields.
-pub const NAMES: [(&str, &str); 7] = [
+pub const NAMES: [(&str, &str); 13] = [
     ("sphere", "signed distance to a sphere of radius r (0.7) in [-1,1]^3"),
     ("torus", "signed distance to a torus R (0.6), r (0.25) around z in [-1,1]^3"),
     ("box", "signed distance to a cube of half size h (0.6) in [-1,1]^3"),
@@ -28,6 +41,12 @@ pub const NAMES: [(&str, &str); 7] = [
     ("metaballs", "classic demo: charges around three moving points at time t (0.5), iso 48"),
     ("lines", "classic demo: charges around three moving lines at time t (0.5), iso 48"),
     ("height", "classic demo: radial height field, iso 48"),
+    ("rotated-box", "box of half sizes hx, hy, hz (0.6, 0.45, 0.35), turned (ax, ay, az, angle: 30° about (1,2,3))"),
+    ("cylinder", "capped cylinder of radius r (0.4), half height h (0.5), turned: two circular creases"),
+    ("box-minus-sphere", "cube of half size h (0.55) minus a ball of radius r (0.5) on a corner, turned"),
+    ("fandisk", "fandisk-like part: box, cylindrical groove, chamfer (convex and concave creases), turned"),
+    ("plates", "count (2) parallel plates t (0.3) cell widths thick, gap (0.4) apart, turned"),
+    ("two-spheres", "two balls of radius r (0.45), gap (0.1) cell widths apart"),
 ];
 
 /// Default animation time of the classic fields: the three sources sit apart but their
@@ -55,6 +74,18 @@ pub enum BuiltinField {
     ChargeLines(ChargeLines),
     /// See [`HeightField`].
     HeightField(HeightField),
+    /// See [`RotatedBox`].
+    RotatedBox(RotatedBox),
+    /// See [`Cylinder`].
+    Cylinder(Cylinder),
+    /// See [`BoxMinusSphere`].
+    BoxMinusSphere(BoxMinusSphere),
+    /// See [`Fandisk`].
+    Fandisk(Fandisk),
+    /// See [`Plates`].
+    Plates(Plates),
+    /// See [`TwoSpheres`].
+    TwoSpheres(TwoSpheres),
 }
 
 impl BuiltinField {
@@ -68,7 +99,28 @@ impl BuiltinField {
             BuiltinField::ChargePoints(f) => visitor.visit(f),
             BuiltinField::ChargeLines(f) => visitor.visit(f),
             BuiltinField::HeightField(f) => visitor.visit(f),
+            BuiltinField::RotatedBox(f) => visitor.visit(f),
+            BuiltinField::Cylinder(f) => visitor.visit(f),
+            BuiltinField::BoxMinusSphere(f) => visitor.visit(f),
+            BuiltinField::Fandisk(f) => visitor.visit(f),
+            BuiltinField::Plates(f) => visitor.visit(f),
+            BuiltinField::TwoSpheres(f) => visitor.visit(f),
         }
+    }
+
+    /// The exact corners and creases (sampled at most `spacing` apart) of the sharp CSG shapes;
+    /// `None` for the other fields (smooth, or with no analytic features: `two-spheres` has
+    /// none and gives empty [`Features`]).
+    pub fn sharp_features(&self, spacing: f32) -> Option<Features> {
+        Some(match self {
+            BuiltinField::RotatedBox(f) => f.features(spacing),
+            BuiltinField::Cylinder(f) => f.features(spacing),
+            BuiltinField::BoxMinusSphere(f) => f.features(spacing),
+            BuiltinField::Fandisk(f) => f.features(spacing),
+            BuiltinField::Plates(f) => f.features(spacing),
+            BuiltinField::TwoSpheres(_) => Features::default(),
+            _ => return None,
+        })
     }
 }
 
@@ -110,6 +162,11 @@ pub fn parse(spec: &str) -> Result<Builtin> {
         "gyroid" => &["n", "periods", "clip"],
         "metaballs" | "lines" => &["n", "t"],
         "height" => &["n"],
+        "rotated-box" => &["n", "hx", "hy", "hz", "ax", "ay", "az", "angle"],
+        "cylinder" | "box-minus-sphere" => &["n", "r", "h", "ax", "ay", "az", "angle"],
+        "fandisk" => &["n", "ax", "ay", "az", "angle"],
+        "plates" => &["n", "count", "t", "gap", "ax", "ay", "az", "angle"],
+        "two-spheres" => &["n", "r", "gap"],
         _ => {
             let names: Vec<&str> = NAMES.iter().map(|(n, _)| *n).collect();
             return Err(Error::InvalidInput(format!("field:{name}: unknown field (known: {})", names.join(", "))));
@@ -138,6 +195,20 @@ pub fn parse(spec: &str) -> Result<Builtin> {
     let centered = |dims| Lattice::spanning(dims, [-1.0; 3], [1.0; 3]);
     let dims = [n; 3];
     let below0 = Iso::below(0.0);
+    let cell = 2.0 / (n - 1) as f32;
+    let frame = || -> Result<Frame> {
+        let given = ["ax", "ay", "az", "angle"].iter().any(|k| params.iter().any(|(p, _)| p == k));
+        if !given {
+            return Ok(Frame { center: Vec3::ZERO, rotation: default_rotation() });
+        }
+        let axis = Vec3::new(get("ax", 1.0) as f32, get("ay", 2.0) as f32, get("az", 3.0) as f32);
+        if axis.length() == 0.0 || !axis.is_finite() {
+            return Err(Error::InvalidInput(format!("field:{spec}: the turn's axis (ax, ay, az) must not be zero")));
+        }
+        let angle = (get("angle", 30.0) as f32).to_radians();
+        Ok(Frame { center: Vec3::ZERO, rotation: glam::Mat3::from_axis_angle(axis.normalize(), angle) })
+    };
+    let sharp = |field| Ok::<_, Error>(Builtin { field, lattice: centered(dims)?, iso: below0 });
     Ok(match name {
         "sphere" => Builtin {
             field: BuiltinField::Sphere(Sphere { center: Vec3::ZERO, radius: positive("r", 0.7)? }),
@@ -167,6 +238,50 @@ pub fn parse(spec: &str) -> Result<Builtin> {
             lattice: centered(dims)?,
             iso: below0,
         },
+        "rotated-box" => sharp(BuiltinField::RotatedBox(RotatedBox {
+            frame: frame()?,
+            half: Vec3::new(positive("hx", 0.6)?, positive("hy", 0.45)?, positive("hz", 0.35)?),
+        }))?,
+        "cylinder" => sharp(BuiltinField::Cylinder(Cylinder {
+            frame: frame()?,
+            radius: positive("r", 0.4)?,
+            half_height: positive("h", 0.5)?,
+        }))?,
+        "box-minus-sphere" => {
+            let (half, radius) = (positive("h", 0.55)?, positive("r", 0.5)?);
+            if radius >= 2.0 * half {
+                return Err(Error::InvalidInput(format!("field:{spec}: r={radius} must be below 2·h={}", 2.0 * half)));
+            }
+            sharp(BuiltinField::BoxMinusSphere(BoxMinusSphere { frame: frame()?, half, radius }))?
+        }
+        "fandisk" => sharp(BuiltinField::Fandisk(Fandisk { frame: frame()? }))?,
+        "plates" => {
+            let count = get("count", 2.0);
+            if !((1.0..=Plates::MAX as f64).contains(&count) && count.fract() == 0.0) {
+                return Err(Error::InvalidInput(format!(
+                    "field:{spec}: count={count} must be a whole number from 1 to {}",
+                    Plates::MAX
+                )));
+            }
+            let (thickness, gap) = (positive("t", 0.3)? * cell, positive("gap", 0.4)?);
+            if gap <= thickness {
+                return Err(Error::InvalidInput(format!(
+                    "field:{spec}: gap={gap} must exceed the thickness {thickness} (t cell widths)"
+                )));
+            }
+            sharp(BuiltinField::Plates(Plates { frame: frame()?, count: count as u32, thickness, gap }))?
+        }
+        "two-spheres" => {
+            // The gap's middle on the lattice plane x = -1 + ⌊(n-1)/2⌋·cell: the point there is
+            // outside (gap/2 from both balls), so the balls' sign grids stay apart.
+            let mid = -1.0 + ((n - 1) / 2) as f32 * cell;
+            let radius = positive("r", 0.45)?;
+            let gap = positive("gap", 0.1)? * cell;
+            if 2.0 * radius + gap / 2.0 + mid.abs() >= 1.0 {
+                return Err(Error::InvalidInput(format!("field:{spec}: r={radius} does not fit in [-1,1]")));
+            }
+            sharp(BuiltinField::TwoSpheres(TwoSpheres { mid, radius, gap }))?
+        }
         "metaballs" => Classic::Metaballs.builtin(n, get("t", DEFAULT_TIME as f64) as f32)?,
         "lines" => Classic::Lines.builtin(n, get("t", DEFAULT_TIME as f64) as f32)?,
         _ => Classic::Height.builtin(n, DEFAULT_TIME)?,
@@ -266,7 +381,20 @@ mod tests {
 
     #[test]
     fn rejects_bad_specs() {
-        for bad in ["nope", "sphere?n=1", "sphere?n=2.5", "sphere?r=-1", "sphere?q=1", "sphere?n", "sphere?n=nan"] {
+        for bad in [
+            "plates?count=9",
+            "plates?t=2000",
+            "two-spheres?r=0.6",
+            "rotated-box?ax=0&ay=0&az=0",
+            "box-minus-sphere?r=2",
+            "nope",
+            "sphere?n=1",
+            "sphere?n=2.5",
+            "sphere?r=-1",
+            "sphere?q=1",
+            "sphere?n",
+            "sphere?n=nan",
+        ] {
             let e = parse(bad).unwrap_err().to_string();
             assert!(e.contains("field:"), "{bad}: {e}");
         }
