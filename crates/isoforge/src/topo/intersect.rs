@@ -8,7 +8,8 @@
 //! vertex on an edge); a segment meets a triangle when its ends are not strictly on one side of
 //! the plane and the line passes the triangle's three edges on one side (the Plücker sign test),
 //! or, coplanar, in 2-D on the axis plane where the triangle keeps its area. Adjacent triangles
-//! (sharing vertices by index) are tested for what adjacency allows:
+//! (sharing vertices, by index or by position: marching cubes puts distinct vertices at one
+//! position where a sample equals the iso) are tested for what adjacency allows:
 //! - one shared vertex: they meet elsewhere iff the edge opposite the shared vertex of one meets
 //!   the other (along any ray from the shared vertex both are segments starting there);
 //! - a shared edge: they overlap iff they are coplanar and the two opposite vertices lie on the
@@ -132,11 +133,12 @@ fn triangles_meet(a: &[P; 3], ka: usize, b: &[P; 3], kb: usize) -> bool {
 /// True when non-degenerate triangles `ta`, `tb` (vertex indices; positions `a`, `b`, keep axes
 /// `ka`, `kb`) meet other than at the vertices or the edge they share.
 pub(crate) fn improper(ta: [u32; 3], a: &[P; 3], ka: usize, tb: [u32; 3], b: &[P; 3], kb: usize) -> bool {
-    // Shared corners: (index in a, index in b).
+    // Shared corners: (index in a, index in b), the same vertex or two at the same position (as
+    // marching cubes makes where a sample equals the iso).
     let mut shared = [(0usize, 0usize); 3];
     let mut n = 0;
     for i in 0..3 {
-        if let Some(j) = tb.iter().position(|&v| v == ta[i]) {
+        if let Some(j) = (0..3).find(|&j| tb[j] == ta[i] || b[j] == a[i]) {
             shared[n] = (i, j);
             n += 1;
         }
@@ -275,6 +277,11 @@ mod tests {
         // Sharing vertex 0, the second standing up out of the plane: proper.
         let p = [[0.0, 0.0, 0.0], [1.0, 0.0, 0.0], [0.0, 1.0, 0.0], [-1.0, -1.0, 1.0], [-1.0, 0.0, 1.0]];
         assert_eq!(count(&mesh(&p, &[[0, 1, 2], [0, 3, 4]])), 0);
+        // The same with the second's corner a distinct vertex at vertex 0's position (marching
+        // cubes where a sample equals the iso): adjacent too.
+        let mut q = p.to_vec();
+        q.push(p[0]);
+        assert_eq!(count(&mesh(&q, &[[0, 1, 2], [5, 3, 4]])), 0);
         // Sharing vertex 0, the second coplanar and overlapping the first (a wedge inside it).
         let p = [[0.0, 0.0, 0.0], [1.0, 0.0, 0.0], [0.0, 1.0, 0.0], [0.5, 0.2, 0.0], [0.2, 0.5, 0.0]];
         assert_eq!(count(&mesh(&p, &[[0, 1, 2], [0, 3, 4]])), 1);
