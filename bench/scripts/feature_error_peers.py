@@ -1,5 +1,5 @@
 #!/usr/bin/python3
-"""Sharp-feature errors of peers on issue 45's CSG shapes (docs/BENCHMARKS.md §15).
+"""Sharp-feature errors of peers on issue 45's CSG shapes (docs/BENCHMARKS.md §16).
 
 The grids are the ones isoforge samples: `feature_error --dump DIR` writes SHAPE-N.npy (f32,
 [z][y][x], the lattice spanning [-1, 1]^3, h = 2/(N-1)) and SHAPE-N.json (the exact corners and

@@ -366,15 +366,19 @@ fn mesh_of(
     Ok(Mesh { positions, normals, triangles, quads: Vec::new() })
 }
 
-/// The library's topology report of a triangle mesh, as a dict.
+/// The library's topology report of a triangle mesh, as a dict; with `self_intersections`, also
+/// the exact count of self-intersecting triangle pairs (None otherwise).
 #[pyfunction]
+#[pyo3(signature = (vertices, faces, self_intersections=false))]
 fn mesh_check<'py>(
     py: Python<'py>,
     vertices: PyReadonlyArray2<'py, f32>,
     faces: PyReadonlyArray2<'py, i64>,
+    self_intersections: bool,
 ) -> PyResult<Bound<'py, PyDict>> {
     let mesh = mesh_of(vertices, faces, None)?;
-    let r = py.detach(|| isoforge::topo::check(&mesh));
+    let opts = isoforge::topo::CheckOptions { self_intersections, ..Default::default() };
+    let r = py.detach(|| isoforge::topo::check_with(&mesh, &opts));
     let d = PyDict::new(py);
     d.set_item("vertices", r.vertices)?;
     d.set_item("triangles", r.triangles)?;
@@ -394,6 +398,7 @@ fn mesh_check<'py>(
     d.set_item("collapsed_triangles", r.collapsed_triangles.count)?;
     d.set_item("zero_area_triangles", r.zero_area_triangles.count)?;
     d.set_item("duplicate_triangles", r.duplicate_triangles.count)?;
+    d.set_item("self_intersections", r.self_intersection_count())?;
     d.set_item("area", r.area)?;
     d.set_item("volume", r.volume)?;
     Ok(d)

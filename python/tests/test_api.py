@@ -30,6 +30,16 @@ def test_ball_is_a_closed_sphere_of_the_right_size(method):
     assert mesh.normals.shape == mesh.vertices.shape
 
 
+def test_check_counts_self_intersections_when_asked():
+    mesh = isoforge.extract(ball(21, 6.0), 6.0)
+    assert mesh.check()["self_intersections"] is None
+    assert mesh.check(self_intersections=True)["self_intersections"] == 0
+    # Two triangles, the second piercing the first.
+    v = np.array([[0, 0, 0], [1, 0, 0], [0, 1, 0], [0.25, 0.2, -1], [0.25, 0.2, 1], [0.25, 0.9, 0]], np.float32)
+    crossing = isoforge.Mesh(v, [[0, 1, 2], [3, 4, 5]])
+    assert crossing.check(self_intersections=True)["self_intersections"] == 1
+
+
 def test_origin_and_axis_order():
     # Values grow along x (the array's last axis) only: the plane x = 2.5 (index) crosses there.
     vol = np.broadcast_to(np.arange(6, dtype=np.float32), (4, 5, 6)).copy()

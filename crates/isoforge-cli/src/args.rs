@@ -391,7 +391,7 @@ pub struct ExtractArgs {
     /// file read once per iso (not into one glTF or OBJ file).
     #[arg(long, value_name = "BYTES", allow_hyphen_values = true)]
     pub max_memory: Option<String>,
-    /// Check the mesh after extraction and exit 1 unless these hold (closed manifold oriented watertight no-degenerate).
+    /// Check the mesh after extraction and exit 1 unless these hold (closed manifold oriented watertight no-degenerate no-self-intersections).
     #[arg(long, value_delimiter = ',', value_name = "LIST")]
     pub require: Vec<String>,
     /// --smooth, --decimate and --max-error are applied to each mesh in memory after its
@@ -581,7 +581,7 @@ pub struct CheckArgs {
     /// Print JSON instead of text.
     #[arg(long)]
     pub json: bool,
-    /// Exit 1 unless these hold: closed, manifold, oriented, watertight, no-degenerate.
+    /// Exit 1 unless these hold: closed, manifold, oriented, watertight, no-degenerate, no-self-intersections.
     #[arg(long, value_delimiter = ',', value_name = "LIST")]
     pub require: Vec<String>,
     /// How many examples to list per finding.
@@ -594,6 +594,10 @@ pub struct CheckArgs {
     /// surface, exact point–triangle distances, in world units).
     #[arg(long, value_name = "MESH")]
     pub reference: Option<PathBuf>,
+    /// Also count the pairs of triangles that meet other than at the vertices or the edge they
+    /// share (exact predicates; about doubles the check's time).
+    #[arg(long)]
+    pub self_intersections: bool,
 }
 
 #[derive(Debug, ClapArgs)]

@@ -91,6 +91,8 @@ pub struct CheckConfig {
     pub limits: Limits,
     /// `--reference`: the mesh the Hausdorff distance is measured to.
     pub reference: Option<PathBuf>,
+    /// `--self-intersections` (or `--require no-self-intersections`).
+    pub self_intersections: bool,
 }
 
 pub struct DemoConfig {
@@ -268,7 +270,7 @@ fn guarantees(list: &[String]) -> Result<Vec<Guarantee>> {
         .filter(|s| !s.is_empty())
         .map(|s| {
             Guarantee::parse(s).ok_or_else(|| {
-                anyhow!("--require {s:?}: unknown guarantee (closed, manifold, oriented, watertight, no-degenerate)")
+                anyhow!("--require {s:?}: unknown guarantee (closed, manifold, oriented, watertight, no-degenerate, no-self-intersections)")
             })
         })
         .collect()
@@ -788,6 +790,8 @@ impl CheckConfig {
             examples: a.examples,
             limits: limits(a.max_bytes.as_deref())?,
             reference: a.reference.clone(),
+            self_intersections: a.self_intersections
+                || guarantees(&a.require)?.contains(&Guarantee::NoSelfIntersections),
         })
     }
 }

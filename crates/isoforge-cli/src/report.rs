@@ -28,6 +28,7 @@ pub fn mesh_json(r: &MeshReport) -> Value {
         "volume": r.volume,
         "min_angle_mean_deg": r.min_angle_mean_deg,
         "min_angle_deg": r.min_angle_deg,
+        "self_intersections": r.self_intersection_count(),
         "bounds": if r.bounds.is_empty() { Value::Null } else { json!({ "min": r.bounds.min, "max": r.bounds.max }) },
         "components": r.components.iter().map(|c| json!({
             "vertices": c.vertices, "edges": c.edges, "triangles": c.triangles, "euler": c.euler,
@@ -42,6 +43,7 @@ pub fn mesh_json(r: &MeshReport) -> Value {
             "zero_area_triangles": findings_json(&r.zero_area_triangles, |v| json!(v)),
             "duplicate_triangles": findings_json(&r.duplicate_triangles, |v| json!(v)),
             "isolated_vertices": findings_json(&r.isolated_vertices, |v| json!(v)),
+            "self_intersections": r.self_intersections.as_ref().map(|f| findings_json(f, |v| json!(v))),
         }
     })
 }
@@ -111,6 +113,11 @@ pub fn mesh_text(r: &MeshReport) -> String {
         let ex: Vec<String> =
             r.duplicate_triangles.examples.iter().map(|p| format!("triangles {} and {}", p[0], p[1])).collect();
         line(format!("duplicate triangles: {} (e.g. {})", r.duplicate_triangles.count, ex.join(", ")));
+    }
+    if let Some(f) = &r.self_intersections {
+        let ex: Vec<String> = f.examples.iter().map(|p| format!("triangles {} and {}", p[0], p[1])).collect();
+        let ex = if ex.is_empty() { String::new() } else { format!(" (e.g. {})", ex.join(", ")) };
+        line(format!("self-intersections: {} pairs of triangles{ex}", f.count));
     }
     s
 }

@@ -442,8 +442,14 @@ fn stream_one(
     let Some(mut out) = MeshStream::create_in(batch, &output, c.format, normals)? else {
         bail!("{}: out-of-core extraction (--max-memory) writes PLY, STL, OBJ, OFF or glTF only", output.display());
     };
-    let mut check = (!c.require.is_empty())
-        .then(|| StreamCheck::new(&CheckOptions { max_examples: CheckOptions::default().max_examples, lattice: None }));
+    if c.require.contains(&Guarantee::NoSelfIntersections) {
+        bail!(
+            "{}: --require no-self-intersections needs the whole mesh in memory: drop --max-memory, or run \
+             `isoforge check --self-intersections` on the file",
+            output.display()
+        );
+    }
+    let mut check = (!c.require.is_empty()).then(|| StreamCheck::new(&CheckOptions::default()));
     let mut sink = Tee { out: &mut out, check: check.as_mut(), budget: c.max_memory.unwrap_or(u64::MAX) };
     let task = Task::start(format!("meshing iso {} of {name} slab by slab", iso.value));
     let start = Instant::now();
@@ -716,7 +722,7 @@ fn extract_labels(
     let mut failures = Vec::new();
     for (i, (label, e)) in surfaces.iter().enumerate() {
         isoforge::walk::Progress::advance(&checking, i as u64, surfaces.len() as u64);
-        let rep = topo::check(&e.mesh);
+        let rep = topo::check_with(&e.mesh, &CheckOptions::for_require(&c.require));
         report_rows.push(format!(
             "label {label}: {} vertices, {} triangles, closed {}, manifold {}, components {}",
             e.mesh.num_vertices(),
@@ -888,7 +894,7 @@ fn extract_one(
     if c.require.is_empty() {
         return Ok((Outcome::Success, out.mesh, data));
     }
-    let rep = check_mesh(&out.mesh, &CheckOptions::default());
+    let rep = check_mesh(&out.mesh, &CheckOptions::for_require(&c.require));
     print!("{}", report::mesh_text(&rep));
     Ok((verdict(shown, &rep, &c.require), out.mesh, data))
 }
@@ -1079,7 +1085,10 @@ pub fn check(c: &CheckConfig) -> Result<Outcome> {
         Some(r) => Some((r, spin(format!("reading {}", r.display()), || isoforge_io::read_mesh(r, &c.limits))?)),
         None => None,
     };
-    let rep = check_mesh(&mesh, &CheckOptions { max_examples: c.examples, lattice: None });
+    let rep = check_mesh(
+        &mesh,
+        &CheckOptions { max_examples: c.examples, self_intersections: c.self_intersections, ..CheckOptions::default() },
+    );
     let distance =
         reference.as_ref().map(|(_, r)| spin("measuring the Hausdorff distance", || topo::hausdorff(&mesh, r)));
     if c.json {

@@ -1740,7 +1740,8 @@ fn issue_10_stream_check_equals_check_on_real_cts() {
     for (name, iso) in [("cthead_8bit_256x256x99.nrrd", 52.29), ("lidc2_chest_ct_u8.nrrd", 59.27)] {
         let mut reader = isoforge_io::open_volume(&data.join(name), &isoforge_io::Limits::new(u64::MAX)).unwrap();
         assert_eq!(reader.dtype(), isoforge::grid::DType::U8);
-        let opts = CheckOptions { max_examples: 25, lattice: Some(reader.lattice().clone()) };
+        let opts =
+            CheckOptions { max_examples: 25, lattice: Some(reader.lattice().clone()), ..CheckOptions::default() };
         let mut sink = CheckedCopy { mesh: Default::default(), check: isoforge::topo::StreamCheck::new(&opts) };
         let iso = isoforge::volume::Iso::below(iso);
         isoforge::pipeline::extract_streamed(&mut reader, iso, &Default::default(), &mut sink, None).unwrap();
@@ -1831,4 +1832,33 @@ fn sharp_methods_and_their_options() {
     );
     fails(&[&field[..], &["--method", "mc", "--no-manifold"]].concat(), "--no-manifold applies to --method dc", &bad);
     fails(&[&field[..], &["--method", "emc", "--quads"]].concat(), "--quads applies to --method dc", &bad);
+}
+
+#[test]
+fn check_counts_self_intersections_when_asked() {
+    let dir = tempfile::tempdir().unwrap();
+    // Two triangles, the second piercing the first: one pair.
+    let obj = dir.path().join("x.obj");
+    std::fs::write(&obj, "v 0 0 0\nv 1 0 0\nv 0 1 0\nv 0.25 0.2 -1\nv 0.25 0.2 1\nv 0.25 0.9 0\nf 1 2 3\nf 4 5 6\n")
+        .unwrap();
+    let plain = isoforge(&["check", p(&obj)]);
+    assert!(!String::from_utf8_lossy(&plain.stdout).contains("self-intersections"));
+    let o = isoforge(&["check", p(&obj), "--self-intersections"]);
+    let text = String::from_utf8_lossy(&o.stdout);
+    assert!(text.contains("self-intersections: 1 pairs of triangles (e.g. triangles 0 and 1)"), "{text}");
+    let j = isoforge(&["check", p(&obj), "--self-intersections", "--json"]);
+    let v: serde_json::Value = serde_json::from_slice(&j.stdout).unwrap();
+    assert_eq!(v["self_intersections"], 1);
+    assert_eq!(v["findings"]["self_intersections"]["examples"][0], serde_json::json!([0, 1]));
+    let r = isoforge(&["check", p(&obj), "--require", "no-self-intersections"]);
+    assert_eq!(r.status.code(), Some(1));
+    assert!(stderr(&r).contains("required but failed: no-self-intersections"), "{}", stderr(&r));
+    // An extracted sphere has none, checked after extraction too.
+    let out = dir.path().join("s.ply");
+    let e =
+        isoforge(&["extract", "-i", "field:sphere", "-o", p(&out), "--require", "watertight,no-self-intersections"]);
+    assert_eq!(e.status.code(), Some(0), "{}", stderr(&e));
+    assert!(String::from_utf8_lossy(&e.stdout).contains("self-intersections: 0 pairs"));
+    let c = isoforge(&["check", p(&out), "--require", "no-self-intersections"]);
+    assert_eq!(c.status.code(), Some(0), "{}", stderr(&c));
 }

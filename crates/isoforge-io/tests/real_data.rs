@@ -93,7 +93,10 @@ fn on_one_lattice_face(mesh: &Mesh, lattice: &Lattice, edge: [u32; 2], within: f
 /// cells) and collapsed triangles; for the manifold methods also non-manifold edges and vertices,
 /// duplicate triangles and inconsistent orientation.
 fn defects(mesh: &Mesh, lattice: &Lattice, manifold: bool) -> (MeshReport, Vec<String>) {
-    let r = check_with(mesh, &CheckOptions { max_examples: usize::MAX, lattice: Some(lattice.clone()) });
+    let r = check_with(
+        mesh,
+        &CheckOptions { max_examples: usize::MAX, lattice: Some(lattice.clone()), ..CheckOptions::default() },
+    );
     let mut out = Vec::new();
     let promised = ["collapsed triangles", "boundary edges off the lattice's faces"];
     let mut count = |what: &str, n: usize, first: Option<String>| {

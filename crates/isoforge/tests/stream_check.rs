@@ -121,7 +121,7 @@ proptest! {
                 5.0
             }
         });
-        let opts = CheckOptions { max_examples: 4, lattice: Some(lattice) };
+        let opts = CheckOptions { max_examples: 4, lattice: Some(lattice), ..CheckOptions::default() };
         // Counted batches (own and next batch's vertices) and batches made as the walk goes
         // (own and previous batch's vertices).
         for tetrahedra in [false, true] {
@@ -186,7 +186,7 @@ proptest! {
 
     #[test]
     fn issue_10_stream_check_equals_check_on_defective_batches(batches in soups()) {
-        let opts = CheckOptions { max_examples: 3, lattice: None };
+        let opts = CheckOptions { max_examples: 3, ..CheckOptions::default() };
         let mut both = Both::new(&opts);
         for (p, t) in &batches {
             MeshSink::push(&mut both, MeshBatch { positions: p, normals: &[], triangles: t, quads: &[] }).unwrap();

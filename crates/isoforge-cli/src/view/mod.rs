@@ -638,7 +638,8 @@ impl Viewer {
         }
         still_wanted(req)?;
         let start = Instant::now();
-        let mut r = topo::check_with(&mesh, &CheckOptions { max_examples: MAX_DEFECT_EDGES, lattice: None });
+        let mut r =
+            topo::check_with(&mesh, &CheckOptions { max_examples: MAX_DEFECT_EDGES, ..CheckOptions::default() });
         let ms = start.elapsed().as_secs_f64() * 1e3;
         // The defect edges go to the page as pairs; the JSON keeps the CLI's ten examples.
         let mut edges: Vec<[u32; 2]> = r.boundary_edges.examples.iter().map(|f| f.edge).collect();

@@ -135,15 +135,23 @@ impl Bvh {
         if self.nodes.is_empty() {
             return;
         }
-        let mut stack = vec![0usize];
-        while let Some(n) = stack.pop() {
+        // Depth first, one pending sibling per level: 64 slots hold any balanced tree (see
+        // `nearest`), and no allocation per query.
+        let mut stack = [0usize; 64];
+        let mut top = 1;
+        while top > 0 {
+            top -= 1;
+            let n = stack[top];
             if !overlaps(&self.nodes[n].bounds, query) {
                 continue;
             }
             if self.nodes[n].is_leaf() {
                 self.items(n).iter().for_each(|&i| f(i));
             } else {
-                stack.extend(self.children(n));
+                let [a, b] = self.children(n);
+                stack[top] = b;
+                stack[top + 1] = a;
+                top += 2;
             }
         }
     }

@@ -12,11 +12,21 @@ pub struct CheckOptions {
     pub max_examples: usize,
     /// When given, findings also name the lattice cell they lie in.
     pub lattice: Option<Lattice>,
+    /// Also look for self-intersections ([`MeshReport::self_intersections`]): exact, but it
+    /// costs about as much as the rest of the check.
+    pub self_intersections: bool,
+}
+
+impl CheckOptions {
+    /// The default options, looking for self-intersections when `require` asks for their absence.
+    pub fn for_require(require: &[Guarantee]) -> Self {
+        CheckOptions { self_intersections: require.contains(&Guarantee::NoSelfIntersections), ..Self::default() }
+    }
 }
 
 impl Default for CheckOptions {
     fn default() -> Self {
-        CheckOptions { max_examples: 10, lattice: None }
+        CheckOptions { max_examples: 10, lattice: None, self_intersections: false }
     }
 }
 
@@ -147,6 +157,11 @@ pub struct MeshReport {
     pub min_angle_mean_deg: f64,
     /// The smallest of those angles.
     pub min_angle_deg: f64,
+    /// Pairs `[i, j]` (i < j) of triangles that meet other than at the vertices or the edge they
+    /// share (see [`self_intersections`](super::self_intersections)), when
+    /// [`CheckOptions::self_intersections`] asked; examples in (i, j) order. With quads, indices
+    /// past the triangles name quad halves (quad `q` is triangles `T + 2q` and `T + 2q + 1`).
+    pub self_intersections: Option<Findings<[u32; 2]>>,
 }
 
 /// A property a caller can require of a mesh.
@@ -162,10 +177,14 @@ pub enum Guarantee {
     Watertight,
     /// No collapsed, zero-area or duplicate triangle.
     NoDegenerate,
+    /// No two triangles meet other than at the vertices or the edge they share (holds only
+    /// when [`CheckOptions::self_intersections`] looked).
+    NoSelfIntersections,
 }
 
 impl Guarantee {
-    /// Parses `closed`, `manifold`, `oriented`, `watertight`, `no-degenerate`.
+    /// Parses `closed`, `manifold`, `oriented`, `watertight`, `no-degenerate`,
+    /// `no-self-intersections`.
     pub fn parse(s: &str) -> Option<Guarantee> {
         Some(match s {
             "closed" => Guarantee::Closed,
@@ -173,6 +192,7 @@ impl Guarantee {
             "oriented" => Guarantee::Oriented,
             "watertight" => Guarantee::Watertight,
             "no-degenerate" => Guarantee::NoDegenerate,
+            "no-self-intersections" => Guarantee::NoSelfIntersections,
             _ => return None,
         })
     }
@@ -185,6 +205,7 @@ impl Guarantee {
             Guarantee::Oriented => "oriented",
             Guarantee::Watertight => "watertight",
             Guarantee::NoDegenerate => "no-degenerate",
+            Guarantee::NoSelfIntersections => "no-self-intersections",
         }
     }
 }
@@ -220,7 +241,12 @@ impl MeshReport {
             Guarantee::NoDegenerate => {
                 self.collapsed_triangles.count + self.zero_area_triangles.count + self.duplicate_triangles.count == 0
             }
+            Guarantee::NoSelfIntersections => self.self_intersection_count() == Some(0),
         }
+    }
+    /// How many self-intersecting pairs, when they were looked for.
+    pub fn self_intersection_count(&self) -> Option<usize> {
+        self.self_intersections.as_ref().map(|f| f.count)
     }
     /// Sum of the genera of the closed components (`None` if any component is open or defective).
     pub fn genus(&self) -> Option<i64> {
@@ -465,6 +491,7 @@ pub fn check_with_progress(mesh: &Mesh, opts: &CheckOptions, progress: Option<&d
     comps.sort_by_key(|c| std::cmp::Reverse(c.triangles));
     let used_count = used.iter().filter(|&&u| u).count();
     let angles = min_angles(mesh, &valid);
+    let self_intersections = opts.self_intersections.then(|| super::self_intersections(mesh, max));
     stage(STAGES);
     MeshReport {
         vertices: nv,
@@ -486,6 +513,7 @@ pub fn check_with_progress(mesh: &Mesh, opts: &CheckOptions, progress: Option<&d
         components: comps,
         min_angle_mean_deg: angles.0,
         min_angle_deg: angles.1,
+        self_intersections,
     }
 }
 
@@ -715,7 +743,7 @@ mod tests {
         let mut m = tetra();
         m.triangles.pop();
         let l = Lattice::with_geometry([4, 4, 4], [0.5; 3], [0.0; 3]).unwrap();
-        let r = check_with(&m, &CheckOptions { max_examples: 10, lattice: Some(l) });
+        let r = check_with(&m, &CheckOptions { max_examples: 10, lattice: Some(l), ..CheckOptions::default() });
         let f = &r.boundary_edges.examples[0];
         assert!(f.cell.is_some());
         assert!(f.to_string().contains("in cell"), "{f}");

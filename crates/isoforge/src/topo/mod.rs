@@ -1,11 +1,12 @@
 //! Mesh checks: watertightness, manifoldness, orientation, Euler characteristic and genus; and
-//! the [`hausdorff`] distance between two meshes.
+//! exact [`self_intersections`]; the [`hausdorff`] distance between two meshes.
 //!
 //! In: a [`Mesh`](crate::mesh::Mesh), or its batches as out-of-core extraction streams them
 //! ([`StreamCheck`]). Out: a [`MeshReport`] whose findings name the elements.
 
 mod check;
 mod hausdorff;
+mod intersect;
 mod stream;
 
 pub use check::{
@@ -13,4 +14,5 @@ pub use check::{
     Findings, Guarantee, MeshReport,
 };
 pub use hausdorff::{hausdorff, Hausdorff};
+pub use intersect::self_intersections;
 pub use stream::StreamCheck;

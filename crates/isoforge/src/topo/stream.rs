@@ -253,6 +253,8 @@ impl StreamCheck {
             components,
             min_angle_mean_deg: if self.angles == 0 { 0.0 } else { self.angle_sum / self.angles as f64 },
             min_angle_deg: if self.angles == 0 { 0.0 } else { self.angle_min },
+            // Pairs anywhere in the mesh: not decidable from a window of it.
+            self_intersections: None,
         })
     }
 
