@@ -58,9 +58,11 @@ def main():
     for workers in (1, 2):
         with distributed.LocalCluster(n_workers=workers, threads_per_worker=1, processes=True, host="127.0.0.1",
                                       dashboard_address=None) as cluster, distributed.Client(cluster) as client:
-            for name, src in (("zarr store", store), ("dask array in memory", da.from_array(volume, chunks=a.chunks))):
-                t, mesh = median_time(lambda: isoforge.dask.extract(src, a.iso, method=a.method, client=client),
-                                      a.repeat)
+            sources = (("zarr store", store, None), ("numpy array (scattered)", volume, a.chunks),
+                       ("dask array (from_array)", da.from_array(volume, chunks=a.chunks), None))
+            for name, src, chunks in sources:
+                t, mesh = median_time(lambda: isoforge.dask.extract(src, a.iso, method=a.method, client=client,
+                                                                    chunks=chunks), a.repeat)
                 ok = len(mesh.vertices) == len(whole.vertices) and len(mesh.faces) == len(whole.faces)
                 print(f"LocalCluster {workers} worker(s) × 1 thread, {name}: {t:.3f} s (equal counts: {ok})")
 

@@ -105,11 +105,10 @@ def extract(array, iso, *, method="mc33", spacing=(1.0, 1.0, 1.0), origin=(0.0, 
     elif hasattr(array, "dask") and hasattr(array, "chunks"):
         source = array
     elif isinstance(array, np.ndarray):
-        import dask.array as da
-
         if chunks is None:
             raise ValueError("extract: a numpy array needs chunks=(cz, cy, cx) points per chunk")
-        source = da.from_array(array, chunks=_chunk_sizes(array, chunks))
+        # Sent once (scattered to the cluster, or one node of the graph), sliced by each task.
+        source = client.scatter(array) if client is not None else dask.delayed(array, pure=True, traverse=False)
     else:
         raise ValueError(f"extract: array of type {type(array).__name__}: expected a dask, zarr or numpy array")
     if len(array.shape) != 3:
@@ -127,6 +126,7 @@ def extract(array, iso, *, method="mc33", spacing=(1.0, 1.0, 1.0), origin=(0.0, 
     fan_in = int(fan_in)
     if fan_in < 2:
         raise ValueError(f"fan_in {fan_in}: at least 2")
+    whole = _is_zarr(array) or isinstance(array, np.ndarray)  # tasks slice the source themselves
     sz, sy, sx = _chunk_sizes(array, chunks)
     bx, by, bz = _cell_bounds(nx, sx), _cell_bounds(ny, sy), _cell_bounds(nz, sz)
     shape_xyz = (nx, ny, nz)
@@ -136,7 +136,7 @@ def extract(array, iso, *, method="mc33", spacing=(1.0, 1.0, 1.0), origin=(0.0, 
         for y0, y1 in zip(by, by[1:]):
             for x0, x1 in zip(bx, bx[1:]):
                 lo, hi = (x0, y0, z0), (x1, y1, z1)
-                if _is_zarr(source):
+                if whole:
                     data = source
                 else:
                     # The halo as a Dask array: its task graph reads only the source chunks it overlaps.

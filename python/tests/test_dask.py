@@ -110,6 +110,12 @@ def test_local_cluster_equals_the_whole_extraction(client, method):
     assert len(client.scheduler_info()["workers"]) == 2
 
 
+def test_local_cluster_numpy_array_scattered_once(client):
+    vol = shapes()
+    want = isoforge.extract(vol, 0.0, method="mc33")
+    assert_same_mesh(idask.extract(vol, 0.0, method="mc33", chunks=(20, 16, 25), client=client), want)
+
+
 def zarr_store(path, vol, chunks):
     zarr = pytest.importorskip("zarr")
     z = zarr.open_array(str(path), mode="w", shape=vol.shape, chunks=chunks, dtype=vol.dtype)
