@@ -116,16 +116,21 @@ def test_local_cluster_numpy_array_scattered_once(client):
     assert_same_mesh(idask.extract(vol, 0.0, method="mc33", chunks=(20, 16, 25), client=client), want)
 
 
-def zarr_store(path, vol, chunks):
+def zarr_store(path, vol, chunks, zarr_format=None):
     zarr = pytest.importorskip("zarr")
-    z = zarr.open_array(str(path), mode="w", shape=vol.shape, chunks=chunks, dtype=vol.dtype)
+    fmt = {} if zarr_format is None else {"zarr_format": zarr_format}
+    z = zarr.open_array(str(path), mode="w", shape=vol.shape, chunks=chunks, dtype=vol.dtype, **fmt)
     z[...] = vol
     return zarr.open_array(str(path), mode="r")
 
 
-def test_zarr_store_on_disk_read_region_by_region(tmp_path, client):
+@pytest.mark.parametrize("zarr_format", [2, 3])
+def test_zarr_store_on_disk_read_region_by_region(tmp_path, client, zarr_format):
+    if int(pytest.importorskip("zarr").__version__.split(".")[0]) < 3:
+        pytest.skip("written with zarr 3's API (zarr_format=)")
     vol = shapes()
-    z = zarr_store(tmp_path / "shapes.zarr", vol, (16, 19, 13))
+    z = zarr_store(tmp_path / "shapes.zarr", vol, (16, 19, 13), zarr_format)
+    assert z.metadata.zarr_format == zarr_format
     want = isoforge.extract(vol, 0.0, method="mc")
     # The store's own chunking, read by the cluster's workers from disk.
     assert_same_mesh(idask.extract(z, 0.0, method="mc", client=client), want)
