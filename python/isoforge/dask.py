@@ -107,8 +107,12 @@ def extract(array, iso, *, method="mc33", spacing=(1.0, 1.0, 1.0), origin=(0.0, 
     elif isinstance(array, np.ndarray):
         if chunks is None:
             raise ValueError("extract: a numpy array needs chunks=(cz, cy, cx) points per chunk")
-        # Sent once (scattered to the cluster, or one node of the graph), sliced by each task.
-        source = client.scatter(array) if client is not None else dask.delayed(array, pure=True, traverse=False)
+        # Sent once (scattered to the cluster, or one node of the graph), sliced by each task. Not
+        # hashed: scattering equal data again while its last future is being released can hang.
+        if client is not None:
+            source = client.scatter(array, hash=False)
+        else:
+            source = dask.delayed(array, pure=True, traverse=False)
     else:
         raise ValueError(f"extract: array of type {type(array).__name__}: expected a dask, zarr or numpy array")
     if len(array.shape) != 3:
