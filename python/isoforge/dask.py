@@ -107,8 +107,9 @@ def extract(array, iso, *, method="mc33", spacing=(1.0, 1.0, 1.0), origin=(0.0, 
     elif isinstance(array, np.ndarray):
         if chunks is None:
             raise ValueError("extract: a numpy array needs chunks=(cz, cy, cx) points per chunk")
-        # Sent once (scattered to the cluster, or one node of the graph), sliced by each task. Not
-        # hashed: scattering equal data again while its last future is being released can hang.
+        # Sent once (scattered to the cluster, or one node of the graph), sliced by each task.
+        # Unhashed, so a call never reuses the key of an earlier call's future (a benchmark run
+        # with hashed scatters hung once; the cause is not pinned down).
         if client is not None:
             source = client.scatter(array, hash=False)
         else:
