@@ -6,6 +6,7 @@
 //! library's lattice `[n2, n1, n0]` (x fastest) and vertices come back as `(z, y, x)` =
 //! `(i0, i1, i2)`.
 
+mod chunks;
 mod contours;
 
 use std::path::Path;
@@ -503,5 +504,6 @@ fn _isoforge(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add_function(wrap_pyfunction!(repair_mesh, m)?)?;
     m.add_function(wrap_pyfunction!(mesh_check, m)?)?;
     m.add_function(wrap_pyfunction!(mesh_save, m)?)?;
+    chunks::register(m)?;
     Ok(())
 }

@@ -4,7 +4,7 @@
 //! Points are named in *doubled* index coordinates, so a cell centre (i + ½, j + ½, k + ½) is the
 //! integer point (2i + 1, 2j + 1, 2k + 1) and every key is exact and hashable.
 
-use super::{edge_between, CubeEdge, EdgeKey, CORNER_OFFSETS};
+use super::{edge_between, Axis, CubeEdge, EdgeKey, CORNER_OFFSETS};
 
 /// A point a cell can name.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Hash)]
@@ -112,12 +112,58 @@ impl VertexKey {
             VertexKey::Cell { ijk, .. } => (ijk.map(|x| 2 * x), ijk.map(|x| 2 * x + 2)),
         }
     }
+
+    /// Words in a key's integer form ([`to_words`](VertexKey::to_words)).
+    pub const WORDS: usize = 7;
+
+    /// The key as plain integers, to send it between processes (Python's distributed
+    /// extraction): `[0, origin x, y, z, axis, 0, 0]` for an edge, `[1, a x, y, z, b x, y, z]` for
+    /// a segment, `[2, i, j, k, n, 0, 0]` for a cell's vertex. [`from_words`](VertexKey::from_words)
+    /// reads it back.
+    pub fn to_words(&self) -> [u32; Self::WORDS] {
+        match *self {
+            VertexKey::Edge(e) => [0, e.origin[0], e.origin[1], e.origin[2], e.axis as u32, 0, 0],
+            VertexKey::Segment(s) => [1, s.a[0], s.a[1], s.a[2], s.b[0], s.b[1], s.b[2]],
+            VertexKey::Cell { ijk, n } => [2, ijk[0], ijk[1], ijk[2], u32::from(n), 0, 0],
+        }
+    }
+
+    /// The key whose integer form is `w`; `None` for words no key has (an unknown tag, an axis
+    /// past 2, a cell vertex number past 255, unused words not 0).
+    pub fn from_words(w: [u32; Self::WORDS]) -> Option<Self> {
+        let [tag, p, q, r, s, t, u] = w;
+        match tag {
+            0 if s < 3 && t == 0 && u == 0 => {
+                Some(VertexKey::Edge(EdgeKey { origin: [p, q, r], axis: [Axis::X, Axis::Y, Axis::Z][s as usize] }))
+            }
+            1 => Some(VertexKey::Segment(SegmentKey { a: [p, q, r], b: [s, t, u] })),
+            2 if t == 0 && u == 0 => Some(VertexKey::Cell { ijk: [p, q, r], n: u8::try_from(s).ok()? }),
+            _ => None,
+        }
+    }
 }
 
 #[cfg(test)]
 mod tests {
     use super::*;
     use crate::cube::EDGE_CORNERS;
+
+    #[test]
+    fn keys_round_trip_through_words() {
+        let keys = [
+            VertexKey::Edge(EdgeKey { origin: [3, u32::MAX, 0], axis: Axis::Z }),
+            VertexKey::Edge(EdgeKey { origin: [0, 0, 7], axis: Axis::X }),
+            VertexKey::Segment(SegmentKey { a: [1, 2, 3], b: [4, 5, u32::MAX] }),
+            VertexKey::Cell { ijk: [9, 8, 7], n: 255 },
+        ];
+        for k in keys {
+            assert_eq!(VertexKey::from_words(k.to_words()), Some(k));
+        }
+        assert_eq!(VertexKey::from_words([0, 1, 2, 3, 3, 0, 0]), None);
+        assert_eq!(VertexKey::from_words([2, 1, 2, 3, 256, 0, 0]), None);
+        assert_eq!(VertexKey::from_words([3, 0, 0, 0, 0, 0, 0]), None);
+        assert_eq!(VertexKey::from_words([0, 1, 2, 3, 1, 0, 9]), None);
+    }
 
     #[test]
     fn axis_edges_are_found_from_their_corners() {
