@@ -171,6 +171,7 @@ fn the_viewer_serves_what_extract_writes() {
         ("field=lines&n=32&method=mt6&iso=40", "field:lines?n=32", "mt6", Some("40")),
         ("field=height&n=24&method=mc", "field:height?n=24", "mc", None),
         ("field=metaballs&n=32&method=dc", "field:metaballs?n=32", "dc", None),
+        ("field=lines&n=32&method=emc", "field:lines?n=32", "emc", None),
         ("field=height&n=24", "field:height?n=24", "mc33", None),
     ] {
         let got = demo.mesh(&format!("{query}&level=full"));
@@ -187,7 +188,7 @@ fn the_viewer_serves_what_extract_writes() {
         "/api/mesh?n=100000",
         "/api/mesh?n=7.5",
         "/api/mesh?iso=nan",
-        "/api/mesh?method=emc",
+        "/api/mesh?method=nope",
         "/api/mesh?zoom=2",
         "/api/mesh?field=sphere",
         "/api/mesh?level=half",
