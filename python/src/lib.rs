@@ -463,11 +463,8 @@ fn voxelize_mesh<'py>(
     band: f64,
     values: &str,
 ) -> PyResult<(Bound<'py, PyAny>, Bound<'py, PyDict>)> {
-    let output = match values {
-        "sdf" => isoforge::voxelize::Output::Sdf,
-        "occupancy" => isoforge::voxelize::Output::Occupancy,
-        v => return Err(PyValueError::new_err(format!("values {v:?}: expected \"sdf\" or \"occupancy\""))),
-    };
+    let output: isoforge::voxelize::Output =
+        values.parse().map_err(|e| PyValueError::new_err(format!("values {e}")))?;
     let v = voxelized(py, vertices, faces, resolution, voxel_size, band)?;
     let grid = py.detach(|| v.to_dense(output, isoforge_io::Limits::default().max_bytes)).map_err(library_error)?;
     grid_array(py, grid)

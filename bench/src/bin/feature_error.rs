@@ -44,7 +44,7 @@ struct Args {
     /// Worker threads of each extraction.
     #[arg(long, default_value_t = 2)]
     threads: usize,
-    /// Also write each sampled grid (`SHAPE-N.npy`, f32, shape (n, n, n) indexed [z][y][x], the
+    /// Also write each sampled grid (`SHAPE-N.npy`, f32, shape (n, n, n) indexed `[z][y][x]`, the
     /// lattice spanning [-1, 1]³) and its features (`SHAPE-N.json`) into this directory, for
     /// `bench/scripts/feature_error_peers.py`.
     #[arg(long)]

@@ -879,11 +879,7 @@ impl VoxelizeConfig {
     pub fn from_args(a: &crate::args::VoxelizeArgs) -> Result<Self> {
         use isoforge_io::VolumeFormat;
         let voxel = VoxelConfig::from_args(&a.voxel)?;
-        let values = match a.values.as_str() {
-            "sdf" => isoforge::voxelize::Output::Sdf,
-            "occupancy" => isoforge::voxelize::Output::Occupancy,
-            v => bail!("--values {v:?}: expected sdf or occupancy"),
-        };
+        let values: isoforge::voxelize::Output = a.values.parse().map_err(flag("--values"))?;
         let format = VolumeFormat::from_path(&a.output);
         let (sparse, octree) = match format {
             Some(VolumeFormat::Vdb) => (true, false),

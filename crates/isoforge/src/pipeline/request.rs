@@ -193,6 +193,18 @@ impl FromStr for Inside {
     }
 }
 
+impl FromStr for crate::voxelize::Output {
+    type Err = ParseError;
+    /// `sdf` or `occupancy`.
+    fn from_str(s: &str) -> Result<Self, ParseError> {
+        match s {
+            "sdf" => Ok(crate::voxelize::Output::Sdf),
+            "occupancy" => Ok(crate::voxelize::Output::Occupancy),
+            _ => Err(ParseError::new(s, "must be sdf or occupancy")),
+        }
+    }
+}
+
 impl FromStr for Method {
     type Err = ParseError;
     /// A short method name (`mc`, `mc33`, …).

@@ -17,7 +17,7 @@
 //! | `two-spheres` (`r`, `gap`) | [`TwoSpheres`] of radius 0.45, `gap` = 0.1 cell widths apart, the gap's middle on a lattice plane | [-1, 1]³ | 0, inside below |
 //!
 //! Every name takes `n` (points per axis, default 64, at least 2). The sharp CSG shapes (issue
-//! 45; their exact corners and creases: [`sharp_features`]) take a turn `ax`, `ay`, `az`, `angle`
+//! 45; their exact corners and creases: [`BuiltinField::sharp_features`]) take a turn `ax`, `ay`, `az`, `angle`
 //! (an axis and degrees; default 30° about (1, 2, 3), so that no corner or crease lies on a
 //! lattice plane). The thickness of `plates` and the gap of `two-spheres` are in cell widths of
 //! the field's `n`: they follow `n`.

@@ -196,19 +196,6 @@ impl Cylinder {
     }
 }
 
-impl Field for Cylinder {
-    #[inline]
-    fn value(&self, p: Vec3) -> f32 {
-        self.eval(p).0
-    }
-    fn gradient(&self, p: Vec3) -> Vec3 {
-        self.eval(p).1
-    }
-    fn lipschitz(&self) -> Option<f64> {
-        Some(1.0)
-    }
-}
-
 /// A cube of half size `half` in a [`Frame`] minus a ball of radius `radius` centred on its
 /// (+,+,+) corner (default 0.55 and 0.5, tilted): `max(box, −ball)`, exact outside, a bound
 /// inside. 7 convex corners, 3 where the sphere meets the edges, 12 straight creases (three
@@ -271,19 +258,6 @@ impl BoxMinusSphere {
             });
         }
         f
-    }
-}
-
-impl Field for BoxMinusSphere {
-    #[inline]
-    fn value(&self, p: Vec3) -> f32 {
-        self.eval(p).0
-    }
-    fn gradient(&self, p: Vec3) -> Vec3 {
-        self.eval(p).1
-    }
-    fn lipschitz(&self) -> Option<f64> {
-        Some(1.0)
     }
 }
 
@@ -362,18 +336,26 @@ impl Fandisk {
     }
 }
 
-impl Field for Fandisk {
-    #[inline]
-    fn value(&self, p: Vec3) -> f32 {
-        self.eval(p).0
-    }
-    fn gradient(&self, p: Vec3) -> Vec3 {
-        self.eval(p).1
-    }
-    fn lipschitz(&self) -> Option<f64> {
-        Some(1.0)
-    }
+/// `Field` for a CSG shape whose `eval` gives its signed distance (exact outside, a bound of
+/// Lipschitz constant 1 inside) and its gradient together.
+macro_rules! csg_field {
+    ($($shape:ty),*) => {$(
+        impl Field for $shape {
+            #[inline]
+            fn value(&self, p: Vec3) -> f32 {
+                self.eval(p).0
+            }
+            fn gradient(&self, p: Vec3) -> Vec3 {
+                self.eval(p).1
+            }
+            fn lipschitz(&self) -> Option<f64> {
+                Some(1.0)
+            }
+        }
+    )*};
 }
+
+csg_field!(Cylinder, BoxMinusSphere, Fandisk);
 
 /// `count` thin square plates (half size 0.7, thickness `thickness`), parallel, `gap` apart
 /// centre to centre along the local z axis of a [`Frame`] (default 2 plates 0.4 apart, 0.3 cell
