@@ -20,7 +20,7 @@ use std::process::ExitCode;
 use anyhow::{bail, Context, Result};
 use clap::Parser;
 use isoforge::math::Vec3;
-use isoforge::pipeline::{self, Method, Options};
+use isoforge::pipeline::{self, Options};
 use isoforge::volume::catalog::{self, Builtin};
 use isoforge::volume::sdf::features::{measure, FeatureErrors};
 use isoforge::volume::sdf::Features;
@@ -106,11 +106,7 @@ fn cell(x: Option<f64>) -> String {
 }
 
 fn run(a: &Args) -> Result<()> {
-    let methods = a
-        .methods
-        .split(',')
-        .map(|s| Method::parse(s.trim()).with_context(|| format!("--methods: unknown method {s:?}")))
-        .collect::<Result<Vec<_>>>()?;
+    let methods = isoforge_bench::parse_methods(&a.methods)?;
     let ns: Vec<u32> = a.n.split(',').map(|s| s.trim().parse()).collect::<Result<_, _>>().context("--n")?;
     let shapes: Vec<&str> = a.shapes.split(',').map(str::trim).collect();
     if methods.is_empty() || ns.is_empty() || a.threads == 0 {

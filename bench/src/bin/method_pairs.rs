@@ -21,7 +21,7 @@ use std::time::Instant;
 use anyhow::{bail, Context, Result};
 use clap::Parser;
 use isoforge::grid::DType;
-use isoforge::pipeline::{self, Method, Options};
+use isoforge::pipeline::{self, Options};
 use isoforge::volume::Iso;
 use isoforge_io::{Limits, RawSpec};
 
@@ -64,11 +64,7 @@ fn main() -> ExitCode {
 
 /// Loads the volume, times the rounds, prints the table.
 fn run(a: &Args) -> Result<()> {
-    let methods = a
-        .methods
-        .split(',')
-        .map(|s| Method::parse(s.trim()).with_context(|| format!("--methods: unknown method {s:?}")))
-        .collect::<Result<Vec<_>>>()?;
+    let methods = isoforge_bench::parse_methods(&a.methods)?;
     if methods.is_empty() || a.rounds == 0 || a.threads == 0 {
         bail!("--methods, --rounds and --threads need at least one");
     }
