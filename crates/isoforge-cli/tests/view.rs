@@ -373,24 +373,10 @@ fn issue_10_large_volumes_get_a_preview_first() {
 fn issue_10_stalled_and_trickling_clients_do_not_block_others() {
     // Issue 10, hardening 1: one client that never read its response (or trickled a body) froze
     // every other request.
-    use std::os::unix::io::AsRawFd;
     let v = Viewer::start(&[]);
     // A client that asks for an 11 MB export and reads nothing: a tiny receive buffer makes
     // the server's writes block once its send buffer is full.
-    let mut stalled = TcpStream::connect(&v.addr).unwrap();
-    let small: libc::c_int = 4096;
-    // SAFETY: a valid socket, an int option of the size given.
-    let rc = unsafe {
-        libc::setsockopt(
-            stalled.as_raw_fd(),
-            libc::SOL_SOCKET,
-            libc::SO_RCVBUF,
-            (&small as *const libc::c_int).cast(),
-            std::mem::size_of::<libc::c_int>() as libc::socklen_t,
-        )
-    };
-    assert_eq!(rc, 0);
-    write!(stalled, "GET /api/export?format=obj&n=160&method=mt-bcc HTTP/1.1\r\nHost: {}\r\n\r\n", v.addr).unwrap();
+    let stalled = stalled_client(&v.addr, "/api/export?format=obj&n=160&method=mt-bcc");
     // A client that trickles its body, and one that trickles its headers.
     let mut body = TcpStream::connect(&v.addr).unwrap();
     write!(body, "GET /api/info HTTP/1.1\r\nHost: {}\r\nContent-Length: 1000\r\n\r\n", v.addr).unwrap();
@@ -628,24 +614,42 @@ fn issue_50_head_of_an_export_does_no_work() {
     assert_eq!(v.raw(format!("HEAD / HTTP/1.1\r\nHost: {}\r\n\r\n", v.addr).as_bytes()).0, 200);
 }
 
-/// A connection that sent `request` and reads nothing, its receive buffer shrunk so the server's
-/// writes block once its send buffer is full.
+/// A connection that sent `request` and reads nothing, its receive buffer shrunk **before it
+/// connects** (the window it offers is fixed at the handshake; shrinking it afterwards leaves a
+/// window of megabytes on loopback), so the server's writes block once its send buffer is full.
 #[cfg(unix)]
 fn stalled_client(addr: &str, request: &str) -> TcpStream {
-    use std::os::unix::io::AsRawFd;
-    let mut s = TcpStream::connect(addr).unwrap();
+    use std::os::unix::io::FromRawFd;
+    let std::net::SocketAddr::V4(to) = addr.parse::<std::net::SocketAddr>().unwrap() else {
+        panic!("the viewer listens on IPv4: {addr}")
+    };
     let small: libc::c_int = 4096;
-    // SAFETY: a valid socket, an int option of the size given.
-    let rc = unsafe {
-        libc::setsockopt(
-            s.as_raw_fd(),
+    // SAFETY: a fresh socket owned by the TcpStream made from it; an int option of the size
+    // given; a sockaddr_in of its own size.
+    let mut s = unsafe {
+        let fd = libc::socket(libc::AF_INET, libc::SOCK_STREAM, 0);
+        assert!(fd >= 0, "socket: {}", std::io::Error::last_os_error());
+        let s = TcpStream::from_raw_fd(fd);
+        let rc = libc::setsockopt(
+            fd,
             libc::SOL_SOCKET,
             libc::SO_RCVBUF,
             (&small as *const libc::c_int).cast(),
             std::mem::size_of::<libc::c_int>() as libc::socklen_t,
-        )
+        );
+        assert_eq!(rc, 0, "SO_RCVBUF: {}", std::io::Error::last_os_error());
+        let mut sin: libc::sockaddr_in = std::mem::zeroed();
+        sin.sin_family = libc::AF_INET as libc::sa_family_t;
+        sin.sin_port = to.port().to_be();
+        sin.sin_addr.s_addr = u32::from(*to.ip()).to_be();
+        let rc = libc::connect(
+            fd,
+            (&sin as *const libc::sockaddr_in).cast(),
+            std::mem::size_of::<libc::sockaddr_in>() as libc::socklen_t,
+        );
+        assert_eq!(rc, 0, "connect {addr}: {}", std::io::Error::last_os_error());
+        s
     };
-    assert_eq!(rc, 0);
     write!(s, "GET {request} HTTP/1.1\r\nHost: {addr}\r\n\r\n").unwrap();
     s
 }
