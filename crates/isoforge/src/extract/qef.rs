@@ -4,6 +4,8 @@
 //! In: crossings and normals in one frame (a cell's coordinates). Out: the minimiser nearest the
 //! crossings' mean (the mass point) along the directions the planes leave free.
 
+use glam::DVec3;
+
 /// The sums a quadratic error function `E(x) = Σ (nᵢ · (x − pᵢ))²` needs: `AᵀA`, `Aᵀb`, the mass
 /// point's sum, and the count. Accumulated in `f64`; the planes are added in any order.
 #[derive(Debug, Clone, Copy, Default, PartialEq)]
@@ -99,52 +101,84 @@ impl Qef {
     }
 }
 
-/// Sweeps of cyclic Jacobi rotations at most (3×3 symmetric matrices converge in about 5).
-const JACOBI_SWEEPS: usize = 32;
-
-/// Eigen-decomposition of a symmetric 3×3 matrix by cyclic Jacobi rotations: the eigenvalues and
-/// the eigenvectors as the columns of the second matrix (`a = V diag(λ) Vᵀ`, `V` orthonormal).
-/// `a` must be symmetric. Each rotation updates only the rows and columns it turns (the
-/// textbook in-place form: a third of the flops of multiplying the matrices out, and the QEF's
-/// largest cost in dual contouring before it was).
-pub fn symmetric_eigen(mut a: [[f64; 3]; 3]) -> ([f64; 3], [[f64; 3]; 3]) {
-    let mut v = [[1.0, 0.0, 0.0], [0.0, 1.0, 0.0], [0.0, 0.0, 1.0]];
-    for _ in 0..JACOBI_SWEEPS {
-        let off = a[0][1] * a[0][1] + a[0][2] * a[0][2] + a[1][2] * a[1][2];
-        let diag = a[0][0] * a[0][0] + a[1][1] * a[1][1] + a[2][2] * a[2][2];
-        if off <= f64::EPSILON * f64::EPSILON * diag || off == 0.0 {
-            break;
-        }
-        for (p, q, r) in [(0, 1, 2), (0, 2, 1), (1, 2, 0)] {
-            let apq = a[p][q];
-            if apq == 0.0 {
-                continue;
-            }
-            // The rotation that zeroes a[p][q] (the smaller of the two angles: stable):
-            // a ← Jᵀ a J, v ← v J with J the identity but J[p][p] = J[q][q] = c, J[p][q] = s,
-            // J[q][p] = −s.
-            let theta = (a[q][q] - a[p][p]) / (2.0 * apq);
-            let t = theta.signum() / (theta.abs() + (theta * theta + 1.0).sqrt());
-            let t = if t.is_finite() { t } else { 0.0 };
-            let c = 1.0 / (t * t + 1.0).sqrt();
-            let s = t * c;
-            let (arp, arq) = (a[r][p], a[r][q]);
-            a[p][p] -= t * apq;
-            a[q][q] += t * apq;
-            a[p][q] = 0.0;
-            a[q][p] = 0.0;
-            a[r][p] = c * arp - s * arq;
-            a[p][r] = a[r][p];
-            a[r][q] = s * arp + c * arq;
-            a[q][r] = a[r][q];
-            for row in &mut v {
-                let (vp, vq) = (row[p], row[q]);
-                row[p] = c * vp - s * vq;
-                row[q] = s * vp + c * vq;
-            }
-        }
+/// Eigen-decomposition of a symmetric 3×3 matrix in closed form: the eigenvalues and the
+/// eigenvectors as the columns of the second matrix (`a = V diag(λ) Vᵀ`, `V` orthonormal,
+/// `λ₀ ≤ λ₁ ≤ λ₂`). `a` must be symmetric.
+///
+/// The roots of the characteristic cubic by the trigonometric formula on the shifted, scaled
+/// matrix `B = (a − q I) / p` (`q` the mean eigenvalue, `p` the deviation): `βₖ = 2 cos(φ +
+/// 2πk/3)` with `cos 3φ = det(B)/2`. Only the root farthest from the other two (the largest when
+/// `det B ≥ 0`, else the smallest) is taken from it — the formula is accurate to `ε` for that
+/// one but only to `√ε` for a pair of (nearly) equal roots. Its eigenvector is the longest cross
+/// product of two rows of `a − λ I`; the other two eigenpairs are those of `a` restricted to the
+/// plane orthogonal to it, a 2×2 symmetric problem solved exactly (and well posed when they are
+/// equal: any basis of the plane is right). Errors are `O(ε · max|aᵢⱼ|)`. About 4× faster than
+/// the cyclic Jacobi rotations it replaced (dual contouring's largest cost before).
+pub fn symmetric_eigen(a: [[f64; 3]; 3]) -> ([f64; 3], [[f64; 3]; 3]) {
+    const IDENTITY: [[f64; 3]; 3] = [[1.0, 0.0, 0.0], [0.0, 1.0, 0.0], [0.0, 0.0, 1.0]];
+    // Scaled by the largest entry so that squares and cubes neither overflow nor underflow.
+    let scale = a.iter().flatten().fold(0.0f64, |m, x| m.max(x.abs()));
+    if !scale.is_finite() {
+        return ([a[0][0], a[1][1], a[2][2]], IDENTITY);
     }
-    ([a[0][0], a[1][1], a[2][2]], v)
+    let m = a.map(|r| r.map(|x| if scale > 0.0 { x / scale } else { 0.0 }));
+    let off = m[0][1] * m[0][1] + m[0][2] * m[0][2] + m[1][2] * m[1][2];
+    let rows = m.map(DVec3::from_array);
+    let first = if off == 0.0 {
+        // Diagonal: the axis whose value is farthest from the others' mean.
+        let d = [m[0][0], m[1][1], m[2][2]];
+        let apart = |i: usize| (d[i] - (d[(i + 1) % 3] + d[(i + 2) % 3]) / 2.0).abs();
+        let i = (0..3).max_by(|&i, &j| apart(i).total_cmp(&apart(j))).unwrap_or(0);
+        DVec3::AXES[i]
+    } else {
+        let q = (m[0][0] + m[1][1] + m[2][2]) / 3.0;
+        let (b00, b11, b22) = (m[0][0] - q, m[1][1] - q, m[2][2] - q);
+        let p = ((b00 * b00 + b11 * b11 + b22 * b22 + 2.0 * off) / 6.0).sqrt();
+        // det(B) / 2 with B = (m − qI) / p, clamped against rounding.
+        let det = b00 * (b11 * b22 - m[1][2] * m[1][2]) - m[0][1] * (m[0][1] * b22 - m[1][2] * m[0][2])
+            + m[0][2] * (m[0][1] * m[1][2] - b11 * m[0][2]);
+        let half_det = (det / (2.0 * p * p * p)).clamp(-1.0, 1.0);
+        let (sin, cos) = (half_det.acos() / 3.0).sin_cos();
+        // For φ ∈ [0, π/3]: 2cos φ is the largest root, 2cos(φ + 2π/3) the smallest.
+        let lambda = if half_det >= 0.0 { q + 2.0 * p * cos } else { q - p * (cos + 3f64.sqrt() * sin) };
+        simple_eigenvector(&rows, lambda)
+    };
+    let lambda_first = first.dot(apply(&rows, first));
+    // The plane orthogonal to `first`, and `m` restricted to it: [[a, b], [b, c]].
+    let u = first.any_orthonormal_vector();
+    let v = first.cross(u);
+    let (mu, mv) = (apply(&rows, u), apply(&rows, v));
+    let (pa, pb, pc) = (u.dot(mu), u.dot(mv), v.dot(mv));
+    let mean = (pa + pc) / 2.0;
+    let half = (pa - pc) / 2.0;
+    let radius = (half * half + pb * pb).sqrt();
+    // The larger root's vector, (b, λ − a) or (λ − c, b): the longer of the two (both vanish
+    // only when the roots are equal, and then any basis of the plane is right).
+    let (x, y) = if half >= 0.0 { (half + radius, pb) } else { (pb, radius - half) };
+    let len = (x * x + y * y).sqrt();
+    let (cos, sin) = if len > 0.0 { (x / len, y / len) } else { (1.0, 0.0) };
+    let big = cos * u + sin * v;
+    let small = -sin * u + cos * v;
+    let mut pairs = [(lambda_first, first), (mean + radius, big), (mean - radius, small)];
+    pairs.sort_by(|x, y| x.0.total_cmp(&y.0));
+    let values = pairs.map(|(l, _)| l * scale);
+    let vectors = [0, 1, 2].map(|i| pairs.map(|(_, c)| c[i]));
+    (values, vectors)
+}
+
+/// `m · x` for `m` given by its rows.
+#[inline]
+fn apply(m: &[DVec3; 3], x: DVec3) -> DVec3 {
+    DVec3::new(m[0].dot(x), m[1].dot(x), m[2].dot(x))
+}
+
+/// The unit eigenvector of symmetric `m` for `lambda`, a root apart from the other two: the
+/// longest cross product of two rows of `m − λ I` (orthogonal to both, so in its null space).
+fn simple_eigenvector(m: &[DVec3; 3], lambda: f64) -> DVec3 {
+    let r = [0, 1, 2].map(|i| m[i] - lambda * DVec3::AXES[i]);
+    let c = [r[0].cross(r[1]), r[0].cross(r[2]), r[1].cross(r[2])];
+    let best = c.into_iter().max_by(|x, y| x.length_squared().total_cmp(&y.length_squared()));
+    best.and_then(DVec3::try_normalize).unwrap_or(DVec3::X)
 }
 
 #[cfg(test)]
@@ -180,6 +214,19 @@ mod tests {
             }
             if trial % 7 == 0 {
                 a = [[2.0, 0.0, 0.0], [0.0, 2.0, 0.0], [0.0, 0.0, 2.0 + r() * 1e-12]];
+            }
+            if trial % 11 == 0 {
+                // Rotated, with two or three (nearly) equal roots: where the cubic's formula is
+                // only √ε-accurate and eigenvectors are free in a plane.
+                let q = DVec3::new(r(), r(), r()).try_normalize().unwrap_or(DVec3::Z);
+                let rot = glam::DMat3::from_axis_angle(q, r() * 3.0);
+                let near = [1.0, 1.0 + r() * 1e-9 * f64::from(u8::from(trial % 2 == 0)), 1.0 + (trial % 3) as f64];
+                let l = glam::DMat3::from_diagonal(DVec3::from_array(near));
+                let m = rot * l * rot.transpose();
+                a = [0, 1, 2].map(|i| [0, 1, 2].map(|j| m.col(j)[i]));
+                a[1][0] = a[0][1];
+                a[2][0] = a[0][2];
+                a[2][1] = a[1][2];
             }
             let (l, v) = symmetric_eigen(a);
             let scale = a.iter().flatten().fold(1e-300f64, |m, x| m.max(x.abs()));

@@ -218,7 +218,7 @@ pub(crate) struct LayerCaches {
     /// Only used by extractors that place vertices (sized on first use).
     placed: [PlacedLayer; 2],
     /// Hermite data per edge slot, like the ids (allocated on the first request).
-    hermite: Option<Box<[Stamped<Hermite>; 5]>>,
+    hermite: Option<Box<[HermiteTable; 5]>>,
     /// Crossing parameters per edge slot, like the ids (allocated on the first request).
     crossings: Option<Box<[Stamped<f32>; 5]>>,
     /// Cell-centre values (offset by iso) of the current layer and the one below, by layer
@@ -226,8 +226,44 @@ pub(crate) struct LayerCaches {
     centres: Option<Box<[Stamped<f32>; 2]>>,
 }
 
-const NO_HERMITE: Hermite =
-    Hermite { point: [f32::NAN; 3], normal: [0.0; 3], local: [f32::NAN; 3], local_normal: [0.0; 3], exact: false };
+/// Hermite data of one edge table: a slot per edge holding an index into a list of the data of
+/// the crossed edges of the table's current plane (52 bytes each), so that the dense table stays
+/// small (12 bytes a slot: a plane of 256² edges fits in the cache, where slots holding the data
+/// itself made reading them a quarter of dual contouring's time). The list is emptied when the
+/// table moves on to another plane or walk; an index is only read back while its list is current.
+#[derive(Debug, Clone, Default)]
+struct HermiteTable {
+    slots: Stamped<u32>,
+    data: Vec<Hermite>,
+    /// `(generation, stamp)` of the slots `data` holds.
+    current: (u32, u32),
+}
+
+impl HermiteTable {
+    fn reset(&mut self, n: usize) {
+        self.slots.reset(n, u32::MAX);
+        self.data.clear();
+        self.current = (self.slots.generation, u32::MAX);
+    }
+
+    #[inline(always)]
+    fn get(&self, at: usize, stamp: u32) -> Option<Hermite> {
+        if self.current != (self.slots.generation, stamp) {
+            return None;
+        }
+        self.slots.get(at, stamp).and_then(|i| self.data.get(i as usize).copied())
+    }
+
+    #[inline(always)]
+    fn set(&mut self, at: usize, stamp: u32, h: Hermite) {
+        if self.current != (self.slots.generation, stamp) {
+            self.data.clear();
+            self.current = (self.slots.generation, stamp);
+        }
+        self.slots.set(at, stamp, self.data.len() as u32);
+        self.data.push(h);
+    }
+}
 
 impl LayerCaches {
     /// Empty caches for the box of `w × h` points from `origin`, starting at cell layer `k`.
@@ -247,7 +283,7 @@ impl LayerCaches {
             self.placed[1].reset(n);
         }
         for s in self.hermite.iter_mut().flat_map(|t| t.iter_mut()) {
-            s.reset(n, NO_HERMITE);
+            s.reset(n);
         }
         for s in self.crossings.iter_mut().flat_map(|t| t.iter_mut()) {
             s.reset(n, f32::NAN);
@@ -509,9 +545,9 @@ impl<V: Volume + ?Sized> Cell for CachedCell<'_, V> {
         let (table, stamp, at) = self.caches.edge_slot(self.ijk, e);
         let n = self.caches.w * self.caches.h;
         let slots = self.caches.hermite.get_or_insert_with(|| {
-            let mut t: [Stamped<Hermite>; 5] = Default::default();
+            let mut t: [HermiteTable; 5] = Default::default();
             for s in &mut t {
-                s.reset(n, NO_HERMITE);
+                s.reset(n);
             }
             Box::new(t)
         });
