@@ -45,8 +45,10 @@ use crate::walk::{edge_hermite, WalkStats};
 /// coarse cell's contour has the children's topology;
 /// (4) the children's summed QEF (planes in cell widths: `Σ dᵢ²` over the crossings' tangent
 /// planes, each counted once per finest cell around it) at the node's vertex is at most
-/// `adaptivity²`. The vertex: the QEF's minimiser (singular values truncated as uniform dc's), or
-/// the mass point when the minimiser leaves the node's cube.
+/// `adaptivity²`; (5) a corner a child holds (a finest cell whose planes meet at one point, rank
+/// 3) stays within [`CORNER_TOLERANCE`] of the merged vertex. The vertex: the QEF's minimiser
+/// (singular values truncated as uniform dc's), or the mass point when the minimiser leaves the
+/// node's cube.
 ///
 /// **Guarantees**: with `adaptivity` 0 the vertices and polygons of plain uniform dual
 /// contouring ([`DualContouring`] with `manifold: false`, `split: false`); crack-free across
@@ -126,6 +128,8 @@ pub struct AdaptiveContour {
     pub refused_topology: usize,
     /// Nodes whose children were all leaves, signs safe, but whose QEF error exceeded the bound.
     pub refused_error: usize,
+    /// Nodes whose vertex would have moved a child's corner more than [`CORNER_TOLERANCE`].
+    pub refused_corner: usize,
 }
 
 /// A node of the tree: the QEF of its planes, its vertex (lattice index coordinates) and whether
@@ -135,7 +139,26 @@ struct Node {
     qef: QefSum,
     vertex: [f64; 3],
     mergeable: bool,
+    /// The vertex, when it stands for a corner: a finest cell whose planes meet at one point
+    /// (rank 3 after truncation), or a merged node holding one.
+    corner: Option<[f64; 3]>,
 }
+
+/// What a parent gathers from its children present.
+struct Children {
+    /// Their summed QEF.
+    qef: QefSum,
+    /// Every child may merge (and no two corners apart).
+    mergeable: bool,
+    /// The corner one of them holds.
+    corner: Option<[f64; 3]>,
+}
+
+/// How far (in cell widths) a merged vertex may move from a corner one of its children holds;
+/// children holding two corners farther apart than twice this never merge. Keeps the corners
+/// where uniform dc has them (the planes of a corner and of a curved cut meeting it would
+/// otherwise pull the merged vertex up to the error bound off the corner).
+pub const CORNER_TOLERANCE: f64 = 0.01;
 
 /// Finest cells per lattice and nodes in the tree at most (checked before allocating).
 const MAX_CELLS: u64 = 1 << 31;
@@ -199,7 +222,9 @@ impl AdaptiveDualContouring {
                         qef.add(p, hm.local_normal.map(|m| f64::from(m) / h));
                     }
                     let vertex = [0, 1, 2].map(|a| f64::from(ijk[a]) + f64::from(local[a]));
-                    level0.insert(ijk, Node { qef, vertex, mergeable: manifold_case(case) });
+                    let rank = qef.qef.solve(f64::from(self.dc.truncation)).map_or(0, |s| s.rank);
+                    let corner = (e > 0.0 && rank == 3).then_some(vertex);
+                    level0.insert(ijk, Node { qef, vertex, mergeable: manifold_case(case), corner });
                     finest.push((ijk, d));
                 }
             }
@@ -217,27 +242,42 @@ impl AdaptiveDualContouring {
             }
             let s = 1u32 << l;
             let below = &levels[levels.len() - 1];
-            // Per parent: the summed QEF, and whether every child present may merge.
-            let mut parents: HashMap<[u32; 3], (QefSum, bool)> = HashMap::with_capacity(below.len() / 4 + 1);
+            // Per parent: the summed QEF, whether every child present may merge, and the corner
+            // its children hold (children holding two distinct corners may not).
+            let mut parents: HashMap<[u32; 3], Children> = HashMap::with_capacity(below.len() / 4 + 1);
             for (key, node) in below {
-                let p = parents.entry(key.map(|c| c >> 1)).or_insert((QefSum::default(), true));
-                p.0.merge(&node.qef);
-                p.1 &= node.mergeable;
+                let p = parents.entry(key.map(|c| c >> 1)).or_insert(Children {
+                    qef: QefSum::default(),
+                    mergeable: true,
+                    corner: None,
+                });
+                p.qef.merge(&node.qef);
+                p.mergeable &= node.mergeable;
+                if let Some(c) = node.corner {
+                    match p.corner {
+                        None => p.corner = Some(c),
+                        Some(d) if distance(c, d) > 2.0 * CORNER_TOLERANCE => p.mergeable = false,
+                        Some(_) => {}
+                    }
+                }
             }
             let mut next = HashMap::with_capacity(parents.len());
             let mut any = false;
-            for (key, (qef, children)) in parents {
+            for (key, Children { qef, mergeable: children, corner }) in parents {
                 let origin = key.map(|c| c * s);
-                let mut node = Node { qef, vertex: [0.0; 3], mergeable: false };
+                let mut node = Node { qef, vertex: [0.0; 3], mergeable: false, corner: None };
                 let within = (0..3).all(|a| u64::from(origin[a]) + u64::from(s) <= u64::from(cells[a]));
                 if children && within {
                     if !signs_are_safe(&inside, origin, s) {
                         out.refused_topology += 1;
                     } else {
                         let x = self.vertex(&qef, origin, s);
-                        if qef.error(x) <= e * e {
+                        if corner.is_some_and(|c| distance(c, x) > CORNER_TOLERANCE) {
+                            out.refused_corner += 1;
+                        } else if qef.error(x) <= e * e {
                             node.vertex = x;
                             node.mergeable = true;
+                            node.corner = corner.map(|_| x);
                             any = true;
                         } else {
                             out.refused_error += 1;
@@ -345,6 +385,11 @@ impl AdaptiveDualContouring {
             _ => [0, 1, 2].map(|a| mass[a].clamp(lo[a], hi[a])),
         }
     }
+}
+
+/// Euclidean distance in lattice index coordinates.
+fn distance(a: [f64; 3], b: [f64; 3]) -> f64 {
+    (0..3).map(|i| (a[i] - b[i]).powi(2)).sum::<f64>().sqrt()
 }
 
 /// Whether a cell case's contour is one disk: its inside corners are connected along cube
