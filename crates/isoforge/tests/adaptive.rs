@@ -102,6 +102,8 @@ fn adaptive_dc_keeps_topology_corners_and_the_error_bound() {
         ("box-minus-sphere?n=32", 0.5),
         ("sphere?n=32", 0.5),
         ("torus?n=32", 0.5),
+        ("plates?n=32", 0.5),
+        ("two-spheres?n=32", 0.5),
     ] {
         let b = parse(spec).unwrap();
         let uniform = mesh(&b, dc(0.0));
@@ -132,13 +134,14 @@ fn adaptive_dc_keeps_topology_corners_and_the_error_bound() {
             }
             let h = b.lattice.spacing()[0];
             let (fu, fa) = (b.field.visit(Go(&uniform, &features, h)), b.field.visit(Go(&adaptive, &features, h)));
-            eprintln!(
-                "  corners uniform {:?} adaptive {:?}; convex {:?} {:?}; crease {:?} {:?}",
-                fu.corner, fa.corner, fu.convex_corner, fa.convex_corner, fu.crease, fa.crease
-            );
             if let (Some(cu), Some(ca)) = (fu.convex_corner, fa.convex_corner) {
-                // Convex corners: where uniform dc has them (0.000 h), adaptive keeps them.
-                assert!(ca <= 0.05, "{spec}: convex corners {ca} h (uniform {cu} h)");
+                // Convex corners: within 0.05 h where uniform dc has them (0.000 h on the box,
+                // fandisk, box-minus-sphere), else within 0.01 h of uniform's (plates 0.3 h thin:
+                // 0.81 h in both).
+                assert!(ca <= 0.05f64.max(cu + 0.01), "{spec}: convex corners {ca} h (uniform {cu} h)");
+                if cu <= 1e-3 {
+                    assert!(ca <= 0.05, "{spec}: convex corners {ca} h");
+                }
             }
             if let (Some(cu), Some(ca)) = (fu.corner, fa.corner) {
                 // Every corner within 0.05 h, or (where a curved cut meets it) within 0.01 h
