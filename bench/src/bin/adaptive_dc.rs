@@ -8,8 +8,8 @@
 //! markdown table. See docs/BENCHMARKS.md §19.
 //!
 //! ```text
-//! cargo build --release -p isoforge-bench --bin adaptive_dc
-//! target/release/adaptive_dc --shapes rotated-box,fandisk,cylinder --n 64,128 --e 0,0.1,0.25,0.5
+//! cargo build -p isoforge-bench --bin adaptive_dc      # --release for release figures
+//! target/debug/adaptive_dc --shapes rotated-box,fandisk,cylinder --n 64,128 --e 0,0.1,0.25,0.5
 //! ```
 //! Bad arguments: one line on stderr, exit 2.
 

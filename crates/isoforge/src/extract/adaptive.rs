@@ -47,8 +47,8 @@ use crate::walk::{edge_hermite, WalkStats};
 /// planes, each counted once per finest cell around it) at the node's vertex is at most
 /// `adaptivity²`; (5) a corner a child holds (a finest cell whose planes meet at one point, rank
 /// 3) stays within [`CORNER_TOLERANCE`] of the merged vertex. The vertex: the QEF's minimiser
-/// (singular values truncated as uniform dc's), or the mass point when the minimiser leaves the
-/// node's cube.
+/// (singular values truncated as uniform dc's); a node whose minimiser leaves its cube does not
+/// merge.
 ///
 /// **Guarantees**: with `adaptivity` 0 the vertices and polygons of plain uniform dual
 /// contouring ([`DualContouring`] with `manifold: false`, `split: false`); crack-free across
@@ -126,7 +126,8 @@ pub struct AdaptiveContour {
     pub leaves: Vec<usize>,
     /// Nodes whose children were all leaves but whose sign tests failed (topology kept).
     pub refused_topology: usize,
-    /// Nodes whose children were all leaves, signs safe, but whose QEF error exceeded the bound.
+    /// Nodes whose children were all leaves, signs safe, but whose QEF error exceeded the bound
+    /// (or whose minimiser left the node's cube).
     pub refused_error: usize,
     /// Nodes whose vertex would have moved a child's corner more than [`CORNER_TOLERANCE`].
     pub refused_corner: usize,
@@ -271,16 +272,17 @@ impl AdaptiveDualContouring {
                     if !signs_are_safe(&inside, origin, s) {
                         out.refused_topology += 1;
                     } else {
-                        let x = self.vertex(&qef, origin, s);
-                        if corner.is_some_and(|c| distance(c, x) > CORNER_TOLERANCE) {
-                            out.refused_corner += 1;
-                        } else if qef.error(x) <= e * e {
-                            node.vertex = x;
-                            node.mergeable = true;
-                            node.corner = corner.map(|_| x);
-                            any = true;
-                        } else {
-                            out.refused_error += 1;
+                        match self.vertex(&qef, origin, s) {
+                            Some(x) if corner.is_some_and(|c| distance(c, x) > CORNER_TOLERANCE) => {
+                                out.refused_corner += 1;
+                            }
+                            Some(x) if qef.error(x) <= e * e => {
+                                node.vertex = x;
+                                node.mergeable = true;
+                                node.corner = corner.map(|_| x);
+                                any = true;
+                            }
+                            _ => out.refused_error += 1,
                         }
                     }
                 }
@@ -374,16 +376,14 @@ impl AdaptiveDualContouring {
         Ok(out)
     }
 
-    /// A merged node's vertex (lattice index coordinates): the QEF's minimiser, or its mass point
-    /// when the minimiser leaves the node's cube `origin ..= origin + s`.
-    fn vertex(&self, qef: &QefSum, origin: [u32; 3], s: u32) -> [f64; 3] {
+    /// A merged node's vertex (lattice index coordinates): the QEF's minimiser, `None` when it
+    /// leaves the node's cube `origin ..= origin + s` (planes meeting beyond the cube: a corner
+    /// or crease of a neighbour; the mass point there cut creases by up to 0.4 h at E = 0.5).
+    fn vertex(&self, qef: &QefSum, origin: [u32; 3], s: u32) -> Option<[f64; 3]> {
         let lo = origin.map(f64::from);
         let hi = lo.map(|x| x + f64::from(s));
-        let mass = qef.qef.mass_point().unwrap_or([0, 1, 2].map(|a| lo[a] + f64::from(s) / 2.0));
-        match qef.qef.solve(f64::from(self.dc.truncation)) {
-            Some(sol) if (0..3).all(|a| sol.point[a] >= lo[a] && sol.point[a] <= hi[a]) => sol.point,
-            _ => [0, 1, 2].map(|a| mass[a].clamp(lo[a], hi[a])),
-        }
+        let sol = qef.qef.solve(f64::from(self.dc.truncation))?;
+        (0..3).all(|a| sol.point[a] >= lo[a] && sol.point[a] <= hi[a]).then_some(sol.point)
     }
 }
 
