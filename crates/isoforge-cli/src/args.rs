@@ -342,6 +342,12 @@ pub struct ExtractArgs {
     /// per active cell, non-manifold where a cell holds two sheets) instead of the manifold mode.
     #[arg(long)]
     pub no_manifold: bool,
+    /// With --method dc: adaptive dual contouring [Ju 2002 §4]: cells merged up an octree while
+    /// their vertex stays within E cell widths of their tangent planes and the topology is kept
+    /// (fewer vertices, crack-free); 0 (the default): uniform. Implies --no-manifold (adaptive dc
+    /// is not manifold).
+    #[arg(long, value_name = "E", allow_hyphen_values = true)]
+    pub adaptivity: Option<String>,
     /// With --method emc: degrees between two crossings' normals above which a cell's loop is a
     /// feature and gets a vertex of its own (default 30).
     #[arg(long, value_name = "DEG", allow_hyphen_values = true)]

@@ -10,7 +10,7 @@ use isoforge::mesh::decimate::DecimateOptions;
 use isoforge::mesh::post::PostProcess;
 use isoforge::mesh::smooth::SmoothOptions;
 use isoforge::pipeline::request::{self, AttributeSource, ColorBy, ParseError};
-use isoforge::pipeline::{Labels, Method, Options, Region, Request, Roi};
+use isoforge::pipeline::{Adaptivity, Labels, Method, Options, Region, Request, Roi};
 use isoforge::topo::Guarantee;
 use isoforge::volume::catalog::{self, Builtin};
 use isoforge::volume::{Inside, Iso};
@@ -314,16 +314,24 @@ fn flag(flag: &str) -> impl Fn(ParseError) -> anyhow::Error + '_ {
     move |e| anyhow!("{flag} {e}")
 }
 
-/// `method` with `--quads`, `--split`, `--no-manifold` and `--feature-angle` applied: dual
-/// contouring's and extended marching cubes' options; other methods refuse them.
+/// `method` with `--quads`, `--split`, `--no-manifold`, `--adaptivity` and `--feature-angle`
+/// applied: dual contouring's and extended marching cubes' options; other methods refuse them.
 fn method_options(method: Method, a: &ExtractArgs) -> Result<Method> {
-    let dc = a.quads || a.split || a.no_manifold;
+    let dc = a.quads || a.split || a.no_manifold || a.adaptivity.is_some();
     match method {
         Method::DualContouring { .. } => {
             if a.feature_angle.is_some() {
                 bail!("--feature-angle applies to --method emc");
             }
-            Ok(Method::DualContouring { quads: a.quads, split: a.split, manifold: !(a.split || a.no_manifold) })
+            let adaptivity = match a.adaptivity.as_deref() {
+                Some(s) => Adaptivity::from_cells(parse_number("--adaptivity", s)?).map_err(|e| anyhow!("--{e}"))?,
+                None => Adaptivity::UNIFORM,
+            };
+            if a.split && !adaptivity.is_uniform() {
+                bail!("--adaptivity and --split: adaptive dual contouring keeps one vertex per cell");
+            }
+            let plain = a.split || a.no_manifold || !adaptivity.is_uniform();
+            Ok(Method::DualContouring { quads: a.quads, split: a.split, manifold: !plain, adaptivity })
         }
         Method::ExtendedMarchingCubes { feature_angle } if !dc => {
             let feature_angle = match a.feature_angle.as_deref().map(|s| parse_number("--feature-angle", s)) {
@@ -337,6 +345,7 @@ fn method_options(method: Method, a: &ExtractArgs) -> Result<Method> {
         _ if a.quads => bail!("--quads applies to --method dc (surface-nets always makes quads; the others triangles)"),
         _ if a.split => bail!("--split applies to --method dc"),
         _ if a.no_manifold => bail!("--no-manifold applies to --method dc"),
+        _ if a.adaptivity.is_some() => bail!("--adaptivity applies to --method dc"),
         _ if a.feature_angle.is_some() => bail!("--feature-angle applies to --method emc"),
         m => Ok(m),
     }

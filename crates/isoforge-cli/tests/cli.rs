@@ -1834,6 +1834,49 @@ fn sharp_methods_and_their_options() {
     fails(&[&field[..], &["--method", "emc", "--quads"]].concat(), "--quads applies to --method dc", &bad);
 }
 
+/// Issue 45: `--method dc --adaptivity E` (adaptive dual contouring, plain mode implied): a
+/// closed mesh with fewer vertices than uniform plain dc; bad bounds and wrong companions refused
+/// in one line.
+#[test]
+fn adaptive_dual_contouring_from_the_cli() {
+    let dir = tempfile::tempdir().unwrap();
+    let (uniform, adaptive) = (dir.path().join("u.ply"), dir.path().join("a.ply"));
+    let field = "field:rotated-box?n=32";
+    let o = isoforge(&["extract", "-i", field, "--method", "dc", "--no-manifold", "-o", p(&uniform)]);
+    assert_eq!(o.status.code(), Some(0), "{}", stderr(&o));
+    let o = isoforge(&[
+        "extract",
+        "-i",
+        field,
+        "--method",
+        "dc",
+        "--adaptivity",
+        "0.5",
+        "-o",
+        p(&adaptive),
+        "--require",
+        "closed",
+    ]);
+    assert_eq!(o.status.code(), Some(0), "{}", stderr(&o));
+    let read = |f: &PathBuf| isoforge_io::read_mesh(f, &isoforge_io::Limits::default()).unwrap();
+    let (u, a) = (read(&uniform), read(&adaptive));
+    assert!(a.positions.len() * 3 < u.positions.len(), "{} vs uniform {}", a.positions.len(), u.positions.len());
+    let bad = dir.path().join("bad.ply");
+    let args = ["extract", "-i", "field:box?n=16", "-o", p(&bad)];
+    fails(&[&args[..], &["--method", "dc", "--adaptivity", "-1"]].concat(), "--adaptivity -1", &bad);
+    fails(&[&args[..], &["--method", "dc", "--adaptivity", "x"]].concat(), "--adaptivity", &bad);
+    fails(
+        &[&args[..], &["--method", "mc", "--adaptivity", "0.5"]].concat(),
+        "--adaptivity applies to --method dc",
+        &bad,
+    );
+    fails(
+        &[&args[..], &["--method", "dc", "--split", "--adaptivity", "0.5"]].concat(),
+        "--adaptivity and --split",
+        &bad,
+    );
+}
+
 #[test]
 fn check_counts_self_intersections_when_asked() {
     let dir = tempfile::tempdir().unwrap();

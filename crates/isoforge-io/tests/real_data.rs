@@ -13,7 +13,7 @@ use std::time::Instant;
 
 use isoforge::grid::{AnyGrid, DenseGrid, Lattice, Sample, SparseGrid};
 use isoforge::mesh::Mesh;
-use isoforge::pipeline::{extract_following, extract_grid, extract_sparse, Method, Options, Seeds};
+use isoforge::pipeline::{extract_following, extract_grid, extract_sparse, Adaptivity, Method, Options, Seeds};
 use isoforge::topo::{check_with, hausdorff, CheckOptions, MeshReport};
 use isoforge::volume::Iso;
 use isoforge::voxelize::{self, VoxelizeOptions};
@@ -217,7 +217,12 @@ fn issue_45_sharp_methods_on_every_real_scan() {
             };
             let (m33, t33) = run(Method::MarchingCubes33);
             let want = genera(&check_with(&m33, &CheckOptions::default()));
-            let plain = |split| Method::DualContouring { quads: false, split, manifold: false };
+            let plain = |split| Method::DualContouring {
+                quads: false,
+                split,
+                manifold: false,
+                adaptivity: Adaptivity::UNIFORM,
+            };
             for method in [Method::parse("emc").unwrap(), Method::parse("dc").unwrap(), plain(false), plain(true)] {
                 let (mesh, t) = run(method);
                 let (r, mut found) = defects(&mesh, closed.lattice(), method.is_manifold());

@@ -19,8 +19,8 @@ pub use request::{NoSurface, ParseError, Region, Request, Roi};
 use crate::cube::{CellRange, VertexKey};
 use crate::error::{Error, Result};
 use crate::extract::{
-    BodyCentredTetrahedra, Counting, Decomposition, DualContouring, ExtendedMarchingCubes, Extractor, MarchingCubes,
-    MarchingCubes33, MarchingTetrahedra, Masked, PointMask, SurfaceNets,
+    AdaptiveDualContouring, BodyCentredTetrahedra, Counting, Decomposition, DualContouring, ExtendedMarchingCubes,
+    Extractor, MarchingCubes, MarchingCubes33, MarchingTetrahedra, Masked, PointMask, SurfaceNets,
 };
 use crate::grid::{AnyGrid, AnySparse, DType, DenseGrid, Sample, SparseGrid};
 use crate::mesh::post::PostProcess;
@@ -34,6 +34,7 @@ use crate::walk::{
     Walker,
 };
 
+pub use crate::extract::Adaptivity;
 pub use crate::mesh::Normals;
 
 /// An extraction algorithm.
@@ -64,6 +65,10 @@ pub enum Method {
         split: bool,
         /// The manifold mode ([`DualContouring::manifold`], the default); `false`: plain \[Ju02\].
         manifold: bool,
+        /// Adaptive dual contouring's error bound in cell widths
+        /// ([`AdaptiveDualContouring`]: an octree of merged cells); uniform (the default) when 0.
+        /// Plain mode only (`manifold` and `split` false): adaptive dc is not manifold.
+        adaptivity: Adaptivity,
     },
     /// Extended marching cubes ([`ExtendedMarchingCubes`]): MC33 with a feature vertex where the
     /// normals of a loop spread wider than `feature_angle` (whole degrees), creases flipped to
@@ -75,7 +80,8 @@ pub enum Method {
 }
 
 /// `--method dc`: manifold dual contouring's triangles.
-const DC: Method = Method::DualContouring { quads: false, split: false, manifold: true };
+const DC: Method =
+    Method::DualContouring { quads: false, split: false, manifold: true, adaptivity: Adaptivity::UNIFORM };
 /// `--method emc` with the default feature angle.
 const EMC: Method =
     Method::ExtendedMarchingCubes { feature_angle: crate::extract::extended::DEFAULT_FEATURE_ANGLE as u8 };
@@ -208,7 +214,9 @@ pub fn with_extractor<Vis: ExtractorVisitor>(method: Method, v: Vis) -> Vis::Out
         Method::Tetrahedra6 => v.visit(tetrahedra(Decomposition::Six)),
         Method::TetrahedraBcc => v.visit(BodyCentredTetrahedra),
         Method::SurfaceNets => v.visit(SurfaceNets),
-        Method::DualContouring { quads, split, manifold } => {
+        // Adaptive dc is not a per-cell extractor: `adaptive` intercepts it before any walk (and
+        // `run` refuses it), so only its uniform form reaches here.
+        Method::DualContouring { quads, split, manifold, adaptivity: _ } => {
             v.visit(DualContouring { quads, split, manifold, ..DualContouring::default() })
         }
         Method::ExtendedMarchingCubes { feature_angle } => {
@@ -244,6 +252,7 @@ pub fn run<V: ?Sized, W: Walker<V>>(
             }
         }
     }
+    refuse_adaptive(opts.method, "a walk by cells")?;
     let mask = opts.mask.as_deref();
     with_extractor(opts.method, Run { walker, vol, iso, mask, out })
 }
@@ -275,6 +284,56 @@ fn builder(opts: &Options) -> MeshBuilder {
 fn finish(out: MeshBuilder, stats: WalkStats) -> Result<Extraction> {
     let (mesh, keys) = out.finish_keyed()?;
     Ok(Extraction { mesh, stats, keys })
+}
+
+/// `opts.method`'s adaptive dual contouring when it asks for one (an error bound above 0),
+/// checked: plain mode only, and no mask, range or vertex keys (it is not walked by cells).
+///
+/// # Errors
+/// [`Error::InvalidInput`] when the method combines adaptivity with the manifold mode or
+/// `split`, or the options with a mask, a range or keys.
+fn adaptive(opts: &Options) -> Result<Option<AdaptiveDualContouring>> {
+    let Method::DualContouring { quads, split, manifold, adaptivity } = opts.method else { return Ok(None) };
+    if adaptivity.is_uniform() {
+        return Ok(None);
+    }
+    let e = adaptivity.cells();
+    if manifold || split {
+        return Err(Error::InvalidInput(format!(
+            "adaptivity {e}: adaptive dual contouring is plain dc (not manifold): use it without the manifold mode \
+             or split"
+        )));
+    }
+    if opts.mask.is_some() || opts.range.is_some() || opts.keys != KeyRecord::None {
+        return Err(Error::InvalidInput(format!(
+            "adaptivity {e}: adaptive dual contouring meshes the whole volume: no mask, range or vertex keys"
+        )));
+    }
+    let dc = DualContouring { quads, split: false, manifold: false, ..DualContouring::default() };
+    Ok(Some(AdaptiveDualContouring { dc, adaptivity: e }))
+}
+
+/// Adaptive dual contouring of `vol` as an [`Extraction`].
+fn contour_adaptive<V: Volume + ?Sized>(
+    a: &AdaptiveDualContouring,
+    vol: &V,
+    iso: Iso,
+    opts: &Options,
+) -> Result<Extraction> {
+    let out = a.contour(vol, iso, opts.normals == Normals::Gradient)?;
+    Ok(Extraction { mesh: out.mesh, stats: out.stats, keys: Vec::new() })
+}
+
+/// Refuses adaptive dual contouring where the volume is walked by cells (streams, surface
+/// following, label surfaces, [`run`]).
+fn refuse_adaptive(method: Method, what: &str) -> Result<()> {
+    match method {
+        Method::DualContouring { adaptivity, .. } if !adaptivity.is_uniform() => Err(Error::InvalidInput(format!(
+            "adaptivity {}: adaptive dual contouring needs the whole volume at once, not {what}",
+            adaptivity.cells()
+        ))),
+        _ => Ok(()),
+    }
 }
 
 /// Extracts the surface of any volume at `iso`: tabulated at the iso and walked in parallel
@@ -309,6 +368,15 @@ fn extract_volume(
     progress: Option<&dyn Progress>,
 ) -> Result<Extraction> {
     check(iso, opts, vol.lattice().dims())?;
+    if let Some(a) = adaptive(opts)? {
+        // The values and crossings uniform dc would walk: the table's when it fits.
+        return if vol.lattice().num_points() <= Tabulated::MAX_POINTS {
+            let table = in_pool(opts.threads, || Tabulated::new(vol, iso))??;
+            contour_adaptive(&a, &table, Iso::below(0.0), opts)
+        } else {
+            contour_adaptive(&a, vol, iso, opts)
+        };
+    }
     in_pool(opts.threads, || {
         let mut out = builder(opts);
         let stats = if vol.lattice().num_points() <= Tabulated::MAX_POINTS {
@@ -359,6 +427,9 @@ pub fn extract_grid(grid: &AnyGrid, iso: Iso, opts: &Options, progress: Option<&
         if opts.sparse == Some(true) || opts.follow.is_some() {
             return extract_sparse(&SparseGrid::from_dense(g, iso), iso, opts);
         }
+        if let Some(a) = adaptive(opts)? {
+            return contour_adaptive(&a, &GridVolume::new(g), iso, opts);
+        }
         let mut out = builder(opts);
         let stats = run(&mut walker(opts, progress), &GridVolume::new(g), iso, opts, &mut out)?;
         finish(out, stats)
@@ -400,6 +471,9 @@ pub fn extract_sparse<S: Sample>(grid: &SparseGrid<S>, iso: Iso, opts: &Options)
     check(iso, opts, grid.lattice().dims())?;
     if opts.mask.is_some() || opts.range.is_some() {
         return Err(Error::InvalidInput("a sparse grid is walked by its active blocks: no mask or range".into()));
+    }
+    if let Some(a) = adaptive(opts)? {
+        return contour_adaptive(&a, &SparseVolume::new(grid), iso, opts);
     }
     struct Go<'a, S> {
         grid: &'a SparseGrid<S>,
@@ -443,6 +517,7 @@ pub fn extract_following<S: Sample>(
     seeds: Seeds<'_>,
 ) -> Result<(Extraction, FollowStats)> {
     check(iso, opts, grid.lattice().dims())?;
+    refuse_adaptive(opts.method, "surface following")?;
     if opts.mask.is_some() || opts.range.is_some() {
         return Err(Error::InvalidInput("surface following floods from seeds: no mask or range".into()));
     }
@@ -526,6 +601,7 @@ pub fn extract_streamed(
 ) -> Result<StreamStats> {
     let dims = SlabSource::<u8>::lattice(src).dims();
     check(iso, opts, dims)?;
+    refuse_adaptive(opts.method, "a streamed walk")?;
     if opts.mask.is_some() || opts.range.is_some() {
         return Err(Error::InvalidInput("streamed extraction walks the whole volume: no mask or range".into()));
     }

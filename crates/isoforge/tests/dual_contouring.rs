@@ -8,7 +8,7 @@ use isoforge::extract::{Cell, DualContouring, Extractor, SurfaceNets};
 use isoforge::grid::{AnyGrid, DenseGrid, Lattice};
 use isoforge::math::Vec3;
 use isoforge::mesh::{Mesh, MeshBuilder, Normals};
-use isoforge::pipeline::{self, Method, Options};
+use isoforge::pipeline::{self, Adaptivity, Method, Options};
 use isoforge::topo;
 use isoforge::volume::{Field, GridVolume, Iso, Linear, Sampled};
 use isoforge::walk::{FlyingEdgesWalker, ReferenceWalker, SlabWalker, Walker};
@@ -139,13 +139,19 @@ fn issue_45_dc_keeps_the_corners_of_a_rotated_box_that_mc_cuts() {
     ];
     for (i, b) in boxes.into_iter().enumerate() {
         let worst = |m: &Mesh| b.corners().iter().map(|&c| distance_to_mesh(m, c)).fold(0.0, f64::max) / h;
-        let dc =
-            extract_field(b, lattice.clone(), Method::DualContouring { quads: false, split: false, manifold: true });
+        let dc = extract_field(
+            b,
+            lattice.clone(),
+            Method::DualContouring { quads: false, split: false, manifold: true, adaptivity: Adaptivity::UNIFORM },
+        );
         let wide = dc_with_margin(b, lattice.clone());
         let mc = extract_field(b, lattice.clone(), Method::MarchingCubes);
         let emc = extract_field(b, lattice.clone(), Method::parse("emc").unwrap());
-        let plain =
-            extract_field(b, lattice.clone(), Method::DualContouring { quads: false, split: false, manifold: false });
+        let plain = extract_field(
+            b,
+            lattice.clone(),
+            Method::DualContouring { quads: false, split: false, manifold: false, adaptivity: Adaptivity::UNIFORM },
+        );
         let (e_dc, e_wide, e_mc, e_emc, e_plain) = (worst(&dc), worst(&wide), worst(&mc), worst(&emc), worst(&plain));
         eprintln!(
             "rotated box {i}: worst corner error dc {e_dc:.4} h (margin 1: {e_wide:.4} h, plain: {e_plain:.4} h), \
@@ -178,10 +184,14 @@ fn issue_45_dc_sphere_is_closed_oriented_and_on_the_surface() {
     let g = DenseGrid::from_fn(lattice.clone(), |[i, j, k]| {
         sphere(Vec3::from([i, j, k].map(|x| -1.0 + 2.0 * x as f32 / (n - 1) as f32)))
     });
-    let tri =
-        Options { method: Method::DualContouring { quads: false, split: false, manifold: true }, ..Options::default() };
-    let quad =
-        Options { method: Method::DualContouring { quads: true, split: false, manifold: true }, ..Options::default() };
+    let tri = Options {
+        method: Method::DualContouring { quads: false, split: false, manifold: true, adaptivity: Adaptivity::UNIFORM },
+        ..Options::default()
+    };
+    let quad = Options {
+        method: Method::DualContouring { quads: true, split: false, manifold: true, adaptivity: Adaptivity::UNIFORM },
+        ..Options::default()
+    };
     let from_grid =
         |o: &Options| pipeline::extract_grid(&AnyGrid::F32(g.clone()), Iso::below(0.0), o, None).unwrap().mesh;
     let from_field =

@@ -3,7 +3,7 @@
 //! docs/BENCHMARKS.md §16), and the inside components of their sign grids.
 
 use isoforge::math::Vec3;
-use isoforge::pipeline::{extract_builtin, Method, Options};
+use isoforge::pipeline::{extract_builtin, Adaptivity, Method, Options};
 use isoforge::volume::catalog::{parse, Builtin};
 use isoforge::volume::sdf::features::{measure, FeatureErrors};
 use isoforge::volume::{Field, FieldVisitor};
@@ -41,7 +41,7 @@ fn dual_contouring_keeps_corners_with_exact_gradients() {
     // corners within 0.045 h (the three where the ball meets the edges: 0.14 h); the rotated box's
     // corners within 0.22 h; crease 0.22 h; cylinder's rims 0.09 h — before vertices fitted to
     // exact normals could leave their cells (`DualContouring::margin`): now 0.000 on the box.
-    let plain = Method::DualContouring { quads: false, split: false, manifold: false };
+    let plain = Method::DualContouring { quads: false, split: false, manifold: false, adaptivity: Adaptivity::UNIFORM };
     let e = errors("box-minus-sphere?n=32", plain);
     assert!(e.convex_corner.unwrap() <= 0.05, "{e:?}");
     assert!(e.corner.unwrap() <= 0.2, "{e:?}");

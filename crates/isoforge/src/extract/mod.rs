@@ -10,6 +10,7 @@
 //! | [`MarchingTetrahedra`] \[Doi91\] | triangles | yes | yes | of the tetrahedral split | no |
 //! | [`SurfaceNets`] \[Gibson98\] | quads | no (dual: non-manifold where a cell holds two sheets) | yes | no | no |
 //! | [`DualContouring`] \[Ju02\] | triangles (quads on request) | no (surface nets' connectivity) | yes | no | yes: corners and creases whose planes meet inside the cell |
+//! | [`AdaptiveDualContouring`] \[Ju02\] §4 (a whole volume, not per cell) | triangles (quads and triangles on request) | no | yes (crack-free across levels) | no; the uniform dc's components and genus kept by the sign tests | as dual contouring, merged vertices within the error bound of their planes |
 //! | [`Masked`] | as the inner extractor, open at the mask's edge | | | | |
 //! | [`contour_octree`] \[Ju02\] (a [`SignedOctree`](crate::grid::SignedOctree)'s stored vertices) | quads | no (one vertex per cell) | yes, when the tree's signs agree | no | as the stored vertices |
 //!
@@ -21,6 +22,7 @@
 //! [`process_decided`](Extractor::process_decided); extractors that cannot tell their output
 //! before making it run on per-slab meshes stitched by vertex key instead.
 
+pub mod adaptive;
 mod cell;
 pub mod dual_contouring;
 pub mod extended;
@@ -34,6 +36,7 @@ pub mod squares;
 pub mod surface_nets;
 pub mod tetrahedra;
 
+pub use adaptive::{AdaptiveContour, AdaptiveDualContouring, Adaptivity};
 pub use cell::{Cell, Hermite, Placed};
 pub use dual_contouring::DualContouring;
 pub use extended::ExtendedMarchingCubes;

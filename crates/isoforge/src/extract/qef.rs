@@ -101,6 +101,54 @@ impl Qef {
     }
 }
 
+/// A [`Qef`] that also keeps the constant `bᵀb = Σ (nᵢ · pᵢ)²`, so its error at a point is absolute
+/// (the sum of squared distances to the planes) and QEFs of neighbouring cells can be summed into
+/// their parent's (adaptive dual contouring's merge test, \[Ju02\] §4.1).
+#[derive(Debug, Clone, Copy, Default, PartialEq)]
+pub struct QefSum {
+    /// The sums the solve needs.
+    pub qef: Qef,
+    /// `Σ (n · p)²`.
+    btb: f64,
+}
+
+impl QefSum {
+    /// Adds the tangent plane through `p` with normal `n` (coordinates in `f64`: a frame shared
+    /// by the cells summed, such as lattice indices).
+    #[inline]
+    pub fn add(&mut self, p: [f64; 3], n: [f64; 3]) {
+        let d = n[0] * p[0] + n[1] * p[1] + n[2] * p[2];
+        for r in 0..3 {
+            for c in 0..3 {
+                self.qef.ata[r][c] += n[r] * n[c];
+            }
+            self.qef.atb[r] += n[r] * d;
+            self.qef.mass[r] += p[r];
+        }
+        self.qef.count += 1;
+        self.btb += d * d;
+    }
+
+    /// Adds every plane of `other` (the planes of both, as if added one by one).
+    pub fn merge(&mut self, other: &QefSum) {
+        for r in 0..3 {
+            for c in 0..3 {
+                self.qef.ata[r][c] += other.qef.ata[r][c];
+            }
+            self.qef.atb[r] += other.qef.atb[r];
+            self.qef.mass[r] += other.qef.mass[r];
+        }
+        self.qef.count += other.qef.count;
+        self.btb += other.btb;
+    }
+
+    /// `E(x) = Σ (nᵢ · (x − pᵢ))²`, the sum of the squared (normal-weighted) distances of `x` from
+    /// the planes; never negative (rounding clamped).
+    pub fn error(&self, x: [f64; 3]) -> f64 {
+        (self.qef.relative_error(x) + self.btb).max(0.0)
+    }
+}
+
 /// Eigen-decomposition of a symmetric 3×3 matrix in closed form: the eigenvalues and the
 /// eigenvectors as the columns of the second matrix (`a = V diag(λ) Vᵀ`, `V` orthonormal,
 /// `λ₀ ≤ λ₁ ≤ λ₂`). `a` must be symmetric.
@@ -320,5 +368,37 @@ mod tests {
                 assert!(e >= e0 - 1e-9 * e0.abs().max(1.0), "{e} < {e0}");
             }
         }
+    }
+
+    /// Summed QEFs equal the QEF of all planes, and their error is the sum of squared distances.
+    #[test]
+    fn summed_qefs_measure_absolute_distances() {
+        let mut r = rng(3);
+        let (mut a, mut b, mut all) = (QefSum::default(), QefSum::default(), QefSum::default());
+        let mut planes = Vec::new();
+        for i in 0..9 {
+            let n = [r(), r(), r()];
+            let p = [r() + 10.0, r() - 4.0, r() * 3.0];
+            planes.push((p, n));
+            all.add(p, n);
+            if i % 2 == 0 {
+                a.add(p, n)
+            } else {
+                b.add(p, n)
+            }
+        }
+        a.merge(&b);
+        assert_eq!(a.qef.count(), 9);
+        let x = [10.2, -3.9, 0.4];
+        let direct: f64 = planes.iter().map(|(p, n)| (0..3).map(|i| n[i] * (x[i] - p[i])).sum::<f64>().powi(2)).sum();
+        assert!((a.error(x) - direct).abs() < 1e-9 * direct.max(1.0), "{} vs {direct}", a.error(x));
+        assert!((all.error(x) - direct).abs() < 1e-9 * direct.max(1.0));
+        // Three planes through one point: no error there.
+        let mut corner = QefSum::default();
+        for n in [[1.0, 0.0, 0.0], [0.0, 1.0, 0.0], [0.6, 0.0, 0.8]] {
+            corner.add([7.0, 8.0, 9.0], n);
+        }
+        assert!(corner.error([7.0, 8.0, 9.0]) < 1e-9);
+        assert!((corner.error([8.0, 8.0, 9.0]) - 1.36).abs() < 1e-9);
     }
 }
