@@ -12,8 +12,12 @@
 
 use std::sync::Arc;
 
+pub mod entry;
+pub mod plan;
 pub mod request;
 
+pub use entry::{extract_request, prepare, PrepareError, Prepared, Source, Surface};
+pub use plan::MemoryPlan;
 pub use request::{NoSurface, ParseError, Region, Request, Roi};
 
 use crate::cube::{CellRange, VertexKey};
