@@ -303,33 +303,6 @@ pub fn extract_request<V>(
     Ok(out)
 }
 
-impl fmt::Display for Refusal {
-    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
-        use super::plan::Size;
-        match *self {
-            Refusal::SparseField { points } => write!(
-                f,
-                "a field sampled sparsely ({points} points) uses memory that follows its surface, which is not \
-                 known before sampling"
-            ),
-            Refusal::Field { need, points } => {
-                write!(
-                    f,
-                    "meshing the field ({points} values) in memory can need {}, and fields do not stream",
-                    Size(need)
-                )
-            }
-            Refusal::ReadWhole { need } => {
-                write!(f, "the volume is read whole, and with the largest mesh it can need {}", Size(need))
-            }
-            Refusal::Stream { least, slab: [nx, ny] } => {
-                write!(f, "streaming it slab by slab ({nx}×{ny} points) holds at least {} before any mesh", Size(least))
-            }
-            Refusal::Sparse { need } => write!(f, "the sparse grid meshed in memory can need {}", Size(need)),
-        }
-    }
-}
-
 #[cfg(test)]
 mod tests {
     use super::*;

@@ -201,6 +201,32 @@ impl MemoryPlan {
     }
 }
 
+impl fmt::Display for Refusal {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        match *self {
+            Refusal::SparseField { points } => write!(
+                f,
+                "a field sampled sparsely ({points} points) uses memory that follows its surface, which is not \
+                 known before sampling"
+            ),
+            Refusal::Field { need, points } => {
+                write!(
+                    f,
+                    "meshing the field ({points} values) in memory can need {}, and fields do not stream",
+                    Size(need)
+                )
+            }
+            Refusal::ReadWhole { need } => {
+                write!(f, "the volume is read whole, and with the largest mesh it can need {}", Size(need))
+            }
+            Refusal::Stream { least, slab: [nx, ny] } => {
+                write!(f, "streaming it slab by slab ({nx}×{ny} points) holds at least {} before any mesh", Size(least))
+            }
+            Refusal::Sparse { need } => write!(f, "the sparse grid meshed in memory can need {}", Size(need)),
+        }
+    }
+}
+
 /// The least memory a streamed extraction of a volume on `lattice` with samples of
 /// `sample_bytes` holds whatever the data: its slabs of samples (the walker's five and the
 /// read-ahead's four), three planes of bits and two of row counts, and the files' buffers; the
