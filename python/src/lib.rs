@@ -9,6 +9,7 @@
 mod chunks;
 mod contours;
 
+use std::borrow::Cow;
 use std::path::Path;
 use std::sync::atomic::{AtomicBool, Ordering};
 use std::sync::Arc;
@@ -17,7 +18,7 @@ use std::time::Duration;
 use isoforge::extract::PointMask;
 use isoforge::grid::{AnyGrid, DenseGrid, Lattice, Sample};
 use isoforge::mesh::{Mesh, Normals};
-use isoforge::pipeline::{extract_grid, Method, Options};
+use isoforge::pipeline::{extract_grid, extract_request, Method, Options, Request, Source};
 use isoforge::volume::Iso;
 use isoforge::walk::Progress;
 use numpy::{PyArray1, PyArrayMethods, PyReadonlyArray2, PyReadonlyArray3, PyUntypedArray, PyUntypedArrayMethods};
@@ -285,15 +286,19 @@ fn extract_mesh<'py>(
         }
         _ => return Err(PyValueError::new_err("extract: pass an array or a path")),
     };
-    let opts = Options {
+    let options = Options {
         method,
         normals: if normals { Normals::Gradient } else { Normals::None },
         threads,
         ..Options::default()
     };
-    let mut ex = cancellable(py, |p| extract_grid(&grid, Iso::below(iso), &opts, Some(p)))?;
-    ex.mesh.triangulate();
-    mesh_arrays(py, ex.mesh)
+    // The library's one entry point, as the CLI's `extract`: the iso checked against the values,
+    // no surface refused with the same sentence.
+    let request: Request = Request { isos: vec![iso], options, ..Request::default() };
+    let surfaces = cancellable(py, |p| extract_request(&request, Source::Grid(Cow::Borrowed(&grid)), None, Some(p)))?;
+    let mut mesh = surfaces.into_iter().next().map(|s| s.extraction.mesh).unwrap_or_default();
+    mesh.triangulate();
+    mesh_arrays(py, mesh)
 }
 
 /// A volume file through isoforge-io's readers: `(array of shape (nz, ny, nx) in the file's

@@ -105,6 +105,16 @@ def test_errors_are_value_and_memory_errors(tmp_path):
         isoforge.Mesh(np.zeros((3, 3)), [[0, 1, 5]]).check()
 
 
+def test_extract_refuses_an_iso_without_surface_as_the_cli_does():
+    # isoforge.extract goes through the library's one entry point (pipeline::extract_request):
+    # an iso outside the values, or one every point is outside of, is the CLI's sentence.
+    vol = ball(9, 3.0)
+    with pytest.raises(ValueError, match=r"iso 1000 is outside the value range \["):
+        isoforge.extract(vol, 1000.0)
+    with pytest.raises(ValueError, match="gives no surface: every lattice point is outside"):
+        isoforge.extract(vol, float(vol.min()))
+
+
 def test_marching_cubes_mask_keeps_the_cells_of_skimage():
     measure = pytest.importorskip("skimage.measure")
     vol = ball(25, 9.0)
