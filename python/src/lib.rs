@@ -9,6 +9,7 @@
 mod chunks;
 mod contours;
 
+use std::borrow::Cow;
 use std::path::Path;
 use std::sync::atomic::{AtomicBool, Ordering};
 use std::sync::Arc;
@@ -17,7 +18,7 @@ use std::time::Duration;
 use isoforge::extract::PointMask;
 use isoforge::grid::{AnyGrid, DenseGrid, Lattice, Sample};
 use isoforge::mesh::{Mesh, Normals};
-use isoforge::pipeline::{extract_grid, Method, Options};
+use isoforge::pipeline::{extract_grid, extract_request, extract_samples, Method, Options, Request, Source};
 use isoforge::volume::Iso;
 use isoforge::walk::Progress;
 use numpy::{PyArray1, PyArrayMethods, PyReadonlyArray2, PyReadonlyArray3, PyUntypedArray, PyUntypedArrayMethods};
@@ -123,8 +124,9 @@ fn any_grid(volume: &Bound<'_, PyUntypedArray>, spacing: [f64; 3], origin: [f64;
 
 /// scikit-image's per-vertex `values`: the largest range (max − min of the 8 corners) among the
 /// cells sharing the vertex's edge (a vertex on a point: its cells).
-fn spreads<S: Sample>(g: &DenseGrid<S>, positions: &[[f32; 3]]) -> Vec<f32> {
-    let (dims, spacing) = (g.lattice().dims(), g.lattice().spacing());
+fn spreads<S: Sample>(l: &Lattice, samples: &[S], positions: &[[f32; 3]]) -> Vec<f32> {
+    let (dims, spacing) = (l.dims(), l.spacing());
+    let get = |q: [u32; 3]| samples[l.linear(q)];
     use rayon::prelude::*;
     // One vertex's value reads its cells only: in parallel over vertices (serial, this was a
     // quarter of `marching_cubes` at 256³).
@@ -147,7 +149,7 @@ fn spreads<S: Sample>(g: &DenseGrid<S>, positions: &[[f32; 3]]) -> Vec<f32> {
                 let (mut lo, mut hi) = (f64::INFINITY, f64::NEG_INFINITY);
                 for k in 0..8u32 {
                     let q = [0, 1, 2].map(|a| (c[a] + i64::from((k >> a) & 1)) as u32);
-                    let v = g.get(q).to_f64();
+                    let v = get(q).to_f64();
                     lo = lo.min(v);
                     hi = hi.max(v);
                 }
@@ -176,25 +178,61 @@ fn extract_array<'py>(
     mask: Option<PyReadonlyArray3<'py, bool>>,
 ) -> PyResult<(Bound<'py, PyAny>, Bound<'py, PyAny>, Bound<'py, PyAny>, Bound<'py, PyAny>)> {
     let method = Method::parse(method).ok_or_else(|| PyValueError::new_err(format!("method {method:?}: unknown")))?;
-    let grid = any_grid(volume, [spacing[2], spacing[1], spacing[0]], [0.0; 3])?;
-    let mask = match mask {
-        None => None,
-        Some(m) => {
-            let flags: Vec<bool> = m.as_array().iter().copied().collect();
-            Some(Arc::new(PointMask::of_cells(grid.lattice().dims(), flags).map_err(value_error)?))
+    let xyz = [spacing[2], spacing[1], spacing[0]];
+    let options = |dims: [u32; 3]| -> PyResult<Options> {
+        let mask = match &mask {
+            None => None,
+            Some(m) => {
+                let flags: Vec<bool> = m.as_array().iter().copied().collect();
+                Some(Arc::new(PointMask::of_cells(dims, flags).map_err(value_error)?))
+            }
+        };
+        Ok(Options {
+            method,
+            normals: if normals { Normals::Gradient } else { Normals::None },
+            threads,
+            mask,
+            ..Options::default()
+        })
+    };
+    let iso = Iso::above(level);
+    // C-ordered arrays are walked where numpy keeps them (no copy: issue 48); others are copied
+    // into a grid in the library's axis order first.
+    let mut borrowed = None;
+    if volume.ndim() == 3 && volume.is_c_contiguous() {
+        macro_rules! walk_in_place {
+            ($($t:ty),*) => {
+                $(if let Ok(a) = volume.extract::<PyReadonlyArray3<'py, $t>>() {
+                    if let Ok(data) = a.as_slice() {
+                        let s = a.shape();
+                        let dims = [s[2], s[1], s[0]].map(|d| u32::try_from(d).unwrap_or(u32::MAX));
+                        let lattice = Lattice::with_geometry(dims, xyz, [0.0; 3]).map_err(value_error)?;
+                        let opts = options(dims)?;
+                        let mut ex = cancellable(py, |p| extract_samples(&lattice, data, iso, &opts, Some(p)))?;
+                        ex.mesh.triangulate();
+                        let m = ex.mesh;
+                        let values = py.detach(|| in_threads(threads, || spreads(&lattice, data, &m.positions)));
+                        borrowed = Some((m, values));
+                    }
+                })*
+            };
+        }
+        walk_in_place!(u8, i8, u16, i16, u32, i32, f32, f64);
+    }
+    let (m, values) = match borrowed {
+        Some(done) => done,
+        None => {
+            let grid = any_grid(volume, xyz, [0.0; 3])?;
+            let opts = options(grid.lattice().dims())?;
+            let mut ex = cancellable(py, |p| extract_grid(&grid, iso, &opts, Some(p)))?;
+            ex.mesh.triangulate();
+            let m = ex.mesh;
+            let values = py.detach(|| {
+                in_threads(threads, || isoforge::with_grid!(&grid, g => spreads(g.lattice(), g.data(), &m.positions)))
+            });
+            (m, values)
         }
     };
-    let opts = Options {
-        method,
-        normals: if normals { Normals::Gradient } else { Normals::None },
-        threads,
-        mask,
-        ..Options::default()
-    };
-    let mut ex = cancellable(py, |p| extract_grid(&grid, Iso::above(level), &opts, Some(p)))?;
-    ex.mesh.triangulate();
-    let m = ex.mesh;
-    let values = py.detach(|| in_threads(threads, || isoforge::with_grid!(&grid, g => spreads(g, &m.positions))));
     let swap = |p: &[[f32; 3]]| -> Vec<f32> { p.iter().flat_map(|v| [v[2], v[1], v[0]]).collect() };
     let n = m.positions.len();
     let verts = PyArray1::from_vec(py, swap(&m.positions)).reshape([n, 3])?;
@@ -285,15 +323,19 @@ fn extract_mesh<'py>(
         }
         _ => return Err(PyValueError::new_err("extract: pass an array or a path")),
     };
-    let opts = Options {
+    let options = Options {
         method,
         normals: if normals { Normals::Gradient } else { Normals::None },
         threads,
         ..Options::default()
     };
-    let mut ex = cancellable(py, |p| extract_grid(&grid, Iso::below(iso), &opts, Some(p)))?;
-    ex.mesh.triangulate();
-    mesh_arrays(py, ex.mesh)
+    // The library's one entry point, as the CLI's `extract`: the iso checked against the values,
+    // no surface refused with the same sentence.
+    let request: Request = Request { isos: vec![iso], options, ..Request::default() };
+    let surfaces = cancellable(py, |p| extract_request(&request, Source::Grid(Cow::Borrowed(&grid)), None, Some(p)))?;
+    let mut mesh = surfaces.into_iter().next().map(|s| s.extraction.mesh).unwrap_or_default();
+    mesh.triangulate();
+    mesh_arrays(py, mesh)
 }
 
 /// A volume file through isoforge-io's readers: `(array of shape (nz, ny, nx) in the file's

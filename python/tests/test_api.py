@@ -105,6 +105,16 @@ def test_errors_are_value_and_memory_errors(tmp_path):
         isoforge.Mesh(np.zeros((3, 3)), [[0, 1, 5]]).check()
 
 
+def test_extract_refuses_an_iso_without_surface_as_the_cli_does():
+    # isoforge.extract goes through the library's one entry point (pipeline::extract_request):
+    # an iso outside the values, or one every point is outside of, is the CLI's sentence.
+    vol = ball(9, 3.0)
+    with pytest.raises(ValueError, match=r"iso 1000 is outside the value range \["):
+        isoforge.extract(vol, 1000.0)
+    with pytest.raises(ValueError, match="gives no surface: every lattice point is outside"):
+        isoforge.extract(vol, float(vol.min()))
+
+
 def test_marching_cubes_mask_keeps_the_cells_of_skimage():
     measure = pytest.importorskip("skimage.measure")
     vol = ball(25, 9.0)
@@ -152,3 +162,24 @@ def test_sharp_methods_come_closer_to_a_cubes_corners_and_stay_manifold():
         v = mesh.vertices
         worst[method] = max(np.min(np.linalg.norm(v - c, axis=1)) for c in corners)
     assert worst["emc"] < 0.7 * worst["mc"] and worst["dc"] < 0.7 * worst["mc"] and worst["mc"] > 0.5, worst
+
+
+@pytest.mark.parametrize("dtype", [np.float32, np.float64, np.uint8, np.int16])
+def test_marching_cubes_walks_c_ordered_arrays_in_place_as_their_copies(dtype):
+    # Issue 48's zero copy: a C-ordered array is walked where numpy keeps it; F-ordered and
+    # strided arrays are copied first. Both paths give the same arrays.
+    vol = (ball(23, 8.0) * 10).astype(dtype)
+    level = 80.5
+    want = isoforge.marching_cubes(np.asfortranarray(vol), level, spacing=(1.0, 0.5, 2.0))
+    got = isoforge.marching_cubes(vol, level, spacing=(1.0, 0.5, 2.0))
+    assert vol.flags.c_contiguous and not np.asfortranarray(vol).flags.c_contiguous
+    assert len(got[1]) > 0
+    for g, w in zip(got, want):
+        np.testing.assert_array_equal(g, w)
+    # A strided view (every other plane) against its contiguous copy.
+    view = vol[::2]
+    assert not view.flags.c_contiguous
+    a = isoforge.marching_cubes(view, level, method="lorensen")
+    b = isoforge.marching_cubes(np.ascontiguousarray(view), level, method="lorensen")
+    for g, w in zip(a, b):
+        np.testing.assert_array_equal(g, w)

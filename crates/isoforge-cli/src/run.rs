@@ -4,11 +4,13 @@ use std::path::Path;
 use std::time::Instant;
 
 use anyhow::{anyhow, bail, Context, Result};
-use isoforge::extract::Counting;
-use isoforge::grid::{AnyGrid, AnySparse, DType, Histogram, Sample, SparseGrid, IDENTITY};
+use std::borrow::Cow;
+
+use isoforge::grid::{AnyGrid, AnySparse, DType, Histogram, SparseGrid, IDENTITY};
 use isoforge::mesh::post::PostProcess;
 use isoforge::mesh::{ExternalError, MeshBatch, MeshSink, Normals};
-use isoforge::pipeline::{self, Extraction, Method, Options};
+use isoforge::pipeline::plan::{Fit, MemoryPlan, Refusal, Size};
+use isoforge::pipeline::{self, Extraction, PrepareError, Prepared, Source as Input};
 use isoforge::topo::{self, CheckOptions, Guarantee, MeshReport, StreamCheck};
 use isoforge::volume::catalog::{self, Builtin};
 use isoforge::volume::Iso;
@@ -49,47 +51,15 @@ pub fn load(input: &InputConfig) -> Result<Loaded> {
     open_input(input, None, false)
 }
 
-/// `--max-memory` and what decides whether an extraction fits it in memory.
-struct Budget {
-    bytes: u64,
-    method: Method,
-    /// The walk grows per-slab meshes and stitches them (uncounted methods, any mask): about
-    /// twice the mesh at its peak.
-    grows: bool,
-    normals: bool,
-    /// `--require`: the in-memory check must fit too.
-    check: bool,
-    /// Fields sampled sparsely (`--sparse`, `--follow`).
-    sparse: bool,
-}
-
 /// Opens the input; with a memory budget, a volume whose in-memory extraction could exceed it
 /// stays a stream; with `prefer_stream` (see [`streams_by_default`]) every volume that can
 /// stream does.
-fn open_input(input: &InputConfig, budget: Option<&Budget>, prefer_stream: bool) -> Result<Loaded> {
+fn open_input(input: &InputConfig, budget: Option<&MemoryPlan>, prefer_stream: bool) -> Result<Loaded> {
     let (path, raw) = match &input.source {
         Source::Field(f) => {
             if let Some(b) = budget {
                 // Fields do not stream: the table of values and the mesh must fit.
-                let points = f.lattice.num_points();
-                if b.sparse || points > isoforge::volume::Tabulated::MAX_POINTS {
-                    bail!(
-                        "--max-memory: a field sampled sparsely ({} points) uses memory that follows its \
-                         surface, which is not known before sampling; drop --max-memory",
-                        points
-                    );
-                }
-                let need = estimate(&f.lattice, points.saturating_mul(4), b);
-                if need > b.bytes {
-                    bail!(
-                        "--max-memory {}: meshing the field in memory can need {} (its {} values \
-                         and the largest mesh --method {} could make), and fields do not stream",
-                        size(b.bytes),
-                        size(need),
-                        points,
-                        b.method.name()
-                    );
-                }
+                b.field(&f.lattice).map_err(|r| refused("the field", b, r))?;
             }
             return Ok(Loaded::Field(f.clone()));
         }
@@ -110,33 +80,13 @@ fn open_input(input: &InputConfig, budget: Option<&Budget>, prefer_stream: bool)
     let reader = open_reader(path, raw.as_ref(), &open_limits).map_err(|e| match budget {
         Some(b) if whole && b.bytes < input.limits.max_bytes && is_limit(&e) => anyhow!(
             "{name}: images, DICOM series and VTI files are read whole, and its samples need more than --max-memory {}",
-            size(b.bytes)
+            Size(b.bytes)
         ),
         _ => e,
     })?;
     if let Some(b) = budget {
-        let need = in_memory_estimate(&reader, b);
-        if need > b.bytes {
-            if !streams(path) {
-                bail!(
-                    "{name}: images, DICOM series and VTI files are read whole; with the largest mesh \
-                     --method {} could make they need {}, more than --max-memory {}",
-                    b.method.name(),
-                    size(need),
-                    size(b.bytes)
-                );
-            }
-            let least = stream_minimum(&reader);
-            if least > b.bytes {
-                bail!(
-                    "{name}: --max-memory {}: streaming it slab by slab holds at least {} (nine slabs \
-                     of {}×{} samples and the files' buffers, before any mesh)",
-                    size(b.bytes),
-                    size(least),
-                    reader.lattice().dims()[0],
-                    reader.lattice().dims()[1]
-                );
-            }
+        let fit = b.volume(reader.lattice(), reader.volume_bytes(), reader.dtype().size() as u64, streams(path));
+        if fit.map_err(|r| refused(&name.to_string(), b, r))? == Fit::Stream {
             return Ok(Loaded::Stream(reader));
         }
     }
@@ -150,8 +100,8 @@ fn open_input(input: &InputConfig, budget: Option<&Budget>, prefer_stream: bool)
 }
 
 /// Reads the sparse (VDB) file `path`. Sparse files are read whole, so with a budget the reading
-/// stops at it ([`sparse_mesh_estimate`] checks the mesh once the isos are known).
-fn read_sparse_within(path: &Path, limits: &Limits, budget: Option<&Budget>) -> Result<isoforge_io::SparseFile> {
+/// stops at it ([`MemoryPlan::sparse`] checks the mesh once the isos are known).
+fn read_sparse_within(path: &Path, limits: &Limits, budget: Option<&MemoryPlan>) -> Result<isoforge_io::SparseFile> {
     let name = path.display();
     let within = match budget {
         Some(b) if b.bytes < limits.max_bytes => Limits::new(b.bytes),
@@ -159,7 +109,7 @@ fn read_sparse_within(path: &Path, limits: &Limits, budget: Option<&Budget>) -> 
     };
     spin(format!("reading {name}"), || isoforge_io::read_sparse(path, None, &within)).map_err(|e| match budget {
         Some(b) if matches!(e, isoforge_io::Error::Limit { .. }) && b.bytes < limits.max_bytes => {
-            anyhow!("{name}: sparse files are read whole, and its grid needs more than --max-memory {}", size(b.bytes))
+            anyhow!("{name}: sparse files are read whole, and its grid needs more than --max-memory {}", Size(b.bytes))
         }
         _ => e.into(),
     })
@@ -170,25 +120,34 @@ fn is_limit(e: &anyhow::Error) -> bool {
     matches!(e.downcast_ref::<isoforge_io::Error>(), Some(isoforge_io::Error::Limit { .. }))
 }
 
-/// The memory meshing the sparse grid `g` at `iso` in memory can need at most: its samples and
-/// the largest mesh `b`'s method could make in the blocks of cells the surface may cross.
-fn sparse_mesh_estimate(g: &AnySparse, iso: Iso, b: &Budget) -> u64 {
-    let ranges = match g {
-        AnySparse::F32(g) => g.active_ranges_in(iso, true, 1),
-        AnySparse::F64(g) => g.active_ranges_in(iso, true, 1),
-    };
-    let count = |extra: u32| -> u64 {
-        ranges.iter().map(|r| (0..3).map(|a| u64::from(r.hi[a] - r.lo[a] + extra)).product::<u64>()).sum()
-    };
-    estimate_for(count(1), count(0), g.stats().bytes, b)
-}
-
-/// `bytes` for a message: in KiB below 1 MiB, in MiB below 10 GiB, else in GiB.
-fn size(bytes: u64) -> String {
-    match bytes {
-        b if b < 1 << 20 => format!("{} KiB", b.div_ceil(1 << 10)),
-        b if b < 10 << 30 => format!("{} MiB", b.div_ceil(1 << 20)),
-        b => format!("{} GiB", b.div_ceil(1 << 30)),
+/// The memory plan's refusal of `name` (on `l`) in the CLI's words.
+fn refused(name: &str, b: &MemoryPlan, r: Refusal) -> anyhow::Error {
+    let (budget, method) = (Size(b.bytes), b.method.name());
+    match r {
+        Refusal::SparseField { points } => anyhow!(
+            "--max-memory: a field sampled sparsely ({points} points) uses memory that follows its \
+             surface, which is not known before sampling; drop --max-memory"
+        ),
+        Refusal::Field { need, points } => anyhow!(
+            "--max-memory {budget}: meshing the field in memory can need {} (its {points} values \
+             and the largest mesh --method {method} could make), and fields do not stream",
+            Size(need)
+        ),
+        Refusal::ReadWhole { need } => anyhow!(
+            "{name}: images, DICOM series and VTI files are read whole; with the largest mesh \
+             --method {method} could make they need {}, more than --max-memory {budget}",
+            Size(need)
+        ),
+        Refusal::Stream { least, slab: [nx, ny] } => anyhow!(
+            "{name}: --max-memory {budget}: streaming it slab by slab holds at least {} (nine slabs \
+             of {nx}×{ny} samples and the files' buffers, before any mesh)",
+            Size(least)
+        ),
+        Refusal::Sparse { need } => anyhow!(
+            "{name}: sparse files are meshed in memory, and with the largest mesh --method {method} could \
+             make in the cells the surface may cross it can need {}, more than --max-memory {budget}",
+            Size(need)
+        ),
     }
 }
 
@@ -258,90 +217,13 @@ fn polygon_counts(mesh: &isoforge::mesh::Mesh) -> String {
 /// iso gives no surface).
 fn streamed_range(input: &InputConfig) -> Option<(f64, f64)> {
     let Loaded::Stream(mut r) = open_input(input, None, true).ok()? else { return None };
-    let [nx, ny, nz] = r.lattice().dims();
-    let mut slab = vec![0f64; nx as usize * ny as usize];
-    let (mut lo, mut hi) = (f64::INFINITY, f64::NEG_INFINITY);
-    for _ in 0..nz {
-        isoforge::with_dtype!(r.dtype(), S => {
-            let mut typed = vec![S::from_f64(0.0); slab.len()];
-            r.read_slab(&mut typed).ok()?;
-            for (o, v) in slab.iter_mut().zip(&typed) {
-                *o = v.to_f64();
-            }
-        });
-        for &v in &slab {
-            lo = lo.min(v);
-            hi = hi.max(v);
-        }
-    }
-    Some((lo, hi))
+    pipeline::entry::stream_value_range(&mut r).ok()?
 }
 
 /// `--spacing` / `--origin` for images: the same samples on a placed lattice.
 fn place(grid: AnyGrid, p: &Placement) -> Result<AnyGrid> {
     Ok(grid.placed(p.spacing, p.origin)?)
 }
-
-/// Most vertices per lattice point and triangles per cell of any method: body-centred
-/// tetrahedra make one vertex per segment (3 axis edges per point, 8 centre–corner and 3
-/// centre–centre segments per cell) and have 12 tetrahedra per cell with up to 2 triangles each.
-const ANY_METHOD_MESH: (u64, u64) = (14, 24);
-/// Marching cubes: one vertex per crossed axis edge (3 per point), and at most 5 triangles per
-/// cell (the classic table's largest cases).
-const MC_MESH: (u64, u64) = (3, 5);
-/// Bytes `topo::check` holds per triangle (its edge, fan and triple lists and per-triangle ids)
-/// and per vertex (union-find, flags), rounded up.
-const CHECK_BYTES: (u64, u64) = (112, 12);
-/// Flying Edges' row tables, buffers and the allocator's slack.
-const SLACK: u64 = 64 << 20;
-
-/// Peak memory an in-memory extraction of `reader` could need: the samples, one bit per point,
-/// slack, and the largest mesh the method can make (twice that for the methods that grow their
-/// mesh as they go), plus `topo::check` of it with `--require`. The real mesh is usually far
-/// smaller, but it is not known before the walk; with the worst case counted, the budget holds
-/// whatever the data.
-fn in_memory_estimate(reader: &VolumeReader, b: &Budget) -> u64 {
-    estimate(reader.lattice(), reader.volume_bytes(), b)
-}
-
-/// [`in_memory_estimate`] of the samples of `volume_bytes` on `l`.
-fn estimate(l: &isoforge::grid::Lattice, volume_bytes: u64, b: &Budget) -> u64 {
-    let cells = l.dims().iter().map(|&d| u64::from(d.saturating_sub(1))).product::<u64>();
-    estimate_for(l.num_points(), cells, volume_bytes, b)
-}
-
-/// The memory an in-memory extraction of `cells` cells and `points` points, whose samples take
-/// `volume_bytes`, can need at most with `b`'s method.
-fn estimate_for(points: u64, cells: u64, volume_bytes: u64, b: &Budget) -> u64 {
-    let ((per_point, per_cell), growth) =
-        (if b.method == Method::MarchingCubes { MC_MESH } else { ANY_METHOD_MESH }, if b.grows { 2 } else { 1 });
-    let (vertices, triangles) = (per_point.saturating_mul(points), per_cell.saturating_mul(cells));
-    let vertex_bytes = if b.normals { 24 } else { 12 };
-    let mesh =
-        vertices.saturating_mul(vertex_bytes).saturating_add(triangles.saturating_mul(12)).saturating_mul(growth);
-    let check = if b.check {
-        triangles.saturating_mul(CHECK_BYTES.0).saturating_add(vertices.saturating_mul(CHECK_BYTES.1))
-    } else {
-        0
-    };
-    volume_bytes.saturating_add(points / 8).saturating_add(SLACK).saturating_add(mesh).saturating_add(check)
-}
-
-/// The least memory a streamed extraction of `reader` holds whatever the data: its slabs of
-/// samples (the walker's five and the read-ahead's four), three planes of bits and two of row
-/// counts; the slabs' meshes come on top, as large as the surface makes them.
-fn stream_minimum(reader: &VolumeReader) -> u64 {
-    let [nx, ny, _] = reader.lattice().dims().map(u64::from);
-    let samples = (nx * ny).saturating_mul(reader.dtype().size() as u64).saturating_mul(9);
-    let bits = 3 * ny * nx.div_ceil(64) * 8;
-    let rows = 2 * ny * 40;
-    samples.saturating_add(bits).saturating_add(rows).saturating_add(STREAM_BUFFERS)
-}
-
-/// The file buffers a stream holds whatever the volume (measured with heaptrack on a streamed
-/// PLY): the reader's (1 MiB), the writer's two parts (1 MiB each) and its gathered faces (up to
-/// 2 MiB).
-const STREAM_BUFFERS: u64 = 5 << 20;
 
 fn input_name(input: &InputConfig) -> String {
     match &input.source {
@@ -389,11 +271,11 @@ impl MeshSink for Tee<'_, '_> {
 /// when `--require` asks. The files appear together once every iso succeeded.
 fn extract_streaming(
     c: &ExtractConfig,
-    reader: VolumeReader,
-    isos: &[Iso],
+    mut prepared: Prepared,
     name: &str,
     batch: isoforge_io::Batch,
 ) -> Result<Outcome> {
+    let isos = std::mem::take(&mut prepared.isos);
     if crate::outputs::one_file_for_all_isos(c, isos.len()) {
         bail!(
             "{}: several isos in one {} file need their meshes in memory (drop --max-memory, or write .ply, .stl or .off: a file per iso)",
@@ -402,16 +284,13 @@ fn extract_streaming(
         );
     }
     let mut reports = Vec::new();
-    let mut reader = Some(reader);
-    for &iso in isos {
-        let reader = match reader.take() {
-            Some(r) => r,
-            None => {
-                let Source::File { path, raw } = &c.input.source else { bail!("internal: a streamed field") };
-                open_reader(path, raw.as_ref(), &Limits::new(u64::MAX))?
-            }
-        };
-        reports.push(stream_one(c, reader, iso, isos.len(), name, &batch)?);
+    for (i, &iso) in isos.iter().enumerate() {
+        if i > 0 {
+            // A stream is read once: each further iso reads the file again.
+            let Source::File { path, raw } = &c.input.source else { bail!("internal: a streamed field") };
+            prepared.source = Input::Stream(Box::new(open_reader(path, raw.as_ref(), &Limits::new(u64::MAX))?));
+        }
+        reports.push(stream_one(c, &mut prepared, iso, isos.len(), name, &batch)?);
     }
     batch.commit()?;
     let mut outcome = Outcome::Success;
@@ -431,7 +310,7 @@ fn extract_streaming(
 /// line, and the check report with the file's path when `--require` asks.
 fn stream_one(
     c: &ExtractConfig,
-    mut reader: VolumeReader,
+    prepared: &mut Prepared,
     iso: Iso,
     count: usize,
     name: &str,
@@ -453,7 +332,7 @@ fn stream_one(
     let mut sink = Tee { out: &mut out, check: check.as_mut(), budget: c.max_memory.unwrap_or(u64::MAX) };
     let task = Task::start(format!("meshing iso {} of {name} slab by slab", iso.value));
     let start = Instant::now();
-    let stats = pipeline::extract_streamed(&mut reader, iso, &c.request.options, &mut sink, Some(&task))?;
+    let stats = prepared.stream(iso, &mut sink, Some(&task))?;
     let seconds = start.elapsed().as_secs_f64();
     task.finish();
     if let Some(none) = NoSurface::of(&stats.walk, iso) {
@@ -512,28 +391,15 @@ fn verdict(mesh: &Path, report: &MeshReport, require: &[Guarantee]) -> Outcome {
 
 pub fn extract(c: &ExtractConfig) -> Result<Outcome> {
     let r = &c.request;
-    let budget = c.max_memory.map(|bytes| Budget {
-        bytes,
-        method: r.options.method,
-        grows: r.options.method.counting() == Counting::Unknown || c.mask.is_some(),
-        normals: r.options.normals == Normals::Gradient,
-        check: !c.require.is_empty(),
-        sparse: r.options.sparse == Some(true) || r.options.follow.is_some(),
-    });
+    let budget = c.max_memory.map(|bytes| MemoryPlan::new(bytes, &r.options, c.mask.is_some(), !c.require.is_empty()));
     let batch = crate::outputs::plan_extract(c)?;
     let loaded = open_input(&c.input, budget.as_ref(), streams_by_default(c))?;
     let name = input_name(&c.input);
-    let default_iso = match &loaded {
-        Loaded::Field(b) => b.iso,
-        Loaded::Grid(_) | Loaded::Stream(_) | Loaded::Sparse(_) => Iso::below(0.0),
-    };
-    let isos = r.isos_or(default_iso);
-    let mut mask = None;
-    let mut input_lattice = None;
     if let Some(labels) = &r.labels {
         return extract_labels(c, loaded, labels, &name, batch);
     }
-    let loaded = match loaded {
+    // What each kind of input refuses, in the flags' words (the library refuses them too).
+    match &loaded {
         Loaded::Stream(_) if c.repeat > 1 => bail!("--repeat: out-of-core extraction (--max-memory) runs once"),
         Loaded::Stream(_) if !r.region.is_identity() => {
             bail!("--roi, --close and --space index need the volume in memory (drop --max-memory)")
@@ -541,26 +407,8 @@ pub fn extract(c: &ExtractConfig) -> Result<Outcome> {
         Loaded::Stream(_) if !needs_memory(c).is_empty() => {
             bail!("{} need the volume and mesh in memory (drop --max-memory)", needs_memory(c).join(", "))
         }
-        Loaded::Stream(reader) => return extract_streaming(c, reader, &isos, &name, batch),
         Loaded::Field(_) if !r.region.is_identity() => {
             bail!("--roi, --close and --space index apply to volume files (a field has its own lattice)")
-        }
-        Loaded::Grid(g) => {
-            let range = g.value_range().ok_or_else(|| anyhow!("{name}: the volume has no samples"))?;
-            request::check_isos_in_range(&isos, range.min, range.max)
-                .map_err(|e| anyhow!("{name}: {e} (see `isoforge info {name}`)"))?;
-            if let Some(roi) = &r.region.roi {
-                roi.point_box(g.lattice()).with_context(|| format!("{name}: --roi"))?;
-            }
-            if let Some(m) = &c.mask {
-                let mname = input_name(m);
-                let Loaded::Grid(mg) = load(m)? else { bail!("--mask {mname}: not a volume file") };
-                mask = Some(r.region.mask(&mg, g.lattice().dims()).with_context(|| format!("--mask {mname}"))?);
-            }
-            input_lattice = Some(g.lattice().clone());
-            // Padding outside every iso: the range's end on the outside side (ties are outside).
-            let outside = request::outside_value(isos[0].inside, range.min, range.max);
-            Loaded::Grid(r.region.apply(g, outside).with_context(|| name.clone())?)
         }
         Loaded::Field(_) if c.mask.is_some() => {
             bail!("--mask needs the volume from a file ({} is a built-in field)", input_name(&c.input))
@@ -568,34 +416,45 @@ pub fn extract(c: &ExtractConfig) -> Result<Outcome> {
         Loaded::Sparse(_) if !r.region.is_identity() || c.mask.is_some() => {
             bail!("--roi, --close, --space index and --mask apply to dense volume files, not to {name}")
         }
-        Loaded::Sparse(s) => {
-            if let Some(range) = s.grid.value_range() {
-                request::check_isos_in_range(&isos, range.min, range.max)
-                    .map_err(|e| anyhow!("{name}: {e} (see `isoforge info {name}`)"))?;
+        _ => {}
+    }
+    let mut mask = None;
+    let source = match loaded {
+        Loaded::Grid(g) => {
+            // The mask's own checks come after the grid's (value range, ROI): read it first.
+            if let Some(m) = &c.mask {
+                let Loaded::Grid(mg) = load(m)? else { bail!("--mask {}: not a volume file", input_name(m)) };
+                mask = Some((input_name(m), mg));
             }
-            if let Some(b) = &budget {
-                let need = isos.iter().map(|&iso| sparse_mesh_estimate(&s.grid, iso, b)).max().unwrap_or(0);
-                if need > b.bytes {
-                    bail!(
-                        "{name}: sparse files are meshed in memory, and with the largest mesh --method {} could \
-                         make in the cells the surface may cross it can need {}, more than --max-memory {}",
-                        b.method.name(),
-                        size(need),
-                        size(b.bytes)
-                    );
-                }
-            }
-            Loaded::Sparse(s)
+            Input::Grid(Cow::Owned(g))
         }
-        field => field,
+        Loaded::Field(b) => Input::Field(Cow::Owned(b)),
+        Loaded::Sparse(s) => Input::Sparse(Cow::Owned(s.grid)),
+        Loaded::Stream(reader) => Input::Stream(Box::new(reader)),
     };
-    let mut c = c.clone();
-    c.request.options.mask = mask.map(std::sync::Arc::new);
-    let c = &c;
-    let frame = match &loaded {
-        Loaded::Grid(g) => g.lattice().space(),
+    let prepared =
+        pipeline::prepare(r, source, mask.as_ref().map(|(_, m)| m), budget.as_ref()).map_err(|e| match e {
+            PrepareError::Isos(e) => anyhow!("{name}: {e} (see `isoforge info {name}`)"),
+            PrepareError::Roi(e) => anyhow::Error::new(e).context(format!("{name}: --roi")),
+            PrepareError::Mask(e) => {
+                anyhow::Error::new(e).context(format!("--mask {}", mask.as_ref().map_or("", |(n, _)| n)))
+            }
+            PrepareError::Region(e) => anyhow::Error::new(e).context(name.clone()),
+            PrepareError::Budget(refusal) => match &budget {
+                Some(b) => refused(&name, b, refusal),
+                None => anyhow!("{name}: {refusal}"),
+            },
+            e => anyhow!("{name}: {e}"),
+        })?;
+    if matches!(prepared.source, Input::Stream(_)) {
+        return extract_streaming(c, prepared, &name, batch);
+    }
+    let frame = match &prepared.source {
+        Input::Grid(g) => g.lattice().space(),
         _ => None,
     };
+    let isos = prepared.isos.clone();
+    let input_lattice = prepared.input_lattice.clone();
     let attribute_grids = load_attributes(&c.request, frame)?;
     let rgb = match (&c.color_volume, &input_lattice) {
         (None, _) => None,
@@ -624,7 +483,7 @@ pub fn extract(c: &ExtractConfig) -> Result<Outcome> {
         let target = if one_gltf { None } else { Some(output.as_path()) };
         let job = Job {
             c,
-            loaded: &loaded,
+            prepared: &prepared,
             name: &name,
             attributes: &attribute_grids,
             rgb: rgb.as_ref(),
@@ -668,10 +527,11 @@ fn extract_labels(
     batch: isoforge_io::Batch,
 ) -> Result<Outcome> {
     let Loaded::Grid(g) = loaded else { bail!("{name}: --labels needs a label volume file in memory") };
-    if let Some(roi) = &c.request.region.roi {
-        roi.point_box(g.lattice()).with_context(|| format!("{name}: --roi"))?;
-    }
-    let g = c.request.region.for_labels().apply(g, 0.0).with_context(|| name.to_string())?;
+    let g = pipeline::entry::prepare_labels(&c.request, Cow::Owned(g)).map_err(|e| match e {
+        PrepareError::Roi(e) => anyhow::Error::new(e).context(format!("{name}: --roi")),
+        PrepareError::Region(e) => anyhow::Error::new(e).context(name.to_string()),
+        e => anyhow!("{name}: {e}"),
+    })?;
     // Each label is a pass over the whole volume: say so before a long run (an image's grey
     // values taken for labels are hundreds of them).
     let count = match labels {
@@ -800,21 +660,12 @@ fn vertex_data(
 /// Labels beyond which `--labels` warns before meshing (each label is a pass over the volume).
 const MANY_LABELS: usize = 64;
 
-/// One in-memory extraction of a loaded input (the library call for its kind).
-fn extract_loaded(loaded: &Loaded, iso: Iso, options: &Options, task: &Task) -> Result<Extraction> {
-    Ok(match loaded {
-        Loaded::Grid(g) => pipeline::extract_grid(g, iso, options, Some(task))?,
-        Loaded::Field(b) => pipeline::extract_builtin(b, iso, options, Some(task))?,
-        Loaded::Sparse(s) => pipeline::extract_any_sparse(&s.grid, iso, options)?,
-        Loaded::Stream(_) => bail!("too large to mesh in memory"),
-    })
-}
-
 /// What every iso of one `extract` run shares.
 #[derive(Clone, Copy)]
 struct Job<'a> {
     c: &'a ExtractConfig,
-    loaded: &'a Loaded,
+    /// The input, its isos, the options with the mask.
+    prepared: &'a Prepared<'a>,
     name: &'a str,
     attributes: &'a [(String, Attribute)],
     /// `--color-volume`: the colours, the input lattice in the output frame, and whether the
@@ -834,15 +685,14 @@ fn extract_one(
     output: Option<&Path>,
     time_json: Option<&Path>,
 ) -> Result<(Outcome, isoforge::mesh::Mesh, isoforge_io::MeshData)> {
-    let Job { c, loaded, name, attributes, rgb, batch, done } = *job;
+    let Job { c, prepared, name, attributes, rgb, batch, done } = *job;
     let mut runs = Vec::with_capacity(c.repeat as usize);
     let mut last: Option<Extraction> = None;
     for _ in 0..c.repeat {
         drop(last.take()); // as a warm loop elsewhere: the previous mesh is freed before the next run
-        let options = &c.request.options;
-        let task = Task::start(format!("extracting iso {} ({})", iso.value, options.method.name()));
+        let task = Task::start(format!("extracting iso {} ({})", iso.value, c.request.options.method.name()));
         let start = Instant::now();
-        last = Some(extract_loaded(loaded, iso, options, &task).with_context(|| name.to_string())?);
+        last = Some(prepared.extract(iso, Some(&task)).with_context(|| name.to_string())?);
         runs.push(start.elapsed().as_secs_f64());
         task.finish();
     }
@@ -1340,15 +1190,21 @@ pub fn render(c: &RenderConfig) -> Result<Outcome> {
         }
         (None, Some(input)) => {
             let name = input_name(input);
-            let loaded = load(input)?;
-            let default_iso = match &loaded {
-                Loaded::Field(b) => b.iso,
-                _ => Iso::below(0.0),
+            // The input as it is (render takes no region, mask or budget).
+            let (source, default_iso) = match load(input)? {
+                Loaded::Grid(g) => (Input::Grid(Cow::Owned(g)), Iso::below(0.0)),
+                Loaded::Field(b) => {
+                    let iso = b.iso;
+                    (Input::Field(Cow::Owned(b)), iso)
+                }
+                Loaded::Sparse(s) => (Input::Sparse(Cow::Owned(s.grid)), Iso::below(0.0)),
+                Loaded::Stream(_) => bail!("{name}: too large to mesh in memory"),
             };
             let iso = c.request.isos_or(default_iso)[0];
-            let options = &c.request.options;
-            let task = Task::start(format!("extracting iso {} ({})", iso.value, options.method.name()));
-            let mesh = extract_loaded(&loaded, iso, options, &task).with_context(|| name.clone())?.mesh;
+            let options = c.request.options.clone();
+            let prepared = Prepared { source, isos: vec![iso], options, input_lattice: None };
+            let task = Task::start(format!("extracting iso {} ({})", iso.value, prepared.options.method.name()));
+            let mesh = prepared.extract(iso, Some(&task)).with_context(|| name.clone())?.mesh;
             task.finish();
             mesh
         }
@@ -1382,62 +1238,4 @@ pub fn view(c: &ViewConfig) -> Result<Outcome> {
     };
     crate::view::serve(c.port, shown, c.request.clone(), c.max_memory.unwrap_or(crate::view::MEMORY_BUDGET))?;
     Ok(Outcome::Success)
-}
-
-#[cfg(test)]
-mod tests {
-    use super::*;
-    use isoforge::grid::{DenseGrid, Lattice};
-
-    /// The per-point and per-cell maxima `--max-memory` budgets with hold for every method on
-    /// random lattices with ties (seeded), with and without an outside border.
-    #[test]
-    fn issue_10_mesh_bounds_hold_for_every_method() {
-        let mut seed = 0x2545_f491_4f6c_dd1du64;
-        let mut next = move || {
-            seed ^= seed << 13;
-            seed ^= seed >> 7;
-            seed ^= seed << 17;
-            seed
-        };
-        let levels = [-2.0f32, -1.0, -0.5, 0.0, 0.25, 1.0, 3.0];
-        for case in 0..300 {
-            let dims = [2 + next() % 5, 2 + next() % 5, 2 + next() % 5].map(|d| d as u32);
-            let border = case % 2 == 0;
-            let values: Vec<f32> = (0..dims.iter().product::<u32>()).map(|_| levels[(next() % 7) as usize]).collect();
-            let inner = Lattice::new(dims).unwrap();
-            let outer = if border { dims.map(|d| d + 2) } else { dims };
-            let g = DenseGrid::from_fn(Lattice::new(outer).unwrap(), |p| {
-                if !border {
-                    values[inner.linear(p)]
-                } else if p.iter().zip(dims).all(|(&x, d)| x >= 1 && x <= d) {
-                    values[inner.linear([p[0] - 1, p[1] - 1, p[2] - 1])]
-                } else {
-                    5.0
-                }
-            });
-            let points = g.lattice().num_points();
-            let cells: u64 = outer.iter().map(|&d| u64::from(d - 1)).product();
-            for method in Method::ALL {
-                let opts = pipeline::Options { method, ..Default::default() };
-                let m = pipeline::extract_grid(&g.clone().into(), Iso::below(0.1), &opts, None).unwrap().mesh;
-                let (per_point, per_cell) = if method == Method::MarchingCubes { MC_MESH } else { ANY_METHOD_MESH };
-                assert!(
-                    m.num_vertices() as u64 <= per_point * points,
-                    "{}: {} vertices",
-                    method.name(),
-                    m.num_vertices()
-                );
-                assert!(
-                    m.num_triangles() as u64 <= per_cell * cells,
-                    "{}: {} triangles",
-                    method.name(),
-                    m.num_triangles()
-                );
-            }
-        }
-        // Marching cubes' largest case.
-        let most = (0..256).map(|c| isoforge::extract::marching_cubes::TRI_TABLE[c].triangles().len()).max();
-        assert_eq!(most, Some(MC_MESH.1 as usize));
-    }
 }

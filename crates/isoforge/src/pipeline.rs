@@ -12,8 +12,12 @@
 
 use std::sync::Arc;
 
+pub mod entry;
+pub mod plan;
 pub mod request;
 
+pub use entry::{extract_request, prepare, PrepareError, Prepared, Source, Surface};
+pub use plan::MemoryPlan;
 pub use request::{NoSurface, ParseError, Region, Request, Roi};
 
 use crate::cube::{CellRange, VertexKey};
@@ -414,27 +418,58 @@ fn walker<'p>(opts: &Options, progress: Option<&'p dyn Progress>) -> FlyingEdges
 /// As [`extract`]; [`Error::InvalidInput`] when the thread pool cannot be built.
 pub fn extract_grid(grid: &AnyGrid, iso: Iso, opts: &Options, progress: Option<&dyn Progress>) -> Result<Extraction> {
     check(iso, opts, grid.lattice().dims())?;
-    fn go<S: Sample>(
-        g: &DenseGrid<S>,
-        iso: Iso,
-        opts: &Options,
-        progress: Option<&dyn Progress>,
-    ) -> Result<Extraction> {
-        if opts.level > 0 {
-            let coarse = crate::grid::downsample_mean(g, 1 << opts.level.min(31))?;
-            return go(&coarse, iso, &Options { level: 0, ..opts.clone() }, progress);
-        }
-        if opts.sparse == Some(true) || opts.follow.is_some() {
-            return extract_sparse(&SparseGrid::from_dense(g, iso), iso, opts);
-        }
+    in_pool(opts.threads, || crate::with_grid!(grid, g => grid_walk(g, iso, opts, progress)))?
+}
+
+/// [`extract_grid`]'s walk of one sample type (on the caller's pool).
+fn grid_walk<S: Sample>(
+    g: &DenseGrid<S>,
+    iso: Iso,
+    opts: &Options,
+    progress: Option<&dyn Progress>,
+) -> Result<Extraction> {
+    if opts.level > 0 {
+        let coarse = crate::grid::downsample_mean(g, 1 << opts.level.min(31))?;
+        return grid_walk(&coarse, iso, &Options { level: 0, ..opts.clone() }, progress);
+    }
+    if opts.sparse == Some(true) || opts.follow.is_some() {
+        return extract_sparse(&SparseGrid::from_dense(g, iso), iso, opts);
+    }
+    if let Some(a) = adaptive(opts)? {
+        return contour_adaptive(&a, &GridVolume::new(g), iso, opts);
+    }
+    let mut out = builder(opts);
+    let stats = run(&mut walker(opts, progress), &GridVolume::new(g), iso, opts, &mut out)?;
+    finish(out, stats)
+}
+
+/// [`extract_grid`] on samples the caller owns (x fastest: a C-ordered `(nz, ny, nx)` array) on
+/// `lattice`, walked where they are ([`GridVolume::borrowed`]): the same mesh as a grid holding a
+/// copy of them. A pyramid level or sparse walk builds its own grid from them.
+///
+/// # Errors
+/// As [`extract_grid`]; [`Error::InvalidInput`] when there are not as many samples as points.
+pub fn extract_samples<S: Sample>(
+    lattice: &crate::grid::Lattice,
+    samples: &[S],
+    iso: Iso,
+    opts: &Options,
+    progress: Option<&dyn Progress>,
+) -> Result<Extraction> {
+    let vol = GridVolume::borrowed(lattice.clone(), samples)?;
+    check(iso, opts, lattice.dims())?;
+    if opts.level > 0 || opts.sparse == Some(true) || opts.follow.is_some() {
+        let grid = DenseGrid::new(lattice.clone(), samples.to_vec())?;
+        return in_pool(opts.threads, || grid_walk(&grid, iso, opts, progress))?;
+    }
+    in_pool(opts.threads, || {
         if let Some(a) = adaptive(opts)? {
-            return contour_adaptive(&a, &GridVolume::new(g), iso, opts);
+            return contour_adaptive(&a, &vol, iso, opts);
         }
         let mut out = builder(opts);
-        let stats = run(&mut walker(opts, progress), &GridVolume::new(g), iso, opts, &mut out)?;
+        let stats = run(&mut walker(opts, progress), &vol, iso, opts, &mut out)?;
         finish(out, stats)
-    }
-    in_pool(opts.threads, || crate::with_grid!(grid, g => go(g, iso, opts, progress)))?
+    })?
 }
 
 /// [`extract_sparse`] on a sparse grid of either sample type (as read from a file).
@@ -865,6 +900,37 @@ fn coarsened(lattice: &crate::grid::Lattice, level: u32) -> Result<crate::grid::
 mod tests {
     use super::*;
     use crate::grid::Lattice;
+
+    /// Zero copy (issue 48): samples walked where the caller keeps them give the bytes of a grid
+    /// holding a copy, for every method, integer and float samples, with a level and sparsely.
+    #[test]
+    fn issue_48_borrowed_samples_mesh_as_their_copy() {
+        let l = Lattice::with_geometry([9, 7, 6], [0.5, 1.0, 2.0], [1.0, -2.0, 0.0]).unwrap();
+        let value = |p: [u32; 3]| {
+            let d = [p[0] as f64 - 4.0, p[1] as f64 - 3.2, p[2] as f64 - 2.6];
+            d[0] * d[0] + d[1] * d[1] + d[2] * d[2]
+        };
+        let floats = DenseGrid::from_fn(l.clone(), |p| value(p) as f32);
+        let ints = DenseGrid::from_fn(l.clone(), |p| value(p).round() as u16);
+        for method in Method::ALL {
+            for opts in [
+                Options { method, ..Options::default() },
+                Options { method, level: 1, ..Options::default() },
+                Options { method, sparse: Some(true), ..Options::default() },
+            ] {
+                let iso = Iso::below(6.5);
+                let want = extract_grid(&AnyGrid::from(floats.clone()), iso, &opts, None).unwrap().mesh;
+                let got = extract_samples(&l, floats.data(), iso, &opts, None).unwrap().mesh;
+                assert_eq!(got, want, "{} level {} sparse {:?}", method.name(), opts.level, opts.sparse);
+                let want = extract_grid(&AnyGrid::from(ints.clone()), iso, &opts, None).unwrap().mesh;
+                let got = extract_samples(&l, ints.data(), iso, &opts, None).unwrap().mesh;
+                assert_eq!(got, want, "u16 {}", method.name());
+                assert!(got.num_triangles() + got.num_quads() > 0, "{}", method.name());
+            }
+        }
+        let e = extract_samples(&l, &floats.data()[1..], Iso::below(6.5), &Options::default(), None).unwrap_err();
+        assert_eq!(e.to_string(), "377 samples for a lattice of [9, 7, 6] points");
+    }
 
     /// The counted methods are the ones the Flying Edges walker allocates exactly for: the
     /// table-driven and value-counted ones; the body-centred tetrahedra and surface nets name

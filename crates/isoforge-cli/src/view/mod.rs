@@ -34,6 +34,7 @@
 mod codec;
 mod http;
 
+use std::borrow::Cow;
 use std::net::TcpListener;
 use std::sync::atomic::AtomicU64;
 use std::sync::{Arc, Mutex, MutexGuard};
@@ -42,7 +43,7 @@ use std::time::{Duration, Instant};
 use anyhow::{anyhow, bail, Context, Result};
 use isoforge::grid::{downsample_mean, AnyGrid, AnySparse, Histogram};
 use isoforge::mesh::Mesh;
-use isoforge::pipeline::{self, request, Method, Roi};
+use isoforge::pipeline::{self, request, Method, Region, Roi};
 use isoforge::topo::{self, CheckOptions};
 use isoforge::volume::catalog::Classic;
 use isoforge::volume::Iso;
@@ -579,10 +580,7 @@ impl Viewer {
         let down = |g: &AnyGrid| -> Result<AnyGrid> {
             Ok(AnyGrid::F32(isoforge::with_grid!(g, g => downsample_mean(g, step))?))
         };
-        let g = Arc::new(match boxed {
-            None => down(grid)?,
-            Some((lo, hi)) => down(&grid.crop(lo, hi)?)?,
-        });
+        let g = Arc::new(down(&*roi_only(q).apply_to(Cow::Borrowed(grid), 0.0)?)?);
         *cached = Some(Preview { roi: roi.clone(), step, grid: g.clone() });
         Ok(Some((g, step)))
     }
@@ -602,13 +600,11 @@ impl Viewer {
         let opts = &q.request.options;
         let mesh = match (&self.shown, q.demo) {
             (Shown::Mesh { mesh, .. }, _) => mesh.clone(),
-            (Shown::Volume { grid, .. }, _) => match &q.request.region.roi {
-                None => pipeline::extract_grid(grid, self.iso(q)?, opts, None)?.mesh,
-                Some(roi) => {
-                    let (lo, hi) = roi.point_box(grid.lattice())?;
-                    pipeline::extract_grid(&grid.crop(lo, hi)?, self.iso(q)?, opts, None)?.mesh
-                }
-            },
+            (Shown::Volume { grid, .. }, _) => {
+                // The library's cut of the region (the grid borrowed when there is no ROI).
+                let cut = roi_only(q).apply_to(Cow::Borrowed(grid), 0.0)?;
+                pipeline::extract_grid(&cut, self.iso(q)?, opts, None)?.mesh
+            }
             (Shown::Sparse { grid, .. }, _) => pipeline::extract_any_sparse(grid, self.iso(q)?, opts)?.mesh,
             (Shown::Demo, Some(d)) => {
                 pipeline::extract_builtin(&d.field.builtin(d.n, d.t)?, self.iso(q)?, opts, None)?.mesh
@@ -697,6 +693,11 @@ impl Viewer {
 /// The coarsest pyramid level a sparse grid's preview needs: each level quarters the stored
 /// samples of a surface (halves each axis of a band), so the smallest `L` that brings them
 /// under [`PREVIEW_POINTS`] (0: no preview), at most 4.
+/// The query's ROI as a region (the viewer cuts, never pads or re-places).
+fn roi_only(q: &Query) -> Region {
+    Region { roi: q.request.region.roi.clone(), ..Region::default() }
+}
+
 fn sparse_preview_level(grid: &AnySparse) -> u32 {
     preview_level(grid.stats().stored_samples)
 }

@@ -6,6 +6,7 @@
 //! Parsers return a [`ParseError`] naming the text and the problem; the caller prefixes the
 //! name of the flag or parameter (`--roi "1:2": …`, `roi="1:2": …`).
 
+use std::borrow::Cow;
 use std::fmt;
 use std::str::FromStr;
 
@@ -429,25 +430,38 @@ impl Region {
     /// # Errors
     /// As [`Roi::point_box`]; [`Error::Limit`] when the padded lattice is too large;
     /// [`Error::InvalidInput`] when the lattice has no frame to convert from.
-    pub fn apply(&self, mut g: AnyGrid, outside: f64) -> Result<AnyGrid> {
+    pub fn apply(&self, g: AnyGrid, outside: f64) -> Result<AnyGrid> {
+        self.apply_to(Cow::Owned(g), outside).map(Cow::into_owned)
+    }
+
+    /// [`Region::apply`] on a borrowed or owned grid: an identity region keeps it as it is (no
+    /// copy); a ROI or `close` makes a new grid from the borrowed one without copying it first.
+    ///
+    /// # Errors
+    /// As [`Region::apply`].
+    pub fn apply_to<'a>(&self, g: Cow<'a, AnyGrid>, outside: f64) -> Result<Cow<'a, AnyGrid>> {
+        if self.is_identity() {
+            return Ok(g);
+        }
+        let mut g = g;
         // Index-space position of the current grid's first point in the input volume.
         let mut first = [0.0f64; 3];
         if let Some(roi) = &self.roi {
             let (lo, hi) = roi.point_box(g.lattice())?;
-            g = g.crop(lo, hi)?;
+            g = Cow::Owned(g.crop(lo, hi)?);
             first = lo.map(f64::from);
         }
         if self.close {
-            g = g.pad(1, outside)?;
+            g = Cow::Owned(g.pad(1, outside)?);
             first = first.map(|x| x - 1.0);
         }
         if self.index_space {
             let lattice = Lattice::with_geometry(g.lattice().dims(), [1.0; 3], first)?;
-            g = g.with_lattice(lattice)?;
+            g = Cow::Owned(g.into_owned().with_lattice(lattice)?);
         }
         if let Some(target) = self.world {
             let lattice = g.lattice().in_space(target)?;
-            g = g.with_lattice(lattice)?;
+            g = Cow::Owned(g.into_owned().with_lattice(lattice)?);
         }
         Ok(g)
     }
@@ -466,7 +480,7 @@ impl Region {
             )));
         }
         let region = Region { roi: self.roi.clone(), close: self.close, ..Region::default() };
-        let m = region.apply(m.clone(), 1.0)?;
+        let m = region.apply_to(Cow::Borrowed(m), 1.0)?;
         let flags: Vec<bool> = m.values_f64().map(|v| v != 0.0).collect();
         PointMask::new(m.lattice().dims(), flags)
     }

@@ -13,7 +13,10 @@ use crate::math::Vec3;
 /// over a cell range in global indices exactly as the whole lattice would be.
 #[derive(Debug, Clone)]
 pub struct GridVolume<'g, S> {
-    grid: &'g DenseGrid<S>,
+    /// The samples, x fastest: a grid's, or caller memory ([`borrowed`](GridVolume::borrowed)).
+    samples: &'g [S],
+    /// Points per axis of `samples`.
+    dims: [u32; 3],
     /// The lattice walked (the grid's own, or the global one of a window).
     lattice: Lattice,
     /// Global index of the grid's first point.
@@ -24,7 +27,29 @@ pub struct GridVolume<'g, S> {
 impl<'g, S: Sample> GridVolume<'g, S> {
     /// Wraps a grid.
     pub fn new(grid: &'g DenseGrid<S>) -> Self {
-        GridVolume { grid, lattice: grid.lattice().clone(), offset: [0; 3], bounds: None }
+        GridVolume {
+            samples: grid.data(),
+            dims: grid.lattice().dims(),
+            lattice: grid.lattice().clone(),
+            offset: [0; 3],
+            bounds: None,
+        }
+    }
+
+    /// Wraps samples the caller owns (x fastest, then y, then z: a C-ordered `(nz, ny, nx)`
+    /// array) on `lattice`, without copying them.
+    ///
+    /// # Errors
+    /// [`Error::InvalidInput`] when there are not exactly as many samples as lattice points.
+    pub fn borrowed(lattice: Lattice, samples: &'g [S]) -> Result<Self> {
+        if samples.len() as u64 != lattice.num_points() {
+            return Err(Error::InvalidInput(format!(
+                "{} samples for a lattice of {:?} points",
+                samples.len(),
+                lattice.dims()
+            )));
+        }
+        Ok(GridVolume { samples, dims: lattice.dims(), lattice, offset: [0; 3], bounds: None })
     }
 
     /// A chunk of the lattice `global`: `grid` holds its points from global index `offset` on
@@ -41,7 +66,7 @@ impl<'g, S: Sample> GridVolume<'g, S> {
                 "window of {d:?} points at {offset:?} does not fit a lattice of {g:?} points"
             )));
         }
-        Ok(GridVolume { grid, lattice: global, offset, bounds: None })
+        Ok(GridVolume { samples: grid.data(), dims: d, lattice: global, offset, bounds: None })
     }
 
     /// Lets walkers skip blocks whose sample bounds exclude the iso (computed once by
@@ -50,12 +75,12 @@ impl<'g, S: Sample> GridVolume<'g, S> {
     /// # Errors
     /// [`Error::InvalidInput`] when `bounds` were computed for a grid of other dims.
     pub fn with_block_bounds(mut self, bounds: &'g BlockBounds) -> Result<Self> {
-        let want = self.grid.lattice().dims().map(|d| d.saturating_sub(1).div_ceil(BlockBounds::CELLS).max(1));
+        let want = self.dims.map(|d| d.saturating_sub(1).div_ceil(BlockBounds::CELLS).max(1));
         if bounds.blocks() != want {
             return Err(Error::InvalidInput(format!(
                 "block bounds of {:?} blocks do not match a grid of {:?} points",
                 bounds.blocks(),
-                self.grid.lattice().dims()
+                self.dims
             )));
         }
         self.bounds = Some(bounds);
@@ -65,7 +90,9 @@ impl<'g, S: Sample> GridVolume<'g, S> {
     /// The sample at global point `p`.
     #[inline]
     fn at(&self, p: [u32; 3]) -> f64 {
-        self.grid.get([p[0] - self.offset[0], p[1] - self.offset[1], p[2] - self.offset[2]]).to_f64()
+        let [x, y, z] = [0, 1, 2].map(|a| (p[a] - self.offset[a]) as usize);
+        let [nx, ny, _] = self.dims.map(|d| d as usize);
+        self.samples[(z * ny + y) * nx + x].to_f64()
     }
 }
 
@@ -196,7 +223,7 @@ impl<S: Sample> Volume for GridVolume<'_, S> {
     fn fill_slab(&self, k: u32, iso: Iso, out: &mut [f32]) {
         let [nx, ny, _] = self.lattice.dims().map(|d| d as usize);
         debug_assert_eq!(out.len(), nx * ny);
-        if self.offset == [0; 3] && self.grid.lattice().dims() == self.lattice.dims() {
+        if self.offset == [0; 3] && self.dims == self.lattice.dims() {
             for (o, &v) in out.iter_mut().zip(self.slab(k)) {
                 *o = iso.offset(v.to_f64());
             }
@@ -259,14 +286,14 @@ impl<S: Sample> SampleSlabs for GridVolume<'_, S> {
 
     #[inline]
     fn sample_box(&self) -> ([u32; 3], [u32; 3]) {
-        (self.offset, self.grid.lattice().dims())
+        (self.offset, self.dims)
     }
 
     #[inline]
     fn slab(&self, k: u32) -> &[S] {
-        let n = self.grid.lattice().slab_len();
+        let n = self.dims[0] as usize * self.dims[1] as usize;
         let k = (k - self.offset[2]) as usize;
-        &self.grid.data()[k * n..(k + 1) * n]
+        &self.samples[k * n..(k + 1) * n]
     }
 
     fn centres_from_samples(&self) -> bool {
