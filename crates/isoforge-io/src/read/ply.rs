@@ -161,6 +161,11 @@ pub fn read_ply(path: &Path, limits: &Limits) -> Result<Mesh> {
             body.len()
         )));
     }
+    if let Format::Binary { big } = format {
+        if let Some(mesh) = binary_triangles(&elements, big, body) {
+            return Ok(mesh);
+        }
+    }
     let mut src = Source { ctx, format, body, pos: 0 };
     let mut mesh = Mesh::default();
     mesh.positions.reserve(nv as usize);
@@ -224,6 +229,95 @@ pub fn read_ply(path: &Path, limits: &Limits) -> Result<Mesh> {
         }
     }
     Ok(mesh)
+}
+
+/// Vertices decoded per parallel piece of [`binary_triangles`].
+const PIECE: usize = 1 << 15;
+
+/// The common binary layout decoded in parallel, in one pass over the bytes: a `vertex` element
+/// of fixed-size scalars with `float` x, y, z, then a `face` element whose only property is its
+/// index list of `int` or `uint`, every face a triangle (what isoforge and most tools write).
+/// `None` for anything else, and for a file this layout does not fit or whose values the
+/// general reader would refuse (a list length other than 3, an index out of range, a
+/// non-finite coordinate, too few bytes): the general reader then reads it and names the fault.
+/// The size limits were checked from the header: triangles alone make no more than it declared.
+fn binary_triangles(elements: &[Element], big: bool, body: &[u8]) -> Option<Mesh> {
+    use rayon::prelude::*;
+    let [vertex, face] = elements else { return None };
+    if vertex.name != "vertex" || face.name != "face" {
+        return None;
+    }
+    // Vertex record: stride and the offsets of x, y, z (each a float).
+    let mut stride = 0usize;
+    let mut xyz = [None; 3];
+    for prop in &vertex.props {
+        let Prop::Scalar(t, name) = prop else { return None };
+        if let Some(a) = ["x", "y", "z"].iter().position(|n| n == name) {
+            if *t != Ty::F32 || xyz[a].is_some() {
+                return None;
+            }
+            xyz[a] = Some(stride);
+        }
+        stride += t.size();
+    }
+    let [Some(ox), Some(oy), Some(oz)] = xyz else { return None };
+    let [Prop::List(count_ty, index_ty, name)] = face.props.as_slice() else { return None };
+    if !matches!(name.as_str(), "vertex_indices" | "vertex_index") || !matches!(index_ty, Ty::I32 | Ty::U32) {
+        return None;
+    }
+    let (nv, nf) = (usize::try_from(vertex.count).ok()?, usize::try_from(face.count).ok()?);
+    let face_stride = count_ty.size() + 3 * 4;
+    let vertex_bytes = nv.checked_mul(stride)?;
+    let face_bytes = nf.checked_mul(face_stride)?;
+    let vertices = body.get(..vertex_bytes)?;
+    let faces = body.get(vertex_bytes..vertex_bytes.checked_add(face_bytes)?)?;
+    let word = |b: &[u8], at: usize| -> Option<u32> {
+        let w: [u8; 4] = b.get(at..at + 4)?.try_into().ok()?;
+        Some(if big { u32::from_be_bytes(w) } else { u32::from_le_bytes(w) })
+    };
+    let mut positions = vec![[0.0f32; 3]; nv];
+    let ok = positions.par_chunks_mut(PIECE).zip(vertices.par_chunks(PIECE * stride.max(1))).all(|(out, src)| {
+        out.iter_mut().zip(src.chunks_exact(stride.max(1))).all(|(p, r)| {
+            let mut q = [0.0f32; 3];
+            for (a, o) in [ox, oy, oz].into_iter().enumerate() {
+                match word(r, o).map(f32::from_bits) {
+                    Some(v) if v.is_finite() => q[a] = v,
+                    _ => return false,
+                }
+            }
+            *p = q;
+            true
+        })
+    });
+    if !ok {
+        return None;
+    }
+    // The list length: 3 in whatever integer type the header gave.
+    let three = {
+        let mut b = [0u8; 8];
+        let n = count_ty.size();
+        let at = if big { n - 1 } else { 0 };
+        b[at] = 3;
+        b
+    };
+    let count_bytes = count_ty.size();
+    let mut triangles = vec![[0u32; 3]; nf];
+    let ok = triangles.par_chunks_mut(PIECE).zip(faces.par_chunks(PIECE * face_stride)).all(|(out, src)| {
+        out.iter_mut().zip(src.chunks_exact(face_stride)).all(|(t, r)| {
+            if r.get(..count_bytes) != three.get(..count_bytes) {
+                return false;
+            }
+            for (k, slot) in t.iter_mut().enumerate() {
+                match word(r, count_bytes + 4 * k) {
+                    // An `int` index is negative when its top bit is set: then it is ≥ 2³¹ > nv.
+                    Some(v) if (v as usize) < nv && (*index_ty == Ty::U32 || v <= i32::MAX as u32) => *slot = v,
+                    _ => return false,
+                }
+            }
+            true
+        })
+    });
+    ok.then(|| Mesh { positions, triangles, ..Mesh::default() })
 }
 
 struct Source<'a> {

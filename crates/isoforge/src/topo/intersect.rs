@@ -17,9 +17,10 @@
 //! - three shared vertices (a duplicate triangle): always.
 //!
 //! Triangles with collinear vertices (zero area; [`MeshReport::zero_area_triangles`] lists them)
-//! and repeated indices are left out. Candidate pairs come from the [`Bvh`] of the triangles'
-//! boxes, tested in parallel pieces of fixed size so the count and the examples (the first pairs
-//! in (i, j) order) do not depend on the threads.
+//! and repeated indices are left out. Candidate pairs come from joining the [`Bvh`] of the
+//! triangles' boxes with itself (each pair of overlapping subtrees visited once), cut into pieces
+//! of overlapping subtrees tested in parallel; each piece keeps its count and its first pairs, so
+//! the count and the examples (the first pairs in (i, j) order) do not depend on the threads.
 //!
 //! [`MeshReport::zero_area_triangles`]: super::MeshReport::zero_area_triangles
 
@@ -130,6 +131,16 @@ fn triangles_meet(a: &[P; 3], ka: usize, b: &[P; 3], kb: usize) -> bool {
         || (0..3).any(|i| segment_meets(b[i], b[(i + 1) % 3], sb[i], sb[(i + 1) % 3], a, ka))
 }
 
+/// The boxes of segment `pq` and triangle `t` are disjoint (then so are the segment and the
+/// triangle): exact comparisons.
+#[inline]
+fn boxes_apart(p: P, q: P, t: &[P; 3]) -> bool {
+    (0..3).any(|k| {
+        let (lo, hi) = (t[0][k].min(t[1][k]).min(t[2][k]), t[0][k].max(t[1][k]).max(t[2][k]));
+        p[k].max(q[k]) < lo || p[k].min(q[k]) > hi
+    })
+}
+
 /// True when non-degenerate triangles `ta`, `tb` (vertex indices; positions `a`, `b`, keep axes
 /// `ka`, `kb`) meet other than at the vertices or the edge they share.
 pub(crate) fn improper(ta: [u32; 3], a: &[P; 3], ka: usize, tb: [u32; 3], b: &[P; 3], kb: usize) -> bool {
@@ -150,8 +161,10 @@ pub(crate) fn improper(ta: [u32; 3], a: &[P; 3], ka: usize, tb: [u32; 3], b: &[P
             let (i, j) = shared[0];
             let (a1, a2) = (a[(i + 1) % 3], a[(i + 2) % 3]);
             let (b1, b2) = (b[(j + 1) % 3], b[(j + 2) % 3]);
-            segment_meets(a1, a2, plane(b, a1), plane(b, a2), b, kb)
-                || segment_meets(b1, b2, plane(a, b1), plane(a, b2), a, ka)
+            // Most such pairs are neighbours in a fan whose opposite edges stay clear of the other
+            // triangle's box: decided by comparisons before any predicate.
+            (!boxes_apart(a1, a2, b) && segment_meets(a1, a2, plane(b, a1), plane(b, a2), b, kb))
+                || (!boxes_apart(b1, b2, a) && segment_meets(b1, b2, plane(a, b1), plane(a, b2), a, ka))
         }
         2 => {
             let (u, w) = (a[shared[0].0], a[shared[1].0]);
@@ -198,39 +211,49 @@ pub fn self_intersections(mesh: &Mesh, max_examples: usize) -> Findings<[u32; 2]
         })
         .collect();
     let bvh = Bvh::build(&boxes);
-    let per_piece = map_pieces(kept.len(), &|lo, hi| {
-        let mut found = Findings::default();
-        let mut hits: Vec<u32> = Vec::new();
-        for i in lo..hi {
-            let (ti, ka) = kept[i];
-            let ta = mesh.triangles[ti as usize];
-            let a = ta.map(pos);
-            hits.clear();
-            bvh.candidates(&boxes[i], &mut |j| {
-                let j = j as usize;
-                if j <= i || !overlaps(&boxes[i], &boxes[j]) {
-                    return;
-                }
-                let (tj, kb) = kept[j];
-                let tb = mesh.triangles[tj as usize];
-                if improper(ta, &a, ka as usize, tb, &tb.map(pos), kb as usize) {
-                    hits.push(tj);
-                }
-            });
-            hits.sort_unstable();
-            for &tj in &hits {
-                found.push([ti, tj], max_examples);
+    // PASS: the tree joined with itself, in pieces of overlapping subtrees over the threads;
+    // each piece keeps its count and its first pairs, merged in (i, j) order below.
+    let pieces = bvh.self_join_pieces(JOIN_ITEMS);
+    let per_piece = crate::walk::flying_edges::map_tasks(pieces, &|(na, nb)| {
+        let mut count = 0usize;
+        let mut first: Vec<[u32; 2]> = Vec::new();
+        bvh.self_join(na, nb, &mut |i, j| {
+            let (i, j) = (i.min(j) as usize, i.max(j) as usize);
+            if !overlaps(&boxes[i], &boxes[j]) {
+                return;
             }
-        }
-        found
+            // Lower index first, as the pairs are named (kept order is triangle order).
+            let ((ti, ka), (tj, kb)) = (kept[i], kept[j]);
+            let (ta, tb) = (mesh.triangles[ti as usize], mesh.triangles[tj as usize]);
+            if improper(ta, &ta.map(pos), ka as usize, tb, &tb.map(pos), kb as usize) {
+                count += 1;
+                first.push([ti, tj]);
+                if first.len() >= 2 * max_examples + 1024 {
+                    keep_first(&mut first, max_examples);
+                }
+            }
+        });
+        keep_first(&mut first, max_examples);
+        (count, first)
     });
     let mut all = Findings::default();
-    for f in per_piece {
-        all.count += f.count;
-        let room = max_examples.saturating_sub(all.examples.len());
-        all.examples.extend(f.examples.into_iter().take(room));
+    let mut first = Vec::new();
+    for (count, f) in per_piece {
+        all.count += count;
+        first.extend(f);
     }
+    keep_first(&mut first, max_examples);
+    all.examples = first;
     all
+}
+
+/// Items per node below which the self-join is not cut further (a piece for one thread).
+const JOIN_ITEMS: usize = 1 << 12;
+
+/// Sorts `pairs` and keeps the first `n`.
+fn keep_first(pairs: &mut Vec<[u32; 2]>, n: usize) {
+    pairs.sort_unstable();
+    pairs.truncate(n);
 }
 
 #[inline]
