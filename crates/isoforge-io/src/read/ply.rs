@@ -368,3 +368,92 @@ impl Source<'_> {
         }
     }
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// A binary PLY of `faces` over four vertices; each vertex carries a `uchar` before x and a
+    /// `float nx` after z (skipped), indices as `uint` or `int`, either endianness.
+    fn file(big: bool, signed: bool, faces: &[&[i64]], coord: f32) -> Vec<u8> {
+        let endian = if big { "big" } else { "little" };
+        let ity = if signed { "int" } else { "uint" };
+        let mut out = format!(
+            "ply\nformat binary_{endian}_endian 1.0\nelement vertex 4\nproperty uchar flag\nproperty float x\nproperty float y\nproperty float z\nproperty float nx\nelement face {}\nproperty list uchar {ity} vertex_indices\nend_header\n",
+            faces.len()
+        )
+        .into_bytes();
+        let f32b = |x: f32| if big { x.to_be_bytes() } else { x.to_le_bytes() };
+        let p = [[0.0, 0.0, 0.0], [1.0, 0.0, 0.0], [0.0, 1.0, 0.0], [0.0, 0.0, coord]];
+        for q in p {
+            out.push(7);
+            q.iter().chain(&[0.5]).for_each(|&c| out.extend_from_slice(&f32b(c)));
+        }
+        for f in faces {
+            out.push(f.len() as u8);
+            for &v in *f {
+                let w = v as u32;
+                out.extend_from_slice(&if big { w.to_be_bytes() } else { w.to_le_bytes() });
+            }
+        }
+        out
+    }
+
+    fn read(bytes: &[u8]) -> Result<Mesh> {
+        let dir = tempfile::tempdir().unwrap();
+        let path = dir.path().join("m.ply");
+        std::fs::write(&path, bytes).unwrap();
+        read_ply(&path, &Limits::default())
+    }
+
+    #[test]
+    fn the_parallel_binary_path_reads_what_the_general_one_reads() {
+        let tetra: &[&[i64]] = &[&[0, 2, 1], &[0, 1, 3], &[0, 3, 2], &[1, 2, 3]];
+        for big in [false, true] {
+            for signed in [false, true] {
+                let bytes = file(big, signed, tetra, 1.0);
+                let elements = [
+                    Element {
+                        name: "vertex".into(),
+                        count: 4,
+                        props: ["flag", "x", "y", "z", "nx"]
+                            .iter()
+                            .map(|n| Prop::Scalar(if *n == "flag" { Ty::U8 } else { Ty::F32 }, n.to_string()))
+                            .collect(),
+                    },
+                    Element {
+                        name: "face".into(),
+                        count: 4,
+                        props: vec![Prop::List(
+                            Ty::U8,
+                            if signed { Ty::I32 } else { Ty::U32 },
+                            "vertex_indices".into(),
+                        )],
+                    },
+                ];
+                let body = &bytes[bytes.windows(11).position(|w| w == b"end_header\n").unwrap() + 11..];
+                let fast = binary_triangles(&elements, big, body).expect("the common layout");
+                let m = read(&bytes).unwrap();
+                assert_eq!(fast, m);
+                assert_eq!(m.triangles, vec![[0, 2, 1], [0, 1, 3], [0, 3, 2], [1, 2, 3]]);
+                assert_eq!(m.positions[3], [0.0, 0.0, 1.0]);
+            }
+        }
+    }
+
+    #[test]
+    fn files_the_parallel_path_does_not_fit_are_read_or_refused_as_before() {
+        // A quad: fanned by the general reader.
+        let m = read(&file(false, true, &[&[0, 1, 2, 3], &[1, 2, 3]], 1.0)).unwrap();
+        assert_eq!(m.triangles, vec![[0, 1, 2], [0, 2, 3], [1, 2, 3]]);
+        // An index out of range, a negative one, a non-finite coordinate: the general errors.
+        for (bytes, want) in [
+            (file(false, false, &[&[0, 1, 2], &[1, 2, 9]], 1.0), "face 1: vertex index 9 is outside 0..4"),
+            (file(true, true, &[&[0, -1, 2]], 1.0), "face 0: vertex index -1 is outside 0..4"),
+            (file(false, true, &[&[0, 1, 2]], f32::NAN), "vertex 3: coordinate NaN is not a finite number"),
+        ] {
+            let e = read(&bytes).unwrap_err().to_string();
+            assert!(e.contains(want), "{e}");
+        }
+    }
+}

@@ -176,18 +176,20 @@ impl Bvh {
         }
     }
 
-    /// Calls `f(i, j)` (items, each unordered pair once, `i != j`) for every pair of items below
-    /// the piece `(a, b)` of [`self_join_pieces`](Bvh::self_join_pieces) whose leaves' boxes
-    /// overlap: a superset of the pairs whose own boxes do, which the caller tests exactly. Each
-    /// pair of overlapping subtrees is visited once (no query per item).
+    /// Calls `f(s, t)` (slots of [`order`](Bvh::order), each unordered pair once, `s != t`) for
+    /// every pair of items below the piece `(a, b)` of [`self_join_pieces`](Bvh::self_join_pieces)
+    /// whose leaves' boxes overlap: a superset of the pairs whose own boxes do, which the caller
+    /// tests exactly. Each pair of overlapping subtrees is visited once (no query per item).
+    /// Slots, not items: a caller that keeps its per-item data in slot order reads a leaf's
+    /// items, and its neighbours', from one place in memory.
     pub fn self_join(&self, a: usize, b: usize, f: &mut dyn FnMut(u32, u32)) {
         let (na, nb) = (&self.nodes[a], &self.nodes[b]);
+        let slots = |n: &BvhNode| n.first..n.first + n.count;
         if a == b {
             if na.is_leaf() {
-                let items = self.items(a);
-                for (k, &i) in items.iter().enumerate() {
-                    for &j in &items[k + 1..] {
-                        f(i, j);
+                for s in slots(na) {
+                    for t in s + 1..na.first + na.count {
+                        f(s, t);
                     }
                 }
             } else {
@@ -203,9 +205,9 @@ impl Bvh {
         }
         match (na.is_leaf(), nb.is_leaf()) {
             (true, true) => {
-                for &i in self.items(a) {
-                    for &j in self.items(b) {
-                        f(i, j);
+                for s in slots(na) {
+                    for t in slots(nb) {
+                        f(s, t);
                     }
                 }
             }
@@ -220,6 +222,11 @@ impl Bvh {
                 }
             }
         }
+    }
+
+    /// The items in build order: slot `s` of a leaf holds item `order()[s]`.
+    pub fn order(&self) -> &[u32] {
+        &self.order
     }
 
     /// Calls `f(i)` for every item of the leaves whose box overlaps `query` (closed boxes): a
@@ -498,7 +505,8 @@ mod tests {
             let bvh = Bvh::build(&boxes);
             let mut got = Vec::new();
             for (a, b) in bvh.self_join_pieces(piece) {
-                bvh.self_join(a, b, &mut |i, j| {
+                bvh.self_join(a, b, &mut |s, t| {
+                    let (i, j) = (bvh.order()[s as usize], bvh.order()[t as usize]);
                     if overlaps(&boxes[i as usize], &boxes[j as usize]) {
                         got.push((i.min(j), i.max(j)));
                     }

@@ -202,32 +202,59 @@ pub fn self_intersections(mesh: &Mesh, max_examples: usize) -> Findings<[u32; 2]
     .into_iter()
     .flatten()
     .collect();
-    let boxes: Vec<Aabb> = kept
-        .iter()
-        .map(|&(ti, _)| {
-            let mut b = Aabb::EMPTY;
-            mesh.triangles[ti as usize].iter().for_each(|&v| b.add(pos(v)));
-            b
-        })
-        .collect();
+    let boxes: Vec<Aabb> = map_pieces(kept.len(), &|lo, hi| {
+        kept[lo..hi]
+            .iter()
+            .map(|&(ti, _)| {
+                let mut b = Aabb::EMPTY;
+                mesh.triangles[ti as usize].iter().for_each(|&v| b.add(pos(v)));
+                b
+            })
+            .collect::<Vec<_>>()
+    })
+    .into_iter()
+    .flatten()
+    .collect();
     let bvh = Bvh::build(&boxes);
+    drop(boxes);
+    // The tested triangles with their vertices and positions, in the tree's slot order: a leaf
+    // and its neighbours are read from one place in memory, not from the mesh's scattered arrays.
+    let slots: Vec<Slot> = map_pieces(kept.len(), &|lo, hi| {
+        bvh.order()[lo..hi]
+            .iter()
+            .map(|&i| {
+                let (ti, k) = kept[i as usize];
+                let t = mesh.triangles[ti as usize];
+                Slot { t, p: t.map(|v| mesh.positions[v as usize]), ti, k }
+            })
+            .collect::<Vec<_>>()
+    })
+    .into_iter()
+    .flatten()
+    .collect();
+    drop(kept);
     // PASS: the tree joined with itself, in pieces of overlapping subtrees over the threads;
     // each piece keeps its count and its first pairs, merged in (i, j) order below.
     let pieces = bvh.self_join_pieces(JOIN_ITEMS);
     let per_piece = crate::walk::flying_edges::map_tasks(pieces, &|(na, nb)| {
         let mut count = 0usize;
         let mut first: Vec<[u32; 2]> = Vec::new();
-        bvh.self_join(na, nb, &mut |i, j| {
-            let (i, j) = (i.min(j) as usize, i.max(j) as usize);
-            if !overlaps(&boxes[i], &boxes[j]) {
+        bvh.self_join(na, nb, &mut |s, t| {
+            let (s, t) = (&slots[s as usize], &slots[t as usize]);
+            // The triangles' own boxes (exact in f32) must overlap.
+            if (0..3).any(|k| {
+                let (ps, pt) = (s.p.map(|q| q[k]), t.p.map(|q| q[k]));
+                ps[0].max(ps[1]).max(ps[2]) < pt[0].min(pt[1]).min(pt[2])
+                    || pt[0].max(pt[1]).max(pt[2]) < ps[0].min(ps[1]).min(ps[2])
+            }) {
                 return;
             }
-            // Lower index first, as the pairs are named (kept order is triangle order).
-            let ((ti, ka), (tj, kb)) = (kept[i], kept[j]);
-            let (ta, tb) = (mesh.triangles[ti as usize], mesh.triangles[tj as usize]);
-            if improper(ta, &ta.map(pos), ka as usize, tb, &tb.map(pos), kb as usize) {
+            // Lower triangle first, as the pairs are named.
+            let (a, b) = if s.ti < t.ti { (s, t) } else { (t, s) };
+            let wide = |p: [[f32; 3]; 3]| p.map(|q| q.map(f64::from));
+            if improper(a.t, &wide(a.p), a.k as usize, b.t, &wide(b.p), b.k as usize) {
                 count += 1;
-                first.push([ti, tj]);
+                first.push([a.ti, b.ti]);
                 if first.len() >= 2 * max_examples + 1024 {
                     keep_first(&mut first, max_examples);
                 }
@@ -247,6 +274,14 @@ pub fn self_intersections(mesh: &Mesh, max_examples: usize) -> Findings<[u32; 2]
     all
 }
 
+/// A tested triangle as the self-join reads it: vertices, positions, index, keep axis.
+struct Slot {
+    t: [u32; 3],
+    p: [[f32; 3]; 3],
+    ti: u32,
+    k: u8,
+}
+
 /// Items per node below which the self-join is not cut further (a piece for one thread).
 const JOIN_ITEMS: usize = 1 << 12;
 
@@ -254,11 +289,6 @@ const JOIN_ITEMS: usize = 1 << 12;
 fn keep_first(pairs: &mut Vec<[u32; 2]>, n: usize) {
     pairs.sort_unstable();
     pairs.truncate(n);
-}
-
-#[inline]
-fn overlaps(a: &Aabb, b: &Aabb) -> bool {
-    (0..3).all(|k| a.min[k] <= b.max[k] && b.min[k] <= a.max[k])
 }
 
 /// `f(lo, hi)` over `0..n` in pieces of [`PIECE`], in parallel when enabled; results in order.
