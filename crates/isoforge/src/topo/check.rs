@@ -604,6 +604,9 @@ pub fn check_with_progress(mesh: &Mesh, opts: &CheckOptions, progress: Option<&d
 /// Items per piece of the parallel passes (fixed, so results do not depend on the threads).
 const PIECE: usize = 1 << 16;
 
+/// Link edges up to which [`fans`] finds a vertex's link vertices by linear search.
+const FEW_LINKS: usize = 16;
+
 /// Vertices per piece of the vertex pass.
 const VERTEX_PIECE: usize = 1 << 14;
 
@@ -707,15 +710,33 @@ pub(super) fn doubled_area(p: [[f32; 3]; 3]) -> ([f64; 3], f64) {
 /// cycle. `local` and `parent` are scratch space.
 pub(super) fn fans(links: &[(u32, u32, u32)], local: &mut Vec<u32>, parent: &mut Vec<usize>) -> usize {
     local.clear();
-    for &(_, a, b) in links {
-        local.push(a);
-        local.push(b);
+    if links.len() <= FEW_LINKS {
+        // The usual few: distinct link vertices by linear search (no sort).
+        for &(_, a, b) in links {
+            for x in [a, b] {
+                if !local.contains(&x) {
+                    local.push(x);
+                }
+            }
+        }
+    } else {
+        for &(_, a, b) in links {
+            local.push(a);
+            local.push(b);
+        }
+        local.sort_unstable();
+        local.dedup();
     }
-    local.sort_unstable();
-    local.dedup();
     parent.clear();
     parent.extend(0..local.len());
-    let idx = |x: u32| local.binary_search(&x).unwrap_or(0);
+    let few = links.len() <= FEW_LINKS;
+    let idx = |x: u32| {
+        if few {
+            local.iter().position(|&y| y == x).unwrap_or(0)
+        } else {
+            local.binary_search(&x).unwrap_or(0)
+        }
+    };
     fn root(p: &mut [usize], mut x: usize) -> usize {
         while p[x] != x {
             p[x] = p[p[x]];
@@ -802,5 +823,83 @@ mod tests {
         let f = &r.boundary_edges.examples[0];
         assert!(f.cell.is_some());
         assert!(f.to_string().contains("in cell"), "{f}");
+    }
+
+    proptest::proptest! {
+        #![proptest_config(proptest::prelude::ProptestConfig::with_cases(200))]
+        /// Random triangle soups over few vertices (open, non-manifold, duplicated, collapsed):
+        /// the bucketed pass counts what a plain map of edges and a breadth-first search of each
+        /// vertex's link count.
+        #[test]
+        fn the_vertex_pass_agrees_with_plain_maps(
+            tris in proptest::collection::vec((0u32..14, 0u32..14, 0u32..14), 0..60),
+        ) {
+            use std::collections::BTreeMap;
+            let m = Mesh {
+                positions: (0..14).map(|i| [i as f32, (i * i % 7) as f32, (i % 3) as f32]).collect(),
+                triangles: tris.into_iter().map(|(a, b, c)| [a, b, c]).collect(),
+                ..Mesh::default()
+            };
+            let r = check_with(&m, &CheckOptions { max_examples: 1000, ..CheckOptions::default() });
+            let valid: Vec<(u32, [u32; 3])> = (0u32..)
+                .zip(&m.triangles)
+                .filter(|(_, t)| t[0] != t[1] && t[1] != t[2] && t[0] != t[2])
+                .map(|(i, &t)| (i, t))
+                .collect();
+            let mut edges: BTreeMap<(u32, u32), Vec<bool>> = BTreeMap::new();
+            let mut links: BTreeMap<u32, Vec<(u32, u32)>> = BTreeMap::new();
+            let mut triples: BTreeMap<[u32; 3], Vec<u32>> = BTreeMap::new();
+            for &(ti, t) in &valid {
+                for s in 0..3 {
+                    let (a, b) = (t[s], t[(s + 1) % 3]);
+                    edges.entry((a.min(b), a.max(b))).or_default().push(a < b);
+                    links.entry(t[s]).or_default().push((t[(s + 1) % 3], t[(s + 2) % 3]));
+                }
+                let mut k = t;
+                k.sort_unstable();
+                triples.entry(k).or_default().push(ti);
+            }
+            let count = |n: &dyn Fn(&Vec<bool>) -> bool| edges.values().filter(|v| n(v)).count();
+            proptest::prop_assert_eq!(r.edges, edges.len());
+            proptest::prop_assert_eq!(r.boundary_edges.count, count(&|v| v.len() == 1));
+            proptest::prop_assert_eq!(r.non_manifold_edges.count, count(&|v| v.len() > 2));
+            proptest::prop_assert_eq!(r.inconsistent_edges.count, count(&|v| v.len() == 2 && v[0] == v[1]));
+            let want_edges: Vec<[u32; 2]> =
+                edges.iter().filter(|(_, v)| v.len() == 1).map(|(&(a, b), _)| [a, b]).collect();
+            let got_edges: Vec<[u32; 2]> = r.boundary_edges.examples.iter().map(|f| f.edge).collect();
+            proptest::prop_assert_eq!(got_edges, want_edges);
+            let dups: Vec<[u32; 2]> = triples.values().flat_map(|v| v.windows(2).map(|w| [w[0], w[1]])).collect();
+            proptest::prop_assert_eq!(&r.duplicate_triangles.examples, &dups);
+            // A vertex is manifold when its link (edges b–c) is connected: search from one end.
+            let bad: Vec<u32> = links
+                .iter()
+                .filter(|(_, l)| {
+                    let mut seen = vec![l[0].0];
+                    let mut grew = true;
+                    while grew {
+                        grew = false;
+                        for &(b, c) in l.iter() {
+                            if seen.contains(&b) != seen.contains(&c) {
+                                seen.push(if seen.contains(&b) { c } else { b });
+                                grew = true;
+                            }
+                        }
+                    }
+                    l.iter().any(|&(b, c)| !seen.contains(&b) || !seen.contains(&c))
+                })
+                .map(|(&v, _)| v)
+                .collect();
+            proptest::prop_assert_eq!(&r.non_manifold_vertices.examples, &bad);
+            let mut uf = crate::math::UnionFind::new(14);
+            for &(_, t) in &valid {
+                uf.union(t[0], t[1]);
+                uf.union(t[1], t[2]);
+            }
+            let mut roots: Vec<u32> = valid.iter().map(|&(_, t)| uf.find(t[0])).collect();
+            roots.sort_unstable();
+            roots.dedup();
+            proptest::prop_assert_eq!(r.components.len(), roots.len());
+            proptest::prop_assert_eq!(r.components.iter().map(|c| c.triangles).sum::<usize>(), valid.len());
+        }
     }
 }

@@ -475,4 +475,23 @@ mod tests {
             .iter()
             .all(|&[i, j]| i < j && m.triangles[i as usize].contains(&0) ^ m.triangles[j as usize].contains(&0)));
     }
+
+    /// Issue 49: two of the 14 pairs `check --self-intersections` finds on the bunny CT's mc33
+    /// mesh (iso 988.37; triangles 1338306 and 1338317, the band of a tunnel in cell
+    /// (158, 392, 167), case 12): a real crossing, which the independent oracle sees too, not a
+    /// fault of the test.
+    #[test]
+    fn issue_49_the_bunny_mc33_band_crosses_itself() {
+        let p: [[f32; 3]; 6] = [
+            [-33.092102, 46.2038, 71.03815],
+            [-33.11322, 46.291164, 70.99256],
+            [-33.092102, 46.12222, 70.98013],
+            [-32.77533, 46.069054, 70.61],
+            [-33.11322, 46.128468, 71.11],
+            [-33.092102, 46.132515, 70.86],
+        ];
+        let m = mesh(&p, &[[0, 1, 2], [3, 4, 5]]);
+        assert_eq!(count(&m), 1);
+        assert_eq!(oracle(&m), 1);
+    }
 }
