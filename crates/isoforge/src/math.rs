@@ -107,6 +107,66 @@ impl<S: AsRef<[u32]> + AsMut<[u32]>> UnionFind<S> {
     }
 }
 
+/// [`UnionFind`] of `0..n` shared by threads: unions from any thread, lock-free (a root is linked
+/// under the smaller root by compare-and-swap, finds halve paths). The smallest element of a set
+/// is its root, as in [`UnionFind`], so the sets and their roots do not depend on the threads.
+#[derive(Debug)]
+pub struct AtomicUnionFind {
+    parent: Vec<std::sync::atomic::AtomicU32>,
+}
+
+impl AtomicUnionFind {
+    /// `n` elements, each in a set of its own.
+    pub fn new(n: usize) -> Self {
+        AtomicUnionFind { parent: (0..n as u32).map(std::sync::atomic::AtomicU32::new).collect() }
+    }
+    /// Elements held.
+    pub fn len(&self) -> usize {
+        self.parent.len()
+    }
+    /// Whether no element is held.
+    pub fn is_empty(&self) -> bool {
+        self.parent.is_empty()
+    }
+    /// The root of `x`'s set now (its smallest element once no union is under way).
+    #[inline]
+    pub fn find(&self, x: u32) -> u32 {
+        use std::sync::atomic::Ordering::Relaxed;
+        let mut x = x;
+        loop {
+            let p = self.parent[x as usize].load(Relaxed);
+            if p == x {
+                return x;
+            }
+            let g = self.parent[p as usize].load(Relaxed);
+            if g != p {
+                // Path halving; losing the race only leaves a longer path. Parents only ever
+                // decrease, so `g` is still an ancestor of `x`.
+                let _ = self.parent[x as usize].compare_exchange_weak(p, g, Relaxed, Relaxed);
+            }
+            x = p;
+        }
+    }
+    /// Joins the sets of `a` and `b`.
+    #[inline]
+    pub fn union(&self, a: u32, b: u32) {
+        use std::sync::atomic::Ordering::Relaxed;
+        let (mut a, mut b) = (a, b);
+        loop {
+            a = self.find(a);
+            b = self.find(b);
+            if a == b {
+                return;
+            }
+            let (lo, hi) = if a < b { (a, b) } else { (b, a) };
+            // Link only if `hi` is still a root; otherwise another thread moved it: retry.
+            if self.parent[hi as usize].compare_exchange(hi, lo, Relaxed, Relaxed).is_ok() {
+                return;
+            }
+        }
+    }
+}
+
 /// The element types [`UnionFind`] takes: vertex ids (`u32`) and small indices (`usize`).
 pub trait SetIndex: Copy + Ord {
     /// As an index.
@@ -139,7 +199,33 @@ impl SetIndex for usize {
 
 #[cfg(test)]
 mod union_find_tests {
-    use super::UnionFind;
+    use super::{AtomicUnionFind, UnionFind};
+
+    proptest::proptest! {
+        #![proptest_config(proptest::prelude::ProptestConfig::with_cases(64))]
+        /// Unions spread over four threads give the serial structure's sets and roots.
+        #[test]
+        fn atomic_union_find_from_threads_equals_the_serial_one(
+            n in 1u32..400,
+            pairs in proptest::collection::vec((0u32..400, 0u32..400), 0..800),
+        ) {
+            let pairs: Vec<(u32, u32)> = pairs.into_iter().map(|(a, b)| (a % n, b % n)).collect();
+            let mut serial = UnionFind::new(n as usize);
+            for &(a, b) in &pairs {
+                serial.union(a, b);
+            }
+            let shared = AtomicUnionFind::new(n as usize);
+            std::thread::scope(|s| {
+                for part in pairs.chunks(pairs.len().div_ceil(4).max(1)) {
+                    let shared = &shared;
+                    s.spawn(move || part.iter().for_each(|&(a, b)| shared.union(a, b)));
+                }
+            });
+            for x in 0..n {
+                proptest::prop_assert_eq!(shared.find(x), serial.find(x), "element {}", x);
+            }
+        }
+    }
 
     #[test]
     fn roots_are_the_smallest_members_for_both_storages() {

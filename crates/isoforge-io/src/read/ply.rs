@@ -161,6 +161,11 @@ pub fn read_ply(path: &Path, limits: &Limits) -> Result<Mesh> {
             body.len()
         )));
     }
+    if let Format::Binary { big } = format {
+        if let Some(mesh) = binary_triangles(&elements, big, body) {
+            return Ok(mesh);
+        }
+    }
     let mut src = Source { ctx, format, body, pos: 0 };
     let mut mesh = Mesh::default();
     mesh.positions.reserve(nv as usize);
@@ -226,6 +231,95 @@ pub fn read_ply(path: &Path, limits: &Limits) -> Result<Mesh> {
     Ok(mesh)
 }
 
+/// Vertices decoded per parallel piece of [`binary_triangles`].
+const PIECE: usize = 1 << 15;
+
+/// The common binary layout decoded in parallel, in one pass over the bytes: a `vertex` element
+/// of fixed-size scalars with `float` x, y, z, then a `face` element whose only property is its
+/// index list of `int` or `uint`, every face a triangle (what isoforge and most tools write).
+/// `None` for anything else, and for a file this layout does not fit or whose values the
+/// general reader would refuse (a list length other than 3, an index out of range, a
+/// non-finite coordinate, too few bytes): the general reader then reads it and names the fault.
+/// The size limits were checked from the header: triangles alone make no more than it declared.
+fn binary_triangles(elements: &[Element], big: bool, body: &[u8]) -> Option<Mesh> {
+    use rayon::prelude::*;
+    let [vertex, face] = elements else { return None };
+    if vertex.name != "vertex" || face.name != "face" {
+        return None;
+    }
+    // Vertex record: stride and the offsets of x, y, z (each a float).
+    let mut stride = 0usize;
+    let mut xyz = [None; 3];
+    for prop in &vertex.props {
+        let Prop::Scalar(t, name) = prop else { return None };
+        if let Some(a) = ["x", "y", "z"].iter().position(|n| n == name) {
+            if *t != Ty::F32 || xyz[a].is_some() {
+                return None;
+            }
+            xyz[a] = Some(stride);
+        }
+        stride += t.size();
+    }
+    let [Some(ox), Some(oy), Some(oz)] = xyz else { return None };
+    let [Prop::List(count_ty, index_ty, name)] = face.props.as_slice() else { return None };
+    if !matches!(name.as_str(), "vertex_indices" | "vertex_index") || !matches!(index_ty, Ty::I32 | Ty::U32) {
+        return None;
+    }
+    let (nv, nf) = (usize::try_from(vertex.count).ok()?, usize::try_from(face.count).ok()?);
+    let face_stride = count_ty.size() + 3 * 4;
+    let vertex_bytes = nv.checked_mul(stride)?;
+    let face_bytes = nf.checked_mul(face_stride)?;
+    let vertices = body.get(..vertex_bytes)?;
+    let faces = body.get(vertex_bytes..vertex_bytes.checked_add(face_bytes)?)?;
+    let word = |b: &[u8], at: usize| -> Option<u32> {
+        let w: [u8; 4] = b.get(at..at + 4)?.try_into().ok()?;
+        Some(if big { u32::from_be_bytes(w) } else { u32::from_le_bytes(w) })
+    };
+    let mut positions = vec![[0.0f32; 3]; nv];
+    let ok = positions.par_chunks_mut(PIECE).zip(vertices.par_chunks(PIECE * stride.max(1))).all(|(out, src)| {
+        out.iter_mut().zip(src.chunks_exact(stride.max(1))).all(|(p, r)| {
+            let mut q = [0.0f32; 3];
+            for (a, o) in [ox, oy, oz].into_iter().enumerate() {
+                match word(r, o).map(f32::from_bits) {
+                    Some(v) if v.is_finite() => q[a] = v,
+                    _ => return false,
+                }
+            }
+            *p = q;
+            true
+        })
+    });
+    if !ok {
+        return None;
+    }
+    // The list length: 3 in whatever integer type the header gave.
+    let three = {
+        let mut b = [0u8; 8];
+        let n = count_ty.size();
+        let at = if big { n - 1 } else { 0 };
+        b[at] = 3;
+        b
+    };
+    let count_bytes = count_ty.size();
+    let mut triangles = vec![[0u32; 3]; nf];
+    let ok = triangles.par_chunks_mut(PIECE).zip(faces.par_chunks(PIECE * face_stride)).all(|(out, src)| {
+        out.iter_mut().zip(src.chunks_exact(face_stride)).all(|(t, r)| {
+            if r.get(..count_bytes) != three.get(..count_bytes) {
+                return false;
+            }
+            for (k, slot) in t.iter_mut().enumerate() {
+                match word(r, count_bytes + 4 * k) {
+                    // An `int` index is negative when its top bit is set: then it is ≥ 2³¹ > nv.
+                    Some(v) if (v as usize) < nv && (*index_ty == Ty::U32 || v <= i32::MAX as u32) => *slot = v,
+                    _ => return false,
+                }
+            }
+            true
+        })
+    });
+    ok.then(|| Mesh { positions, triangles, ..Mesh::default() })
+}
+
 struct Source<'a> {
     ctx: Ctx<'a>,
     format: Format,
@@ -271,6 +365,95 @@ impl Source<'_> {
                     self.ctx.bad(format!("{}: {:?} is not a number", what(), tok.chars().take(30).collect::<String>()))
                 })
             }
+        }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// A binary PLY of `faces` over four vertices; each vertex carries a `uchar` before x and a
+    /// `float nx` after z (skipped), indices as `uint` or `int`, either endianness.
+    fn file(big: bool, signed: bool, faces: &[&[i64]], coord: f32) -> Vec<u8> {
+        let endian = if big { "big" } else { "little" };
+        let ity = if signed { "int" } else { "uint" };
+        let mut out = format!(
+            "ply\nformat binary_{endian}_endian 1.0\nelement vertex 4\nproperty uchar flag\nproperty float x\nproperty float y\nproperty float z\nproperty float nx\nelement face {}\nproperty list uchar {ity} vertex_indices\nend_header\n",
+            faces.len()
+        )
+        .into_bytes();
+        let f32b = |x: f32| if big { x.to_be_bytes() } else { x.to_le_bytes() };
+        let p = [[0.0, 0.0, 0.0], [1.0, 0.0, 0.0], [0.0, 1.0, 0.0], [0.0, 0.0, coord]];
+        for q in p {
+            out.push(7);
+            q.iter().chain(&[0.5]).for_each(|&c| out.extend_from_slice(&f32b(c)));
+        }
+        for f in faces {
+            out.push(f.len() as u8);
+            for &v in *f {
+                let w = v as u32;
+                out.extend_from_slice(&if big { w.to_be_bytes() } else { w.to_le_bytes() });
+            }
+        }
+        out
+    }
+
+    fn read(bytes: &[u8]) -> Result<Mesh> {
+        let dir = tempfile::tempdir().unwrap();
+        let path = dir.path().join("m.ply");
+        std::fs::write(&path, bytes).unwrap();
+        read_ply(&path, &Limits::default())
+    }
+
+    #[test]
+    fn the_parallel_binary_path_reads_what_the_general_one_reads() {
+        let tetra: &[&[i64]] = &[&[0, 2, 1], &[0, 1, 3], &[0, 3, 2], &[1, 2, 3]];
+        for big in [false, true] {
+            for signed in [false, true] {
+                let bytes = file(big, signed, tetra, 1.0);
+                let elements = [
+                    Element {
+                        name: "vertex".into(),
+                        count: 4,
+                        props: ["flag", "x", "y", "z", "nx"]
+                            .iter()
+                            .map(|n| Prop::Scalar(if *n == "flag" { Ty::U8 } else { Ty::F32 }, n.to_string()))
+                            .collect(),
+                    },
+                    Element {
+                        name: "face".into(),
+                        count: 4,
+                        props: vec![Prop::List(
+                            Ty::U8,
+                            if signed { Ty::I32 } else { Ty::U32 },
+                            "vertex_indices".into(),
+                        )],
+                    },
+                ];
+                let body = &bytes[bytes.windows(11).position(|w| w == b"end_header\n").unwrap() + 11..];
+                let fast = binary_triangles(&elements, big, body).expect("the common layout");
+                let m = read(&bytes).unwrap();
+                assert_eq!(fast, m);
+                assert_eq!(m.triangles, vec![[0, 2, 1], [0, 1, 3], [0, 3, 2], [1, 2, 3]]);
+                assert_eq!(m.positions[3], [0.0, 0.0, 1.0]);
+            }
+        }
+    }
+
+    #[test]
+    fn files_the_parallel_path_does_not_fit_are_read_or_refused_as_before() {
+        // A quad: fanned by the general reader.
+        let m = read(&file(false, true, &[&[0, 1, 2, 3], &[1, 2, 3]], 1.0)).unwrap();
+        assert_eq!(m.triangles, vec![[0, 1, 2], [0, 2, 3], [1, 2, 3]]);
+        // An index out of range, a negative one, a non-finite coordinate: the general errors.
+        for (bytes, want) in [
+            (file(false, false, &[&[0, 1, 2], &[1, 2, 9]], 1.0), "face 1: vertex index 9 is outside 0..4"),
+            (file(true, true, &[&[0, -1, 2]], 1.0), "face 0: vertex index -1 is outside 0..4"),
+            (file(false, true, &[&[0, 1, 2]], f32::NAN), "vertex 3: coordinate NaN is not a finite number"),
+        ] {
+            let e = read(&bytes).unwrap_err().to_string();
+            assert!(e.contains(want), "{e}");
         }
     }
 }

@@ -38,13 +38,15 @@ pub struct Bvh {
 }
 
 impl Bvh {
-    /// Builds the hierarchy of `boxes` (an empty one when there are none).
+    /// Builds the hierarchy of `boxes` (an empty one when there are none); the two halves of
+    /// big nodes in parallel (the tree is the same for any thread count).
     pub fn build(boxes: &[Aabb]) -> Self {
         let mut order: Vec<u32> = (0..boxes.len() as u32).collect();
         let centres: Vec<[f64; 3]> = boxes.iter().map(|b| [0, 1, 2].map(|a| 0.5 * (b.min[a] + b.max[a]))).collect();
-        let mut nodes = Vec::with_capacity(2 * boxes.len().div_ceil(LEAF_ITEMS));
+        let blank = BvhNode { bounds: Aabb::EMPTY, first: 0, count: 0 };
+        let mut nodes = vec![blank; node_count(boxes.len())];
         if !boxes.is_empty() {
-            split(boxes, &centres, &mut order, 0, &mut nodes);
+            split(boxes, &centres, &mut order, 0, &mut nodes, 0);
         }
         Bvh { nodes, order }
     }
@@ -129,6 +131,104 @@ impl Bvh {
         best
     }
 
+    /// The node pairs a self-join ([`self_join`](Bvh::self_join)) of the whole tree is cut into:
+    /// `(a, a)` for the pairs within node `a`, `(a, b)` for the pairs across two disjoint
+    /// subtrees whose boxes overlap. Every pair of items whose leaves' boxes overlap is below
+    /// exactly one of them; the descent stops at nodes of at most `items` items, so the
+    /// pieces can be joined in parallel.
+    pub fn self_join_pieces(&self, items: usize) -> Vec<(usize, usize)> {
+        let mut out = Vec::new();
+        if !self.nodes.is_empty() {
+            self.pieces(0, 0, items.max(1), &mut out);
+        }
+        out
+    }
+
+    fn pieces(&self, a: usize, b: usize, items: usize, out: &mut Vec<(usize, usize)>) {
+        let small = |n: usize| self.nodes[n].is_leaf() || self.items_below(n).len() <= items;
+        if a == b {
+            if small(a) {
+                out.push((a, a));
+                return;
+            }
+            let [l, r] = self.children(a);
+            self.pieces(l, l, items, out);
+            self.pieces(r, r, items, out);
+            self.pieces(l, r, items, out);
+            return;
+        }
+        if !overlaps(&self.nodes[a].bounds, &self.nodes[b].bounds) {
+            return;
+        }
+        if small(a) && small(b) {
+            out.push((a, b));
+            return;
+        }
+        // Descend the bigger side (by items below).
+        if small(b) || (!small(a) && self.items_below(a).len() >= self.items_below(b).len()) {
+            let [l, r] = self.children(a);
+            self.pieces(l, b, items, out);
+            self.pieces(r, b, items, out);
+        } else {
+            let [l, r] = self.children(b);
+            self.pieces(a, l, items, out);
+            self.pieces(a, r, items, out);
+        }
+    }
+
+    /// Calls `f(s, t)` (slots of [`order`](Bvh::order), each unordered pair once, `s != t`) for
+    /// every pair of items below the piece `(a, b)` of [`self_join_pieces`](Bvh::self_join_pieces)
+    /// whose leaves' boxes overlap: a superset of the pairs whose own boxes do, which the caller
+    /// tests exactly. Each pair of overlapping subtrees is visited once (no query per item).
+    /// Slots, not items: a caller that keeps its per-item data in slot order reads a leaf's
+    /// items, and its neighbours', from one place in memory.
+    pub fn self_join(&self, a: usize, b: usize, f: &mut dyn FnMut(u32, u32)) {
+        let (na, nb) = (&self.nodes[a], &self.nodes[b]);
+        let slots = |n: &BvhNode| n.first..n.first + n.count;
+        if a == b {
+            if na.is_leaf() {
+                for s in slots(na) {
+                    for t in s + 1..na.first + na.count {
+                        f(s, t);
+                    }
+                }
+            } else {
+                let [l, r] = self.children(a);
+                self.self_join(l, l, f);
+                self.self_join(r, r, f);
+                self.self_join(l, r, f);
+            }
+            return;
+        }
+        if !overlaps(&na.bounds, &nb.bounds) {
+            return;
+        }
+        match (na.is_leaf(), nb.is_leaf()) {
+            (true, true) => {
+                for s in slots(na) {
+                    for t in slots(nb) {
+                        f(s, t);
+                    }
+                }
+            }
+            // Descend the inner node; of two inner nodes, the one with the larger box.
+            (false, true) => self.children(a).iter().for_each(|&c| self.self_join(c, b, f)),
+            (true, false) => self.children(b).iter().for_each(|&c| self.self_join(a, c, f)),
+            (false, false) => {
+                if extent(&na.bounds) >= extent(&nb.bounds) {
+                    self.children(a).iter().for_each(|&c| self.self_join(c, b, f));
+                } else {
+                    self.children(b).iter().for_each(|&c| self.self_join(a, c, f));
+                }
+            }
+        }
+    }
+
+    /// The items in build order: slot `s` of a leaf holds item `order()[s]`.
+    pub fn order(&self) -> &[u32] {
+        &self.order
+    }
+
     /// Calls `f(i)` for every item of the leaves whose box overlaps `query` (closed boxes): a
     /// superset of the items whose own box does, which the caller tests exactly.
     pub fn candidates(&self, query: &Aabb, f: &mut dyn FnMut(u32)) {
@@ -157,22 +257,54 @@ impl Bvh {
     }
 }
 
-/// Appends the subtree over `order[lo..]` (its slice) to `nodes`, depth first.
-fn split(boxes: &[Aabb], centres: &[[f64; 3]], order: &mut [u32], offset: usize, nodes: &mut Vec<BvhNode>) {
-    let mut bounds = Aabb::EMPTY;
-    let mut cbox = Aabb::EMPTY;
-    for &i in order.iter() {
-        let b = &boxes[i as usize];
-        bounds.add(b.min);
-        bounds.add(b.max);
-        cbox.add(centres[i as usize]);
+/// Nodes of the tree over `n` items: one leaf for up to [`LEAF_ITEMS`], else a node over the
+/// trees of `n / 2` and `n - n / 2` (how [`split`] cuts), so each subtree's slot range is known
+/// before it is built.
+fn node_count(n: usize) -> usize {
+    // (nodes(m), nodes(m + 1)) from (nodes(m / 2), nodes(m / 2 + 1)): the halves of m and m + 1
+    // are m / 2 or m / 2 + 1.
+    fn pair(m: usize) -> (usize, usize) {
+        let one = |k: usize, h: (usize, usize), h0: usize| -> usize {
+            if k <= LEAF_ITEMS {
+                return 1;
+            }
+            let at = |x: usize| if x == h0 { h.0 } else { h.1 };
+            1 + at(k / 2) + at(k - k / 2)
+        };
+        if m < LEAF_ITEMS {
+            return (1, 1);
+        }
+        let h0 = m / 2;
+        let h = pair(h0);
+        (one(m, h, h0), one(m + 1, h, h0))
     }
-    let at = nodes.len();
+    if n == 0 {
+        0
+    } else {
+        pair(n).0
+    }
+}
+
+/// Items from which [`split`] builds the two halves of a node in parallel.
+const PARALLEL_ITEMS: usize = 1 << 15;
+
+/// Writes the subtree over `order` (items `offset..offset + order.len()` of the build order) to
+/// `nodes` (exactly its [`node_count`] slots, depth first; `base` is the index of `nodes[0]`).
+fn split(boxes: &[Aabb], centres: &[[f64; 3]], order: &mut [u32], offset: usize, nodes: &mut [BvhNode], base: usize) {
     if order.len() <= LEAF_ITEMS {
-        nodes.push(BvhNode { bounds, first: offset as u32, count: order.len() as u32 });
+        let mut bounds = Aabb::EMPTY;
+        for &i in order.iter() {
+            let b = &boxes[i as usize];
+            bounds.add(b.min);
+            bounds.add(b.max);
+        }
+        nodes[0] = BvhNode { bounds, first: offset as u32, count: order.len() as u32 };
         return;
     }
-    nodes.push(BvhNode { bounds, first: 0, count: 0 });
+    let mut cbox = Aabb::EMPTY;
+    for &i in order.iter() {
+        cbox.add(centres[i as usize]);
+    }
     let size = cbox.size();
     let axis = (0..3).max_by(|&a, &b| size[a].total_cmp(&size[b]).then(b.cmp(&a))).unwrap_or(0);
     let mid = order.len() / 2;
@@ -181,9 +313,39 @@ fn split(boxes: &[Aabb], centres: &[[f64; 3]], order: &mut [u32], offset: usize,
         centres[a as usize][axis].total_cmp(&centres[b as usize][axis]).then(a.cmp(&b))
     });
     let (left, right) = order.split_at_mut(mid);
-    split(boxes, centres, left, offset, nodes);
-    nodes[at].first = nodes.len() as u32;
-    split(boxes, centres, right, offset + mid, nodes);
+    let Some((node, below)) = nodes.split_first_mut() else { return };
+    let (lnodes, rnodes) = below.split_at_mut(node_count(mid));
+    let right_base = base + 1 + lnodes.len();
+    let mut build_left = || split(boxes, centres, left, offset, lnodes, base + 1);
+    let mut build_right = || split(boxes, centres, right, offset + mid, rnodes, right_base);
+    if order_len_parallel(mid) {
+        join(build_left, build_right);
+    } else {
+        build_left();
+        build_right();
+    }
+    // A node's box is its children's.
+    let (a, b) = (lnodes[0].bounds, rnodes[0].bounds);
+    let mut bounds = a;
+    bounds.add(b.min);
+    bounds.add(b.max);
+    *node = BvhNode { bounds, first: right_base as u32, count: 0 };
+}
+
+#[inline]
+fn order_len_parallel(half: usize) -> bool {
+    cfg!(feature = "parallel") && half >= PARALLEL_ITEMS
+}
+
+/// Runs `a` and `b`, in parallel when the crate is built so.
+fn join(a: impl FnOnce() + Send, b: impl FnOnce() + Send) {
+    #[cfg(feature = "parallel")]
+    rayon::join(a, b);
+    #[cfg(not(feature = "parallel"))]
+    {
+        a();
+        b();
+    }
 }
 
 /// Squared distance from `p` to the box (0 inside).
@@ -195,6 +357,13 @@ pub fn box_d2(b: &Aabb, p: [f64; 3]) -> f64 {
         d2 += d * d;
     }
     d2
+}
+
+/// The box's size as the sum of its sides (a volume would be zero for flat triangles' boxes).
+#[inline]
+fn extent(b: &Aabb) -> f64 {
+    let s = b.size();
+    s[0] + s[1] + s[2]
 }
 
 #[inline]
@@ -248,5 +417,106 @@ mod tests {
         assert!(want.iter().all(|i| got.binary_search(i).is_ok()));
         assert!(got.len() < 3 * want.len(), "{} candidates for {}", got.len(), want.len());
         assert!(Bvh::build(&[]).nearest([0.0; 3], 1.0, &mut |_| 0.0).is_none());
+    }
+
+    /// The tree as the serial build made it before the parallel one: pushed depth first.
+    fn reference_build(boxes: &[Aabb]) -> Vec<(Aabb, u32, u32)> {
+        fn go(boxes: &[Aabb], c: &[[f64; 3]], order: &mut [u32], offset: usize, out: &mut Vec<(Aabb, u32, u32)>) {
+            let mut bounds = Aabb::EMPTY;
+            let mut cbox = Aabb::EMPTY;
+            for &i in order.iter() {
+                bounds.add(boxes[i as usize].min);
+                bounds.add(boxes[i as usize].max);
+                cbox.add(c[i as usize]);
+            }
+            let at = out.len();
+            if order.len() <= LEAF_ITEMS {
+                out.push((bounds, offset as u32, order.len() as u32));
+                return;
+            }
+            out.push((bounds, 0, 0));
+            let size = cbox.size();
+            let axis = (0..3).max_by(|&a, &b| size[a].total_cmp(&size[b]).then(b.cmp(&a))).unwrap();
+            let mid = order.len() / 2;
+            order.select_nth_unstable_by(mid, |&a, &b| {
+                c[a as usize][axis].total_cmp(&c[b as usize][axis]).then(a.cmp(&b))
+            });
+            let (l, r) = order.split_at_mut(mid);
+            go(boxes, c, l, offset, out);
+            out[at].1 = out.len() as u32;
+            go(boxes, c, r, offset + mid, out);
+        }
+        let c: Vec<[f64; 3]> = boxes.iter().map(|b| [0, 1, 2].map(|a| 0.5 * (b.min[a] + b.max[a]))).collect();
+        let mut order: Vec<u32> = (0..boxes.len() as u32).collect();
+        let mut out = Vec::new();
+        if !boxes.is_empty() {
+            go(boxes, &c, &mut order, 0, &mut out);
+        }
+        out
+    }
+
+    #[test]
+    fn the_parallel_build_is_the_serial_tree() {
+        for n in [0, 1, 4, 5, 9, 17, 1000, 3 * PARALLEL_ITEMS + 7] {
+            let boxes = point_boxes(n);
+            let bvh = Bvh::build(&boxes);
+            let want = reference_build(&boxes);
+            assert_eq!(bvh.nodes.len(), want.len(), "{n} items");
+            assert_eq!(node_count(n), want.len(), "{n} items");
+            for (k, (node, w)) in bvh.nodes.iter().zip(&want).enumerate() {
+                assert_eq!((node.bounds, node.first, node.count), *w, "node {k} of {n}");
+            }
+        }
+    }
+
+    /// Every pair `(i, j)`, i < j, whose boxes overlap, from one `candidates` query per item (the
+    /// self-join's reference).
+    fn pairs_by_query(bvh: &Bvh, boxes: &[Aabb]) -> Vec<(u32, u32)> {
+        let mut out = Vec::new();
+        for (i, b) in boxes.iter().enumerate() {
+            bvh.candidates(b, &mut |j| {
+                if j as usize > i && overlaps(b, &boxes[j as usize]) {
+                    out.push((i as u32, j));
+                }
+            });
+        }
+        out.sort_unstable();
+        out
+    }
+
+    proptest::proptest! {
+        #![proptest_config(proptest::prelude::ProptestConfig::with_cases(100))]
+        /// Random boxes (points to long slivers, clusters and repeats): the self-join, cut into
+        /// pieces of any size, yields each overlapping pair exactly once, the pairs one query per
+        /// item finds.
+        #[test]
+        fn self_join_finds_the_pairs_of_per_item_queries(
+            raw in proptest::collection::vec((0.0f64..1.0, 0.0f64..1.0, 0.0f64..1.0, 0.0f64..0.3, 0u8..4), 0..300),
+            piece in 1usize..64,
+        ) {
+            let boxes: Vec<Aabb> = raw
+                .iter()
+                .map(|&(x, y, z, s, kind)| {
+                    let min = [x, y, z];
+                    let size = match kind { 0 => [0.0; 3], 1 => [s, s * 0.1, 0.0], 2 => [s; 3], _ => [0.01, 0.01, s] };
+                    Aabb { min, max: [0, 1, 2].map(|a| min[a] + size[a]) }
+                })
+                .collect();
+            let bvh = Bvh::build(&boxes);
+            let mut got = Vec::new();
+            for (a, b) in bvh.self_join_pieces(piece) {
+                bvh.self_join(a, b, &mut |s, t| {
+                    let (i, j) = (bvh.order()[s as usize], bvh.order()[t as usize]);
+                    if overlaps(&boxes[i as usize], &boxes[j as usize]) {
+                        got.push((i.min(j), i.max(j)));
+                    }
+                });
+            }
+            got.sort_unstable();
+            let n = got.len();
+            got.dedup();
+            proptest::prop_assert_eq!(n, got.len(), "a pair was visited twice");
+            proptest::prop_assert_eq!(got, pairs_by_query(&bvh, &boxes));
+        }
     }
 }

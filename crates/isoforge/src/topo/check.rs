@@ -1,7 +1,11 @@
 use std::fmt;
 
 use crate::grid::Lattice;
-use crate::math::{Aabb, UnionFind};
+use std::sync::atomic::AtomicBool;
+use std::sync::atomic::AtomicU32;
+use std::sync::atomic::Ordering::Relaxed;
+
+use crate::math::{Aabb, AtomicUnionFind};
 use crate::mesh::Mesh;
 use crate::walk::Progress;
 
@@ -51,6 +55,13 @@ impl<T> Findings<T> {
         if self.examples.len() < max {
             self.examples.push(t);
         }
+    }
+
+    /// Adds the findings of a later piece.
+    pub(super) fn append(&mut self, later: Findings<T>, max: usize) {
+        self.count += later.count;
+        let room = max.saturating_sub(self.examples.len());
+        self.examples.extend(later.examples.into_iter().take(room));
     }
 }
 
@@ -271,9 +282,9 @@ pub fn check_with(mesh: &Mesh, opts: &CheckOptions) -> MeshReport {
 /// Stages of [`check_with_progress`]; progress is reported in units of `T` per stage.
 const STAGES: u64 = 5;
 
-/// [`check_with`], reporting progress after each of its five stages (triangles, components, edges,
-/// vertex fans, duplicates) in units of the triangle count: a live bar for meshes of millions of
-/// triangles, which take seconds (sorting the edges dominates).
+/// [`check_with`], reporting progress after each of its five stages (triangles, components,
+/// vertex buckets, edges with fans and duplicates, angles) in units of the triangle count: a live
+/// bar for meshes of millions of triangles, which take seconds.
 pub fn check_with_progress(mesh: &Mesh, opts: &CheckOptions, progress: Option<&dyn Progress>) -> MeshReport {
     if !mesh.quads.is_empty() {
         let mut split =
@@ -292,37 +303,63 @@ pub fn check_with_progress(mesh: &Mesh, opts: &CheckOptions, progress: Option<&d
     stage(0);
     let nv = mesh.positions.len();
     let max = opts.max_examples;
+    let tris = &mesh.triangles;
     let pos = |v: u32| mesh.positions[v as usize];
-    let mut collapsed = Findings::default();
-    let mut zero_area = Findings::default();
+    use crate::walk::flying_edges::map_tasks;
 
-    // PASS 1: valid triangles, area, volume, union-find of vertices.
-    let mut valid: Vec<u32> = Vec::with_capacity(mesh.triangles.len());
-    let mut uf = UnionFind::new(nv);
-    let mut used = vec![false; nv];
+    // PASS 1 (pieces of triangles over the threads): valid triangles, the vertices they use and
+    // the union-find of their vertices.
+    let uf = AtomicUnionFind::new(nv);
+    let used: Vec<AtomicBool> = (0..nv).map(|_| AtomicBool::new(false)).collect();
+    let parts = map_tasks(ranges(tris.len(), PIECE), &|(lo, hi)| {
+        let (mut valid, mut collapsed) = (Vec::with_capacity(hi - lo), Findings::default());
+        for (ti, t) in (lo..).zip(&tris[lo..hi]) {
+            if t.iter().any(|&v| v as usize >= nv) || t[0] == t[1] || t[1] == t[2] || t[0] == t[2] {
+                collapsed.push(ti as u32, max);
+                continue;
+            }
+            valid.push(ti as u32);
+            for &v in t {
+                used[v as usize].store(true, Relaxed);
+            }
+            uf.union(t[0], t[1]);
+            uf.union(t[1], t[2]);
+        }
+        (valid, collapsed)
+    });
+    let mut valid: Vec<u32> = Vec::with_capacity(tris.len());
+    let mut collapsed = Findings::default();
+    for (v, c) in parts {
+        valid.extend(v);
+        collapsed.append(c, max);
+    }
+    // Vertices (pieces over the threads): bounds, isolated ones, the root of each.
+    let mut root = vec![0u32; nv];
+    let tasks: Vec<(usize, &mut [u32])> = root.chunks_mut(PIECE).enumerate().map(|(k, r)| (k * PIECE, r)).collect();
+    let parts = map_tasks(tasks, &|(lo, out): (usize, &mut [u32])| {
+        let (mut bounds, mut isolated) = (Aabb::EMPTY, Findings::default());
+        for (v, r) in (lo as u32..).zip(out.iter_mut()) {
+            *r = uf.find(v);
+            if used[v as usize].load(Relaxed) {
+                let p = pos(v);
+                bounds.add([p[0] as f64, p[1] as f64, p[2] as f64]);
+            } else {
+                isolated.push(v, max);
+            }
+        }
+        (bounds, isolated)
+    });
     let mut bounds = Aabb::EMPTY;
-    for (ti, t) in mesh.triangles.iter().enumerate() {
-        let ti = ti as u32;
-        if t.iter().any(|&v| v as usize >= nv) || t[0] == t[1] || t[1] == t[2] || t[0] == t[2] {
-            collapsed.push(ti, max);
-            continue;
-        }
-        valid.push(ti);
-        for &v in t {
-            used[v as usize] = true;
-        }
-        uf.union(t[0], t[1]);
-        uf.union(t[1], t[2]);
-    }
     let mut isolated = Findings::default();
-    for (v, &u) in used.iter().enumerate() {
-        if u {
-            let p = pos(v as u32);
-            bounds.add([p[0] as f64, p[1] as f64, p[2] as f64]);
-        } else {
-            isolated.push(v as u32, max);
+    for (b, i) in parts {
+        if !b.is_empty() {
+            bounds.add(b.min);
+            bounds.add(b.max);
         }
+        isolated.append(i, max);
     }
+    drop(uf);
+    let used: Vec<bool> = used.into_iter().map(AtomicBool::into_inner).collect();
     // Volume relative to the box centre keeps the f64 sums well conditioned.
     let c = if bounds.is_empty() { [0.0; 3] } else { [0, 1, 2].map(|a| 0.5 * (bounds.min[a] + bounds.max[a])) };
     let p64 = |v: u32| {
@@ -332,17 +369,10 @@ pub fn check_with_progress(mesh: &Mesh, opts: &CheckOptions, progress: Option<&d
 
     stage(1);
 
-    // Component ids: dense numbering of union-find roots.
+    // Component ids: union-find roots numbered in the order of the triangles that first use
+    // them; each component's sums added in triangle order (the terms computed over the threads),
+    // so the figures do not depend on the threads.
     let mut comp_of_root = vec![u32::MAX; nv];
-    let mut ncomp = 0usize;
-    let mut comp = |uf: &mut UnionFind, v: u32| -> usize {
-        let r = uf.find(v) as usize;
-        if comp_of_root[r] == u32::MAX {
-            comp_of_root[r] = ncomp as u32;
-            ncomp += 1;
-        }
-        comp_of_root[r] as usize
-    };
     let mut comps: Vec<ComponentReport> = Vec::new();
     let blank = ComponentReport {
         vertices: 0,
@@ -354,132 +384,186 @@ pub fn check_with_progress(mesh: &Mesh, opts: &CheckOptions, progress: Option<&d
         area: 0.0,
         volume: 0.0,
     };
-    let mut tri_comp = vec![0u32; mesh.triangles.len()];
-    for &ti in &valid {
-        let t = mesh.triangles[ti as usize];
-        let ci = comp(&mut uf, t[0]);
-        if ci == comps.len() {
-            comps.push(blank.clone());
+    let mut zero_area = Findings::default();
+    for chunk in valid.chunks(SUM_CHUNK) {
+        let terms = map_tasks(chunk.chunks(PIECE).collect(), &|piece: &[u32]| {
+            piece
+                .iter()
+                .map(|&ti| {
+                    let t = tris[ti as usize];
+                    let (n, area2) = doubled_area(t.map(pos));
+                    let a = p64(t[0]);
+                    (area2, (a[0] * n[0] + a[1] * n[1] + a[2] * n[2]) / 6.0)
+                })
+                .collect::<Vec<_>>()
+        });
+        for (&ti, (area2, volume)) in chunk.iter().zip(terms.into_iter().flatten()) {
+            let r = root[tris[ti as usize][0] as usize] as usize;
+            if comp_of_root[r] == u32::MAX {
+                comp_of_root[r] = comps.len() as u32;
+                comps.push(blank.clone());
+            }
+            if area2 == 0.0 {
+                zero_area.push(ti, max);
+            }
+            let k = &mut comps[comp_of_root[r] as usize];
+            k.triangles += 1;
+            k.area += 0.5 * area2;
+            k.volume += volume;
         }
-        tri_comp[ti as usize] = ci as u32;
-        let (n, area2) = doubled_area(t.map(pos));
-        if area2 == 0.0 {
-            zero_area.push(ti, max);
-        }
-        let a = p64(t[0]);
-        let k = &mut comps[ci];
-        k.triangles += 1;
-        k.area += 0.5 * area2;
-        k.volume += (a[0] * n[0] + a[1] * n[1] + a[2] * n[2]) / 6.0;
     }
+    // From here on a vertex's component is `comp_of_root[root[v]]`.
+    let mut comp_of = root;
     for (v, &u) in used.iter().enumerate() {
+        let ci = comp_of_root[comp_of[v] as usize];
+        comp_of[v] = ci;
         if u {
-            let ci = comp(&mut uf, v as u32);
-            comps[ci].vertices += 1;
+            comps[ci as usize].vertices += 1;
         }
     }
+    drop(comp_of_root);
 
     stage(2);
 
-    // PASS 2: edges, sorted by key; a group of equal keys is one undirected edge.
-    let mut edges: Vec<(u64, u32)> = Vec::with_capacity(valid.len() * 3);
-    for &ti in &valid {
-        let t = mesh.triangles[ti as usize];
-        for s in 0..3 {
-            let (a, b) = (t[s], t[(s + 1) % 3]);
-            let forward = (a < b) as u32;
-            let key = edge_key(a, b);
-            edges.push((key, (ti << 1) | forward));
+    // PASS 2: each vertex's triangles, bucketed once (counts, prefix sums, fill; over the
+    // threads). Each vertex then owns its edges to larger vertices, its link and the triangles
+    // where it is the smallest vertex, so edges, fans and duplicates come from one pass over the
+    // vertices, in vertex order (the order sorted keys would give).
+    let degree: Vec<AtomicU32> = (0..nv).map(|_| AtomicU32::new(0)).collect();
+    map_tasks(valid.chunks(PIECE).collect(), &|piece: &[u32]| {
+        for &ti in piece {
+            for &v in &tris[ti as usize] {
+                degree[v as usize].fetch_add(1, Relaxed);
+            }
         }
+    });
+    let mut start = Vec::with_capacity(nv + 1);
+    let mut sum = 0usize;
+    start.push(0);
+    for d in &degree {
+        sum += d.load(Relaxed) as usize;
+        start.push(sum);
     }
-    sort_by_vertex(&mut edges, nv, |e| (e.0 >> 32) as u32);
+    // `degree` becomes each vertex's fill cursor.
+    degree.iter().for_each(|d| d.store(0, Relaxed));
+    let corners: Vec<AtomicU32> = (0..sum).map(|_| AtomicU32::new(0)).collect();
+    map_tasks(valid.chunks(PIECE).collect(), &|piece: &[u32]| {
+        for &ti in piece {
+            for &v in &tris[ti as usize] {
+                let k = degree[v as usize].fetch_add(1, Relaxed) as usize;
+                corners[start[v as usize] + k].store(ti, Relaxed);
+            }
+        }
+    });
+    drop(degree);
+    let corners: Vec<u32> = corners.into_iter().map(AtomicU32::into_inner).collect();
+
+    stage(3);
+
     let finding = |key: u64, faces: usize| {
         let (a, b) = ((key >> 32) as u32, key as u32);
         EdgeFinding::new(a, b, faces, pos(a), pos(b), opts.lattice.as_ref())
     };
-    let (mut boundary, mut non_manifold, mut inconsistent) =
-        (Findings::default(), Findings::default(), Findings::default());
-    let mut nedges = 0usize;
-    let mut i = 0;
-    while i < edges.len() {
-        let key = edges[i].0;
-        let mut j = i;
-        while j < edges.len() && edges[j].0 == key {
-            j += 1;
-        }
-        nedges += 1;
-        let ci = tri_comp[(edges[i].1 >> 1) as usize] as usize;
-        comps[ci].edges += 1;
-        match j - i {
-            1 => {
-                boundary.push(finding(key, 1), max);
-                comps[ci].closed = false;
+    let parts = map_tasks(ranges(nv, VERTEX_PIECE), &|(lo, hi)| {
+        let mut out = VertexPass::default();
+        let (mut links, mut owned, mut mine) = (Vec::new(), Vec::new(), Vec::new());
+        let (mut local, mut parent) = (Vec::new(), Vec::new());
+        for v in lo as u32..hi as u32 {
+            let around = &corners[start[v as usize]..start[v as usize + 1]];
+            if around.is_empty() {
+                continue;
             }
-            2 => {
-                if (edges[i].1 & 1) == (edges[i + 1].1 & 1) {
-                    inconsistent.push(finding(key, 2), max);
+            links.clear();
+            owned.clear();
+            mine.clear();
+            for &ti in around {
+                let t = tris[ti as usize];
+                let s = if t[0] == v {
+                    0
+                } else if t[1] == v {
+                    1
+                } else {
+                    2
+                };
+                let (b, c) = (t[(s + 1) % 3], t[(s + 2) % 3]);
+                links.push((v, b, c));
+                // Edge v → b runs forward (smaller to larger) when b > v; edge c → v backward.
+                if b > v {
+                    owned.push((b, (ti << 1) | 1));
+                }
+                if c > v {
+                    owned.push((c, ti << 1));
+                }
+                if v < b && v < c {
+                    mine.push(([v, b.min(c), b.max(c)], ti));
                 }
             }
-            n => non_manifold.push(finding(key, n), max),
-        }
-        i = j;
-    }
-
-    stage(3);
-
-    // PASS 3: vertex fans. Each triangle adds the opposite edge to each corner's link; a manifold
-    // vertex's link is one path or one cycle, i.e. connected.
-    let mut links: Vec<(u32, u32, u32)> = Vec::with_capacity(valid.len() * 3);
-    for &ti in &valid {
-        let t = mesh.triangles[ti as usize];
-        for s in 0..3 {
-            links.push((t[s], t[(s + 1) % 3], t[(s + 2) % 3]));
-        }
-    }
-    sort_by_vertex(&mut links, nv, |l| l.0);
-    let mut non_manifold_vertices = Findings::default();
-    // In pieces over the threads, cut between vertices; found in vertex order.
-    let mut pieces = Vec::new();
-    let mut lo = 0;
-    while lo < links.len() {
-        let mut hi = (lo + PIECE).min(links.len());
-        while hi < links.len() && links[hi].0 == links[hi - 1].0 {
-            hi += 1;
-        }
-        pieces.push(&links[lo..hi]);
-        lo = hi;
-    }
-    let found = crate::walk::flying_edges::map_tasks(pieces, &|piece: &[(u32, u32, u32)]| {
-        let (mut local, mut parent, mut bad) = (Vec::new(), Vec::new(), Vec::new());
-        for group in piece.chunk_by(|a, b| a.0 == b.0) {
-            if fans(group, &mut local, &mut parent) > 1 {
-                bad.push(group[0].0);
+            if fans(&links, &mut local, &mut parent) > 1 {
+                out.non_manifold_vertices.push(v, max);
+            }
+            owned.sort_unstable();
+            let ci = comp_of[v as usize];
+            let mut open = false;
+            let mut nedges = 0usize;
+            for group in owned.chunk_by(|x, y| x.0 == y.0) {
+                nedges += 1;
+                let key = edge_key(v, group[0].0);
+                match group.len() {
+                    1 => {
+                        out.boundary.push(finding(key, 1), max);
+                        open = true;
+                    }
+                    2 => {
+                        if (group[0].1 & 1) == (group[1].1 & 1) {
+                            out.inconsistent.push(finding(key, 2), max);
+                        }
+                    }
+                    n => out.non_manifold.push(finding(key, n), max),
+                }
+            }
+            out.edges += nedges;
+            match out.per_comp.last_mut() {
+                Some((c, e, o)) if *c == ci => {
+                    *e += nedges;
+                    *o |= open;
+                }
+                _ => out.per_comp.push((ci, nedges, open)),
+            }
+            mine.sort_unstable();
+            for w in mine.windows(2) {
+                if w[0].0 == w[1].0 {
+                    out.duplicates.push([w[0].1, w[1].1], max);
+                }
             }
         }
-        bad
+        out
     });
-    for v in found.into_iter().flatten() {
-        non_manifold_vertices.push(v, max);
-    }
-
-    stage(4);
-
-    // Duplicate triangles: same sorted vertex triple.
-    let mut sorted: Vec<([u32; 3], u32)> = valid
-        .iter()
-        .map(|&ti| {
-            let mut t = mesh.triangles[ti as usize];
-            t.sort_unstable();
-            (t, ti)
-        })
-        .collect();
-    sort_by_vertex(&mut sorted, nv, |t| t.0[0]);
-    let mut duplicates = Findings::default();
-    for w in sorted.windows(2) {
-        if w[0].0 == w[1].0 {
-            duplicates.push([w[0].1, w[1].1], max);
+    drop(corners);
+    let mut all = VertexPass::default();
+    for p in parts {
+        all.edges += p.edges;
+        all.boundary.append(p.boundary, max);
+        all.non_manifold.append(p.non_manifold, max);
+        all.inconsistent.append(p.inconsistent, max);
+        all.non_manifold_vertices.append(p.non_manifold_vertices, max);
+        all.duplicates.append(p.duplicates, max);
+        for (ci, e, open) in p.per_comp {
+            let k = &mut comps[ci as usize];
+            k.edges += e;
+            k.closed &= !open;
         }
     }
+    let VertexPass {
+        edges: nedges,
+        boundary,
+        non_manifold,
+        inconsistent,
+        non_manifold_vertices,
+        duplicates,
+        per_comp: _,
+    } = all;
+
+    stage(4);
 
     let vertex_manifold_ok = non_manifold_vertices.count == 0 && non_manifold.count == 0 && inconsistent.count == 0;
     for k in &mut comps {
@@ -520,58 +604,32 @@ pub fn check_with_progress(mesh: &Mesh, opts: &CheckOptions, progress: Option<&d
 /// Items per piece of the parallel passes (fixed, so results do not depend on the threads).
 const PIECE: usize = 1 << 16;
 
-/// Sorts `items` as `sort_unstable` would, when their order starts with `vertex(item)` (< `nv`):
-/// a counting sort by that vertex, then each vertex's few items sorted in place (linear, where one
-/// sort of tens of millions of items took most of a check).
-fn sort_by_vertex<T: Ord + Copy + Send>(items: &mut Vec<T>, nv: usize, vertex: impl Fn(&T) -> u32 + Sync) {
-    let mut start = vec![0u32; nv + 1];
-    for it in items.iter() {
-        start[vertex(it) as usize + 1] += 1;
-    }
-    for v in 0..nv {
-        start[v + 1] += start[v];
-    }
-    let mut at = start.clone();
-    let mut out: Vec<T> = Vec::with_capacity(items.len());
-    let spare = out.spare_capacity_mut();
-    for &it in items.iter() {
-        let slot = &mut at[vertex(&it) as usize];
-        spare[*slot as usize].write(it);
-        *slot += 1;
-    }
-    // SAFETY: every one of the `items.len()` slots was written once: the counts' prefix sums
-    // give each item its own slot.
-    unsafe { out.set_len(items.len()) };
-    // Each vertex's run sorted; runs split over the threads at vertex boundaries.
-    let mut rest: &mut [T] = &mut out;
-    let mut pieces = Vec::new();
-    let per_piece = (items.len() / 64).max(1 << 14);
-    let mut v = 0;
-    while v < nv {
-        let mut w = v;
-        while w < nv && (start[w + 1] - start[v]) as usize <= per_piece {
-            w += 1;
-        }
-        let w = w.max(v + 1);
-        let (piece, tail) = rest.split_at_mut((start[w] - start[v]) as usize);
-        pieces.push((v, piece));
-        rest = tail;
-        v = w;
-    }
-    crate::walk::flying_edges::map_tasks(pieces, &|(v0, piece): (usize, &mut [T])| {
-        let base = start[v0];
-        let mut v = v0;
-        let mut lo = 0usize;
-        while lo < piece.len() {
-            while start[v + 1] - base <= lo as u32 {
-                v += 1;
-            }
-            let hi = (start[v + 1] - base) as usize;
-            piece[lo..hi].sort_unstable();
-            lo = hi;
-        }
-    });
-    *items = out;
+/// Link edges up to which [`fans`] finds a vertex's link vertices by linear search.
+const FEW_LINKS: usize = 16;
+
+/// Vertices per piece of the vertex pass.
+const VERTEX_PIECE: usize = 1 << 14;
+
+/// Triangles whose area and volume terms are computed over the threads before being added in
+/// order (bounds the buffer).
+const SUM_CHUNK: usize = 1 << 20;
+
+/// `0..n` in pieces of `piece`.
+fn ranges(n: usize, piece: usize) -> Vec<(usize, usize)> {
+    (0..n).step_by(piece).map(|lo| (lo, (lo + piece).min(n))).collect()
+}
+
+/// What a piece of the vertex pass finds, in vertex order.
+#[derive(Default)]
+struct VertexPass {
+    edges: usize,
+    boundary: Findings<EdgeFinding>,
+    non_manifold: Findings<EdgeFinding>,
+    inconsistent: Findings<EdgeFinding>,
+    non_manifold_vertices: Findings<u32>,
+    duplicates: Findings<[u32; 2]>,
+    /// (component, edges owned, has a boundary edge) for runs of the piece's vertices.
+    per_comp: Vec<(u32, usize, bool)>,
 }
 
 /// Mean and minimum over the triangles of the smallest interior angle, in degrees (triangles of
@@ -652,15 +710,33 @@ pub(super) fn doubled_area(p: [[f32; 3]; 3]) -> ([f64; 3], f64) {
 /// cycle. `local` and `parent` are scratch space.
 pub(super) fn fans(links: &[(u32, u32, u32)], local: &mut Vec<u32>, parent: &mut Vec<usize>) -> usize {
     local.clear();
-    for &(_, a, b) in links {
-        local.push(a);
-        local.push(b);
+    if links.len() <= FEW_LINKS {
+        // The usual few: distinct link vertices by linear search (no sort).
+        for &(_, a, b) in links {
+            for x in [a, b] {
+                if !local.contains(&x) {
+                    local.push(x);
+                }
+            }
+        }
+    } else {
+        for &(_, a, b) in links {
+            local.push(a);
+            local.push(b);
+        }
+        local.sort_unstable();
+        local.dedup();
     }
-    local.sort_unstable();
-    local.dedup();
     parent.clear();
     parent.extend(0..local.len());
-    let idx = |x: u32| local.binary_search(&x).unwrap_or(0);
+    let few = links.len() <= FEW_LINKS;
+    let idx = |x: u32| {
+        if few {
+            local.iter().position(|&y| y == x).unwrap_or(0)
+        } else {
+            local.binary_search(&x).unwrap_or(0)
+        }
+    };
     fn root(p: &mut [usize], mut x: usize) -> usize {
         while p[x] != x {
             p[x] = p[p[x]];
@@ -747,5 +823,83 @@ mod tests {
         let f = &r.boundary_edges.examples[0];
         assert!(f.cell.is_some());
         assert!(f.to_string().contains("in cell"), "{f}");
+    }
+
+    proptest::proptest! {
+        #![proptest_config(proptest::prelude::ProptestConfig::with_cases(200))]
+        /// Random triangle soups over few vertices (open, non-manifold, duplicated, collapsed):
+        /// the bucketed pass counts what a plain map of edges and a breadth-first search of each
+        /// vertex's link count.
+        #[test]
+        fn the_vertex_pass_agrees_with_plain_maps(
+            tris in proptest::collection::vec((0u32..14, 0u32..14, 0u32..14), 0..60),
+        ) {
+            use std::collections::BTreeMap;
+            let m = Mesh {
+                positions: (0..14).map(|i| [i as f32, (i * i % 7) as f32, (i % 3) as f32]).collect(),
+                triangles: tris.into_iter().map(|(a, b, c)| [a, b, c]).collect(),
+                ..Mesh::default()
+            };
+            let r = check_with(&m, &CheckOptions { max_examples: 1000, ..CheckOptions::default() });
+            let valid: Vec<(u32, [u32; 3])> = (0u32..)
+                .zip(&m.triangles)
+                .filter(|(_, t)| t[0] != t[1] && t[1] != t[2] && t[0] != t[2])
+                .map(|(i, &t)| (i, t))
+                .collect();
+            let mut edges: BTreeMap<(u32, u32), Vec<bool>> = BTreeMap::new();
+            let mut links: BTreeMap<u32, Vec<(u32, u32)>> = BTreeMap::new();
+            let mut triples: BTreeMap<[u32; 3], Vec<u32>> = BTreeMap::new();
+            for &(ti, t) in &valid {
+                for s in 0..3 {
+                    let (a, b) = (t[s], t[(s + 1) % 3]);
+                    edges.entry((a.min(b), a.max(b))).or_default().push(a < b);
+                    links.entry(t[s]).or_default().push((t[(s + 1) % 3], t[(s + 2) % 3]));
+                }
+                let mut k = t;
+                k.sort_unstable();
+                triples.entry(k).or_default().push(ti);
+            }
+            let count = |n: &dyn Fn(&Vec<bool>) -> bool| edges.values().filter(|v| n(v)).count();
+            proptest::prop_assert_eq!(r.edges, edges.len());
+            proptest::prop_assert_eq!(r.boundary_edges.count, count(&|v| v.len() == 1));
+            proptest::prop_assert_eq!(r.non_manifold_edges.count, count(&|v| v.len() > 2));
+            proptest::prop_assert_eq!(r.inconsistent_edges.count, count(&|v| v.len() == 2 && v[0] == v[1]));
+            let want_edges: Vec<[u32; 2]> =
+                edges.iter().filter(|(_, v)| v.len() == 1).map(|(&(a, b), _)| [a, b]).collect();
+            let got_edges: Vec<[u32; 2]> = r.boundary_edges.examples.iter().map(|f| f.edge).collect();
+            proptest::prop_assert_eq!(got_edges, want_edges);
+            let dups: Vec<[u32; 2]> = triples.values().flat_map(|v| v.windows(2).map(|w| [w[0], w[1]])).collect();
+            proptest::prop_assert_eq!(&r.duplicate_triangles.examples, &dups);
+            // A vertex is manifold when its link (edges b–c) is connected: search from one end.
+            let bad: Vec<u32> = links
+                .iter()
+                .filter(|(_, l)| {
+                    let mut seen = vec![l[0].0];
+                    let mut grew = true;
+                    while grew {
+                        grew = false;
+                        for &(b, c) in l.iter() {
+                            if seen.contains(&b) != seen.contains(&c) {
+                                seen.push(if seen.contains(&b) { c } else { b });
+                                grew = true;
+                            }
+                        }
+                    }
+                    l.iter().any(|&(b, c)| !seen.contains(&b) || !seen.contains(&c))
+                })
+                .map(|(&v, _)| v)
+                .collect();
+            proptest::prop_assert_eq!(&r.non_manifold_vertices.examples, &bad);
+            let mut uf = crate::math::UnionFind::new(14);
+            for &(_, t) in &valid {
+                uf.union(t[0], t[1]);
+                uf.union(t[1], t[2]);
+            }
+            let mut roots: Vec<u32> = valid.iter().map(|&(_, t)| uf.find(t[0])).collect();
+            roots.sort_unstable();
+            roots.dedup();
+            proptest::prop_assert_eq!(r.components.len(), roots.len());
+            proptest::prop_assert_eq!(r.components.iter().map(|c| c.triangles).sum::<usize>(), valid.len());
+        }
     }
 }

@@ -17,9 +17,10 @@
 //! - three shared vertices (a duplicate triangle): always.
 //!
 //! Triangles with collinear vertices (zero area; [`MeshReport::zero_area_triangles`] lists them)
-//! and repeated indices are left out. Candidate pairs come from the [`Bvh`] of the triangles'
-//! boxes, tested in parallel pieces of fixed size so the count and the examples (the first pairs
-//! in (i, j) order) do not depend on the threads.
+//! and repeated indices are left out. Candidate pairs come from joining the [`Bvh`] of the
+//! triangles' boxes with itself (each pair of overlapping subtrees visited once), cut into pieces
+//! of overlapping subtrees tested in parallel; each piece keeps its count and its first pairs, so
+//! the count and the examples (the first pairs in (i, j) order) do not depend on the threads.
 //!
 //! [`MeshReport::zero_area_triangles`]: super::MeshReport::zero_area_triangles
 
@@ -130,6 +131,16 @@ fn triangles_meet(a: &[P; 3], ka: usize, b: &[P; 3], kb: usize) -> bool {
         || (0..3).any(|i| segment_meets(b[i], b[(i + 1) % 3], sb[i], sb[(i + 1) % 3], a, ka))
 }
 
+/// The boxes of segment `pq` and triangle `t` are disjoint (then so are the segment and the
+/// triangle): exact comparisons.
+#[inline]
+fn boxes_apart(p: P, q: P, t: &[P; 3]) -> bool {
+    (0..3).any(|k| {
+        let (lo, hi) = (t[0][k].min(t[1][k]).min(t[2][k]), t[0][k].max(t[1][k]).max(t[2][k]));
+        p[k].max(q[k]) < lo || p[k].min(q[k]) > hi
+    })
+}
+
 /// True when non-degenerate triangles `ta`, `tb` (vertex indices; positions `a`, `b`, keep axes
 /// `ka`, `kb`) meet other than at the vertices or the edge they share.
 pub(crate) fn improper(ta: [u32; 3], a: &[P; 3], ka: usize, tb: [u32; 3], b: &[P; 3], kb: usize) -> bool {
@@ -150,8 +161,10 @@ pub(crate) fn improper(ta: [u32; 3], a: &[P; 3], ka: usize, tb: [u32; 3], b: &[P
             let (i, j) = shared[0];
             let (a1, a2) = (a[(i + 1) % 3], a[(i + 2) % 3]);
             let (b1, b2) = (b[(j + 1) % 3], b[(j + 2) % 3]);
-            segment_meets(a1, a2, plane(b, a1), plane(b, a2), b, kb)
-                || segment_meets(b1, b2, plane(a, b1), plane(a, b2), a, ka)
+            // Most such pairs are neighbours in a fan whose opposite edges stay clear of the other
+            // triangle's box: decided by comparisons before any predicate.
+            (!boxes_apart(a1, a2, b) && segment_meets(a1, a2, plane(b, a1), plane(b, a2), b, kb))
+                || (!boxes_apart(b1, b2, a) && segment_meets(b1, b2, plane(a, b1), plane(a, b2), a, ka))
         }
         2 => {
             let (u, w) = (a[shared[0].0], a[shared[1].0]);
@@ -189,53 +202,93 @@ pub fn self_intersections(mesh: &Mesh, max_examples: usize) -> Findings<[u32; 2]
     .into_iter()
     .flatten()
     .collect();
-    let boxes: Vec<Aabb> = kept
-        .iter()
-        .map(|&(ti, _)| {
-            let mut b = Aabb::EMPTY;
-            mesh.triangles[ti as usize].iter().for_each(|&v| b.add(pos(v)));
-            b
-        })
-        .collect();
+    let boxes: Vec<Aabb> = map_pieces(kept.len(), &|lo, hi| {
+        kept[lo..hi]
+            .iter()
+            .map(|&(ti, _)| {
+                let mut b = Aabb::EMPTY;
+                mesh.triangles[ti as usize].iter().for_each(|&v| b.add(pos(v)));
+                b
+            })
+            .collect::<Vec<_>>()
+    })
+    .into_iter()
+    .flatten()
+    .collect();
     let bvh = Bvh::build(&boxes);
-    let per_piece = map_pieces(kept.len(), &|lo, hi| {
-        let mut found = Findings::default();
-        let mut hits: Vec<u32> = Vec::new();
-        for i in lo..hi {
-            let (ti, ka) = kept[i];
-            let ta = mesh.triangles[ti as usize];
-            let a = ta.map(pos);
-            hits.clear();
-            bvh.candidates(&boxes[i], &mut |j| {
-                let j = j as usize;
-                if j <= i || !overlaps(&boxes[i], &boxes[j]) {
-                    return;
-                }
-                let (tj, kb) = kept[j];
-                let tb = mesh.triangles[tj as usize];
-                if improper(ta, &a, ka as usize, tb, &tb.map(pos), kb as usize) {
-                    hits.push(tj);
-                }
-            });
-            hits.sort_unstable();
-            for &tj in &hits {
-                found.push([ti, tj], max_examples);
+    drop(boxes);
+    // The tested triangles with their vertices and positions, in the tree's slot order: a leaf
+    // and its neighbours are read from one place in memory, not from the mesh's scattered arrays.
+    let slots: Vec<Slot> = map_pieces(kept.len(), &|lo, hi| {
+        bvh.order()[lo..hi]
+            .iter()
+            .map(|&i| {
+                let (ti, k) = kept[i as usize];
+                let t = mesh.triangles[ti as usize];
+                Slot { t, p: t.map(|v| mesh.positions[v as usize]), ti, k }
+            })
+            .collect::<Vec<_>>()
+    })
+    .into_iter()
+    .flatten()
+    .collect();
+    drop(kept);
+    // PASS: the tree joined with itself, in pieces of overlapping subtrees over the threads;
+    // each piece keeps its count and its first pairs, merged in (i, j) order below.
+    let pieces = bvh.self_join_pieces(JOIN_ITEMS);
+    let per_piece = crate::walk::flying_edges::map_tasks(pieces, &|(na, nb)| {
+        let mut count = 0usize;
+        let mut first: Vec<[u32; 2]> = Vec::new();
+        bvh.self_join(na, nb, &mut |s, t| {
+            let (s, t) = (&slots[s as usize], &slots[t as usize]);
+            // The triangles' own boxes (exact in f32) must overlap.
+            if (0..3).any(|k| {
+                let (ps, pt) = (s.p.map(|q| q[k]), t.p.map(|q| q[k]));
+                ps[0].max(ps[1]).max(ps[2]) < pt[0].min(pt[1]).min(pt[2])
+                    || pt[0].max(pt[1]).max(pt[2]) < ps[0].min(ps[1]).min(ps[2])
+            }) {
+                return;
             }
-        }
-        found
+            // Lower triangle first, as the pairs are named.
+            let (a, b) = if s.ti < t.ti { (s, t) } else { (t, s) };
+            let wide = |p: [[f32; 3]; 3]| p.map(|q| q.map(f64::from));
+            if improper(a.t, &wide(a.p), a.k as usize, b.t, &wide(b.p), b.k as usize) {
+                count += 1;
+                first.push([a.ti, b.ti]);
+                if first.len() >= 2 * max_examples + 1024 {
+                    keep_first(&mut first, max_examples);
+                }
+            }
+        });
+        keep_first(&mut first, max_examples);
+        (count, first)
     });
     let mut all = Findings::default();
-    for f in per_piece {
-        all.count += f.count;
-        let room = max_examples.saturating_sub(all.examples.len());
-        all.examples.extend(f.examples.into_iter().take(room));
+    let mut first = Vec::new();
+    for (count, f) in per_piece {
+        all.count += count;
+        first.extend(f);
     }
+    keep_first(&mut first, max_examples);
+    all.examples = first;
     all
 }
 
-#[inline]
-fn overlaps(a: &Aabb, b: &Aabb) -> bool {
-    (0..3).all(|k| a.min[k] <= b.max[k] && b.min[k] <= a.max[k])
+/// A tested triangle as the self-join reads it: vertices, positions, index, keep axis.
+struct Slot {
+    t: [u32; 3],
+    p: [[f32; 3]; 3],
+    ti: u32,
+    k: u8,
+}
+
+/// Items per node below which the self-join is not cut further (a piece for one thread).
+const JOIN_ITEMS: usize = 1 << 12;
+
+/// Sorts `pairs` and keeps the first `n`.
+fn keep_first(pairs: &mut Vec<[u32; 2]>, n: usize) {
+    pairs.sort_unstable();
+    pairs.truncate(n);
 }
 
 /// `f(lo, hi)` over `0..n` in pieces of [`PIECE`], in parallel when enabled; results in order.
@@ -421,5 +474,24 @@ mod tests {
             .examples
             .iter()
             .all(|&[i, j]| i < j && m.triangles[i as usize].contains(&0) ^ m.triangles[j as usize].contains(&0)));
+    }
+
+    /// Issue 49: two of the 14 pairs `check --self-intersections` finds on the bunny CT's mc33
+    /// mesh (iso 988.37; triangles 1338306 and 1338317, the band of a tunnel in cell
+    /// (158, 392, 167), case 12): a real crossing, which the independent oracle sees too, not a
+    /// fault of the test.
+    #[test]
+    fn issue_49_the_bunny_mc33_band_crosses_itself() {
+        let p: [[f32; 3]; 6] = [
+            [-33.092102, 46.2038, 71.03815],
+            [-33.11322, 46.291164, 70.99256],
+            [-33.092102, 46.12222, 70.98013],
+            [-32.77533, 46.069054, 70.61],
+            [-33.11322, 46.128468, 71.11],
+            [-33.092102, 46.132515, 70.86],
+        ];
+        let m = mesh(&p, &[[0, 1, 2], [3, 4, 5]]);
+        assert_eq!(count(&m), 1);
+        assert_eq!(oracle(&m), 1);
     }
 }
