@@ -61,9 +61,9 @@ pub enum PrepareError {
     Isos(Error),
     /// The ROI does not fit the lattice ([`Roi::point_box`](super::Roi::point_box)).
     Roi(Error),
-    /// The mask does not fit the input ([`Region::mask`]).
+    /// The mask does not fit the input ([`Region::mask`](super::request::Region::mask)).
     Mask(Error),
-    /// Cropping, padding or re-placing failed ([`Region::apply`]).
+    /// Cropping, padding or re-placing failed ([`Region::apply`](super::request::Region::apply)).
     Region(Error),
     /// The memory plan refuses.
     Budget(Refusal),
