@@ -196,6 +196,7 @@ fn needs_memory(c: &ExtractConfig) -> Vec<&'static str> {
         (r.options.sparse == Some(true), "--sparse"),
         (r.options.follow.is_some(), "--follow"),
         (r.options.level > 0, "--level"),
+        (r.options.method.is_adaptive(), "--adaptivity"),
         (r.post.smooth.is_some(), "--smooth"),
         (r.post.decimate.as_ref().is_some_and(|d| d.reduction.is_some()), "--decimate"),
         (r.post.decimate.as_ref().is_some_and(|d| d.max_error.is_some()), "--max-error"),

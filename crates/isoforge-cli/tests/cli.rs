@@ -1861,6 +1861,27 @@ fn adaptive_dual_contouring_from_the_cli() {
     let read = |f: &PathBuf| isoforge_io::read_mesh(f, &isoforge_io::Limits::default()).unwrap();
     let (u, a) = (read(&uniform), read(&adaptive));
     assert!(a.positions.len() * 3 < u.positions.len(), "{} vs uniform {}", a.positions.len(), u.positions.len());
+    // A volume file, which extraction streams by default: adaptive dc loads it instead (it
+    // contours the whole volume at once) and keeps uniform plain dc's topology.
+    let vol = dir.path().join("ball.nrrd");
+    let n = 32u32;
+    let dist = |x: u32| (x as f32 - 15.3).powi(2);
+    let data: Vec<u8> = (0..n * n * n)
+        .map(|v| ((dist(v % n) + dist(v / n % n) + 1.3 * dist(v / (n * n))).sqrt() * 8.0).min(255.0) as u8)
+        .collect();
+    let header = format!("NRRD0004\ntype: uint8\ndimension: 3\nsizes: {n} {n} {n}\nencoding: raw\n\n");
+    std::fs::write(&vol, [header.as_bytes(), &data].concat()).unwrap();
+    let (uv, av) = (dir.path().join("uv.ply"), dir.path().join("av.ply"));
+    for (e, out) in [("0", &uv), ("0.5", &av)] {
+        let args = ["extract", "-i", p(&vol), "--iso", "100", "--method", "dc", "--no-manifold", "--close"];
+        let args = [&args[..], &["--adaptivity", e, "-o", p(out)]].concat();
+        let o = isoforge(&args);
+        assert_eq!(o.status.code(), Some(0), "--adaptivity {e}: {}", stderr(&o));
+    }
+    let (u, a) = (read(&uv), read(&av));
+    let (ru, ra) = (isoforge::topo::check(&u), isoforge::topo::check(&a));
+    assert!(a.positions.len() < u.positions.len(), "{} vs uniform {}", a.positions.len(), u.positions.len());
+    assert_eq!((ra.components.len(), ra.euler, ra.boundary_edges.count), (ru.components.len(), ru.euler, 0));
     let bad = dir.path().join("bad.ply");
     let args = ["extract", "-i", "field:box?n=16", "-o", p(&bad)];
     fails(&[&args[..], &["--method", "dc", "--adaptivity", "-1"]].concat(), "--adaptivity -1", &bad);

@@ -130,6 +130,12 @@ impl Method {
         Method::ALL.into_iter().find(|m| m.name() == s)
     }
 
+    /// Whether the method is adaptive dual contouring (a nonzero `adaptivity`): it contours the
+    /// whole volume at once, so front ends load the input rather than stream it.
+    pub fn is_adaptive(self) -> bool {
+        matches!(self, Method::DualContouring { adaptivity, .. } if !adaptivity.is_uniform())
+    }
+
     /// Whether the method's output is counted before it is made ([`Counting::Known`]): the
     /// Flying Edges walker then allocates the mesh exactly once, where uncounted methods (and any
     /// masked one) grow per-slab meshes and stitch them, briefly holding about twice the mesh.
