@@ -184,6 +184,43 @@ fn issue_10_every_method_is_manifold_on_every_real_scan() {
     assert!(failures.is_empty(), "{} defects:\n{}", failures.len(), failures.join("\n"));
 }
 
+/// Issue 49: MC33 (the default method) is embedded on every real scan at its Otsu iso: no two
+/// triangles meet other than neighbours do (the exact test of `check --self-intersections`).
+/// The bunny's tunnel bands crossed themselves in 14 pairs before their lay was checked. The
+/// Otsu isos fall between sample values; at an iso equal to samples, surfaces may touch at a
+/// corner (distinct vertices at one position), which is not what this test is about.
+#[test]
+#[cfg_attr(debug_assertions, ignore = "release only: cargo test --release -p isoforge-io --test real_data")]
+fn issue_49_mc33_never_crosses_itself_on_a_real_scan() {
+    let Some(volumes) = scans() else {
+        eprintln!("real_data: skipped, no data folder at ../shared/data/volumes");
+        return;
+    };
+    let mut failures = Vec::new();
+    for path in &volumes {
+        let name = path.file_stem().and_then(|s| s.to_str()).unwrap_or("?").to_string();
+        let text = std::fs::read_to_string(path.with_extension("json")).expect("sidecar");
+        let otsu = serde_json::from_str::<serde_json::Value>(&text).expect("sidecar json")["otsu_threshold"].as_f64();
+        let Some(iso) = otsu else { continue };
+        let grid = isoforge_io::read_volume(path, &isoforge_io::Limits::new(u64::MAX))
+            .unwrap_or_else(|e| panic!("{}: {e}", path.display()));
+        let t = Instant::now();
+        let opts = Options { method: Method::MarchingCubes33, ..Options::default() };
+        let e = extract_grid(&grid, Iso::below(iso), &opts, None).expect("mc33");
+        let found = isoforge::topo::self_intersections(&e.mesh, 3);
+        eprintln!(
+            "{name:<30} iso {iso:<9} {:>9} triangles  {} crossing pairs  {:.2} s",
+            e.mesh.triangles.len(),
+            found.count,
+            t.elapsed().as_secs_f64()
+        );
+        if found.count > 0 {
+            failures.push(format!("{name} at iso {iso}: {} pairs, e.g. {:?}", found.count, found.examples));
+        }
+    }
+    assert!(failures.is_empty(), "{}", failures.join("\n"));
+}
+
 /// Issue 45: extended marching cubes and manifold dual contouring on every real scan at its
 /// sidecar isos, padded with one layer of outside points (`--close`): closed, manifold and
 /// oriented, with MC33's components and genera (so the trilinear interpolant's); and plain dual

@@ -22,6 +22,11 @@
 //!    band chord whose ends lie on one face (both loops cross a face whose saddle separates them)
 //!    is split at a cell-private vertex, because the neighbour's tunnel through that face could
 //!    pick the same chord.
+//! 5. **No folds.** A thin tunnel squeezed against a face can make its band cross itself. A
+//!    tunnel cell's triangles are first sketched in cell coordinates and tested pairwise with the
+//!    exact predicates of `check --self-intersections`; the band is laid (zipper start, depth of
+//!    its chord vertices: `Lay`) the first way that does not fold. The lay depends on the values
+//!    alone, so the count before the fill agrees with the fill.
 //!
 //! Steps 1–2 and the candidate loops of step 3 depend only on the case and the face deciders, so
 //! they are tabulated once per case and face decisions (`Skeleton`); per cell only the deciders and,
@@ -50,6 +55,8 @@ use crate::mesh::VertexId;
 /// components and genus of the trilinear interpolant's isosurface (ties at iso counted outside).
 /// Vertices lie on lattice edges (shared), plus private ones inside the cell: a centroid for each
 /// loop that crosses a face twice, and one on the interpolant for each tunnel chord on a face.
+/// A tunnel's triangles do not cross each other (checked exactly on a sketch of the cell; on
+/// the real scans and random lattices no two triangles cross, `tests/topology.rs`).
 ///
 /// **Limits**: geometry inside a cell is a fan or a band, not the interpolant's exact shape.
 #[derive(Debug, Clone, Copy, Default)]
@@ -75,20 +82,7 @@ impl Extractor for MarchingCubes33 {
             // Every loop a disk: the skeleton's counts (most value-decided cells).
             return (topo.skeleton.disks, topo.decision());
         }
-        let mut counts = CellCounts::default();
-        let mut in_tube = [false; MAX_LOOPS];
-        for &(a, b) in &topo.tubes[..topo.n_tubes] {
-            in_tube[a] = true;
-            in_tube[b] = true;
-            let c = band_counts(&d, topo.loop_edges(a), topo.loop_edges(b));
-            counts.triangles += c.triangles;
-            counts.placed += c.placed;
-        }
-        for l in (0..topo.n_loops()).filter(|&l| !in_tube[l]) {
-            let c = topo.skeleton.disk_counts(l);
-            counts.triangles += c.triangles;
-            counts.placed += c.placed;
-        }
+        let counts = Sketch::of(&topo, 0, &d, Lay::unfolded(&topo, 0, &d)).counts();
         (counts, topo.decision())
     }
 
@@ -144,18 +138,33 @@ impl MarchingCubes33 {
 pub(crate) fn triangulate<C: Cell>(cell: &mut C, topo: &CellTopology, skip: u8) {
     let needs_values = topo.n_tubes > 0 || topo.skeleton.twice & !skip != 0;
     let d = if needs_values { *cell.values() } else { [0.0; 8] };
-    let d = &d;
-    let mut ids = [VertexId::NONE; 12];
-    let mut id = |cell: &mut C, e: u8| {
-        if ids[e as usize] == VertexId::NONE {
-            ids[e as usize] = cell.edge_vertex(CubeEdge(e));
-        }
-        ids[e as usize]
-    };
+    let lay = if topo.n_tubes > 0 { Lay::unfolded(topo, skip, &d) } else { Lay::default() };
+    let mut emit = Emit { cell, d: &d, rule: lay.rule, ids: [VertexId::NONE; 12], split: [[VertexId::NONE; 12]; 12] };
+    build(&mut emit, topo, skip, &d, lay.start);
+}
+
+/// Where a cell's triangles go: the mesh ([`Emit`]) or a sketch of local positions
+/// ([`Sketch`], to test a placement for folds). [`build`] calls them in one order for both, so
+/// the mesh's vertices are created in the order the sketch saw them.
+trait Out {
+    type V: Copy;
+    /// The crossing on cube edge `e`.
+    fn edge(&mut self, e: u8) -> Self::V;
+    /// The private vertex splitting the face chord `x`–`y` on face `f` (one per chord).
+    fn chord(&mut self, x: u8, y: u8, f: u8) -> Self::V;
+    /// A private vertex at the centroid of a loop's crossings.
+    fn centroid(&mut self, edges: &[u8]) -> Self::V;
+    fn triangle(&mut self, t: [Self::V; 3]);
+}
+
+/// The cell's triangles, bands first (one per tunnel), then a disk per other loop but those in
+/// `skip`: a fan from its first vertex, or from its centroid when the loop crosses one face
+/// twice (a fan there could make a chord the neighbour also uses).
+fn build<O: Out>(out: &mut O, topo: &CellTopology, skip: u8, d: &[f32; 8], start: usize) {
     let tubes = topo.tube_loops();
     debug_assert_eq!(tubes & skip, 0, "a loop in a tunnel is not a disk");
     for &(a, b) in &topo.tubes[..topo.n_tubes] {
-        band(cell, d, topo.loop_edges(a), topo.loop_edges(b), &mut id);
+        band(out, d, topo.loop_edges(a), topo.loop_edges(b), start);
     }
     for l in 0..topo.n_loops() {
         if (tubes | skip) >> l & 1 == 1 {
@@ -163,19 +172,191 @@ pub(crate) fn triangulate<C: Cell>(cell: &mut C, topo: &CellTopology, skip: u8) 
         }
         let edges = topo.loop_edges(l);
         if topo.visits_a_face_twice(l) {
-            let c = centroid(d, edges);
-            let centre = cell.place_vertex(c, 0);
+            let centre = out.centroid(edges);
             for i in 0..edges.len() {
-                let (p, q) = (id(cell, edges[i]), id(cell, edges[(i + 1) % edges.len()]));
-                cell.push_triangle([centre, q, p]);
+                let (p, q) = (out.edge(edges[i]), out.edge(edges[(i + 1) % edges.len()]));
+                out.triangle([centre, q, p]);
             }
         } else {
-            let v0 = id(cell, edges[0]);
+            let v0 = out.edge(edges[0]);
             for i in 1..edges.len() - 1 {
-                let (p, q) = (id(cell, edges[i]), id(cell, edges[i + 1]));
-                cell.push_triangle([v0, q, p]);
+                let (p, q) = (out.edge(edges[i]), out.edge(edges[i + 1]));
+                out.triangle([v0, q, p]);
             }
         }
+    }
+}
+
+/// [`Out`] into the cell: vertices created on first use, chords split at [`off_face_point`]
+/// with placement `rule`.
+struct Emit<'a, C> {
+    cell: &'a mut C,
+    d: &'a [f32; 8],
+    rule: u8,
+    ids: [VertexId; 12],
+    split: [[VertexId; 12]; 12],
+}
+
+impl<C: Cell> Out for Emit<'_, C> {
+    type V = VertexId;
+
+    fn edge(&mut self, e: u8) -> VertexId {
+        if self.ids[e as usize] == VertexId::NONE {
+            self.ids[e as usize] = self.cell.edge_vertex(CubeEdge(e));
+        }
+        self.ids[e as usize]
+    }
+
+    fn chord(&mut self, x: u8, y: u8, f: u8) -> VertexId {
+        let (lo, hi) = (x.min(y) as usize, x.max(y) as usize);
+        if self.split[lo][hi] == VertexId::NONE {
+            self.split[lo][hi] = self.cell.place_vertex(off_face_point(self.d, x, y, f, self.rule), 0);
+        }
+        self.split[lo][hi]
+    }
+
+    fn centroid(&mut self, edges: &[u8]) -> VertexId {
+        self.cell.place_vertex(centroid(self.d, edges), 0)
+    }
+
+    fn triangle(&mut self, t: [VertexId; 3]) {
+        self.cell.push_triangle(t);
+    }
+}
+
+/// Most triangles a cell makes: two bands of at most 12 + 12 triangles, each chord split into
+/// two (at most 48 in all), and disks on the remaining crossings.
+const SKETCH_TRIANGLES: usize = 64;
+/// Slots: 12 cube edges, then private vertices (chords and centroids) in order of first use.
+const SKETCH_SLOTS: usize = 64;
+
+/// [`Out`] into local positions (cell coordinates from the values' linear crossings, f64)
+/// numbered by slot: the cell's triangles under chord placement `rule`, to count them and to test
+/// them for folds without a cell.
+struct Sketch<'a> {
+    d: &'a [f32; 8],
+    rule: u8,
+    pos: [[f64; 3]; SKETCH_SLOTS],
+    slots: usize,
+    split: [[u8; 12]; 12],
+    tris: [[u8; 3]; SKETCH_TRIANGLES],
+    n: usize,
+}
+
+impl<'a> Sketch<'a> {
+    /// The triangles and private vertices that values `d` of topology `topo` make laid as `lay`.
+    fn of(topo: &CellTopology, skip: u8, d: &'a [f32; 8], lay: Lay) -> Self {
+        let mut sketch = Sketch {
+            d,
+            rule: lay.rule,
+            pos: [[0.0; 3]; SKETCH_SLOTS],
+            slots: 12,
+            split: [[u8::MAX; 12]; 12],
+            tris: [[0; 3]; SKETCH_TRIANGLES],
+            n: 0,
+        };
+        for (e, p) in sketch.pos[..12].iter_mut().enumerate() {
+            *p = edge_point(d, e as u8).map(f64::from);
+        }
+        build(&mut sketch, topo, skip, d, lay.start);
+        sketch
+    }
+
+    fn counts(&self) -> CellCounts {
+        CellCounts { triangles: self.n as u16, placed: (self.slots - 12) as u16, ..Default::default() }
+    }
+
+    fn private(&mut self, p: [f32; 3]) -> u8 {
+        debug_assert!(self.slots < SKETCH_SLOTS, "more private vertices than a cell can make");
+        let s = self.slots.min(SKETCH_SLOTS - 1);
+        self.pos[s] = p.map(f64::from);
+        self.slots += 1;
+        s as u8
+    }
+
+    /// Pairs of the triangles that meet other than adjacent triangles may (the exact test of
+    /// `check --self-intersections`).
+    fn folds(&self) -> usize {
+        let mut geo = [([0u32; 3], [[0.0f64; 3]; 3], 0usize); SKETCH_TRIANGLES];
+        let mut n = 0;
+        for t in &self.tris[..self.n.min(SKETCH_TRIANGLES)] {
+            let p = t.map(|s| self.pos[s as usize]);
+            if let Some(k) = crate::topo::keep_axis(&p) {
+                geo[n] = (t.map(u32::from), p, k);
+                n += 1;
+            }
+        }
+        let geo = &geo[..n];
+        let mut folds = 0;
+        for (i, (ta, a, ka)) in geo.iter().enumerate() {
+            for (tb, b, kb) in &geo[i + 1..] {
+                folds += crate::topo::improper(*ta, a, *ka, *tb, b, *kb) as usize;
+            }
+        }
+        folds
+    }
+}
+
+impl Out for Sketch<'_> {
+    type V = u8;
+
+    fn edge(&mut self, e: u8) -> u8 {
+        e
+    }
+
+    fn chord(&mut self, x: u8, y: u8, f: u8) -> u8 {
+        let (lo, hi) = (x.min(y) as usize, x.max(y) as usize);
+        if self.split[lo][hi] == u8::MAX {
+            self.split[lo][hi] = self.private(off_face_point(self.d, x, y, f, self.rule));
+        }
+        self.split[lo][hi]
+    }
+
+    fn centroid(&mut self, edges: &[u8]) -> u8 {
+        self.private(centroid(self.d, edges))
+    }
+
+    fn triangle(&mut self, t: [u8; 3]) {
+        debug_assert!(self.n < SKETCH_TRIANGLES, "more triangles than a cell can make");
+        if self.n < SKETCH_TRIANGLES {
+            self.tris[self.n] = t;
+        }
+        self.n += 1;
+    }
+}
+
+/// How a tunnel cell's bands are laid: where each band's zipper starts ([`band_triangles`]) and
+/// how deep its chord vertices go ([`CHORD_RULES`]). A function of the values alone, so the count
+/// before the fill and the fill agree.
+#[derive(Debug, Clone, Copy, Default, PartialEq, Eq, PartialOrd, Ord)]
+struct Lay {
+    start: usize,
+    rule: u8,
+}
+
+impl Lay {
+    /// The first lay (starts in order, each with every chord rule) under which the cell's
+    /// triangles do not fold onto each other, or the one with the fewest folds. The default lay
+    /// (the closest pair of crossings first, chord vertices on the interpolant) serves almost
+    /// every cell; a thin tunnel squeezed against a face can fold under it.
+    fn unfolded(topo: &CellTopology, skip: u8, d: &[f32; 8]) -> Lay {
+        let starts = topo.tubes[..topo.n_tubes]
+            .iter()
+            .map(|&(a, b)| topo.loop_edges(a).len() * topo.loop_edges(b).len())
+            .max()
+            .unwrap_or(1);
+        let mut best = (usize::MAX, Lay::default());
+        for start in 0..starts {
+            for rule in 0..CHORD_RULES.len() as u8 {
+                let lay = Lay { start, rule };
+                let folds = Sketch::of(topo, skip, d, lay).folds();
+                if folds == 0 {
+                    return lay;
+                }
+                best = best.min((folds, lay));
+            }
+        }
+        best.1
     }
 }
 
@@ -908,63 +1089,34 @@ fn dist2(p: [f32; 3], q: [f32; 3]) -> f32 {
 /// face the saddle separates) is split at a private vertex inside the cell: the neighbour across
 /// that face may hold a tunnel through the same face and pick the same chord, and a chord on a
 /// face would then carry four triangles (issue 10, seen on CT scans where such cells pair up).
-fn band<C: Cell>(cell: &mut C, d: &[f32; 8], la: &[u8], lb: &[u8], id: &mut impl FnMut(&mut C, u8) -> VertexId) {
-    // The private vertex splitting each face chord, made on first use (indexed by cube edges).
-    let mut split = [[VertexId::NONE; 12]; 12];
-    let mut chord = |cell: &mut C, x: u8, y: u8| -> Option<VertexId> {
-        let f = common_face_of(x, y)?;
-        let (lo, hi) = (x.min(y) as usize, x.max(y) as usize);
-        if split[lo][hi] == VertexId::NONE {
-            split[lo][hi] = cell.place_vertex(off_face_point(d, x, y, f), 0);
-        }
-        Some(split[lo][hi])
-    };
-    band_triangles(d, la, lb, |p, q, r| {
-        let (mqr, mrp) = (chord(cell, q, r), chord(cell, r, p));
-        let (vp, vq, vr) = (id(cell, p), id(cell, q), id(cell, r));
+fn band<O: Out>(out: &mut O, d: &[f32; 8], la: &[u8], lb: &[u8], start: usize) {
+    band_triangles(d, la, lb, start, |p, q, r| {
+        let chord = |out: &mut O, x: u8, y: u8| common_face_of(x, y).map(|f| out.chord(x, y, f));
+        let (mqr, mrp) = (chord(out, q, r), chord(out, r, p));
+        let (vp, vq, vr) = (out.edge(p), out.edge(q), out.edge(r));
         match (mqr, mrp) {
-            (None, None) => cell.push_triangle([vp, vq, vr]),
+            (None, None) => out.triangle([vp, vq, vr]),
             (Some(m1), None) => {
-                cell.push_triangle([vp, vq, m1]);
-                cell.push_triangle([vp, m1, vr]);
+                out.triangle([vp, vq, m1]);
+                out.triangle([vp, m1, vr]);
             }
             (None, Some(m2)) => {
-                cell.push_triangle([vp, vq, m2]);
-                cell.push_triangle([vq, vr, m2]);
+                out.triangle([vp, vq, m2]);
+                out.triangle([vq, vr, m2]);
             }
             (Some(m1), Some(m2)) => {
-                cell.push_triangle([m1, vr, m2]);
-                cell.push_triangle([vp, vq, m1]);
-                cell.push_triangle([vp, m1, m2]);
+                out.triangle([m1, vr, m2]);
+                out.triangle([vp, vq, m1]);
+                out.triangle([vp, m1, m2]);
             }
         }
     });
-}
-
-/// What [`band`] emits for loops `la` and `lb`: triangles, and private vertices (one per
-/// distinct face chord), without placing anything.
-fn band_counts(d: &[f32; 8], la: &[u8], lb: &[u8]) -> CellCounts {
-    let mut counts = CellCounts::default();
-    let mut split = 0u128; // bit 11·lo + hi − 1 (lo < hi ≤ 11: at most 120): face chord lo–hi split
-    band_triangles(d, la, lb, |p, q, r| {
-        counts.triangles += 1;
-        for (x, y) in [(q, r), (r, p)] {
-            if common_face_of(x, y).is_some() {
-                counts.triangles += 1;
-                let bit = 1u128 << (11 * x.min(y) as u32 + x.max(y) as u32 - 1);
-                if split & bit == 0 {
-                    split |= bit;
-                    counts.placed += 1;
-                }
-            }
-        }
-    });
-    counts
 }
 
 /// The band's triangles before its face chords are split, in order: `(p, q, r)` for loop edge
-/// p → q and apex r (its chords are q → r and r → p), crossed cube edges all three.
-fn band_triangles(d: &[f32; 8], la: &[u8], lb: &[u8], mut triangle: impl FnMut(u8, u8, u8)) {
+/// p → q and apex r (its chords are q → r and r → p), crossed cube edges all three; the zipper
+/// starts where [`Lay`]'s `start` says.
+fn band_triangles(d: &[f32; 8], la: &[u8], lb: &[u8], start: usize, mut triangle: impl FnMut(u8, u8, u8)) {
     // Walk A = reverse(la) forward and B = reverse(lb) backward (see the module docs for the
     // orientation argument): triangles (a_i, a_i+1, b_j) and (b_j−1, b_j, a_i).
     let (m, n) = (la.len(), lb.len());
@@ -978,8 +1130,12 @@ fn band_triangles(d: &[f32; 8], la: &[u8], lb: &[u8], mut triangle: impl FnMut(u
         b[i] = e;
         pb[i] = edge_point(d, e);
     }
-    let j0 = (0..n).min_by(|&x, &y| dist2(pa[0], pb[x]).total_cmp(&dist2(pa[0], pb[y]))).unwrap_or(0);
-    let (mut i, mut j) = (0usize, j0 + n); // j counts down; indices mod n
+    // Start `start`: A's vertex start mod m, paired with B's vertex closest to it shifted by
+    // start / m (start 0: A's first vertex and its closest partner).
+    let i0 = start % m;
+    let closest = (0..n).min_by(|&x, &y| dist2(pa[i0], pb[x]).total_cmp(&dist2(pa[i0], pb[y]))).unwrap_or(0);
+    let j0 = (closest + start / m) % n;
+    let (mut i, mut j) = (i0, j0 + n); // j counts down; indices mod n
     let (mut da, mut db) = (0, 0);
     // Steps taken around the current b (by A) and around the current a (by B): a full turn of
     // one loop around a single vertex of the other would repeat a chord (a non-manifold edge).
@@ -1021,6 +1177,10 @@ fn common_face_of(x: u8, y: u8) -> Option<u8> {
 /// cell: strictly inside, so it never meets the neighbour's vertex or lies in the shared face.
 const OFF_FACE_MIN_DEPTH: f32 = 1.0 / 16.0;
 
+/// How far from its chord's midpoint towards the cell's centre a chord vertex goes, by rule: on
+/// the interpolant (`None`: where the class first changes), else a fixed fraction of the way.
+const CHORD_RULES: [Option<f32>; 5] = [None, Some(0.25), Some(0.125), Some(0.0), Some(0.5)];
+
 /// Steps and bisections locating a private band vertex on the interpolant.
 const OFF_FACE_STEPS: usize = 8;
 const OFF_FACE_BISECTIONS: usize = 24;
@@ -1028,14 +1188,16 @@ const OFF_FACE_BISECTIONS: usize = 24;
 /// The private vertex for the chord `x`–`y` on face `f`: on the way from the chord's midpoint to
 /// the cell's centre, where the trilinear interpolant first changes class (the tube's wall behind
 /// the chord), or half way when it does not; never closer to the face than `OFF_FACE_MIN_DEPTH`.
-fn off_face_point(d: &[f32; 8], x: u8, y: u8, f: u8) -> [f32; 3] {
+fn off_face_point(d: &[f32; 8], x: u8, y: u8, f: u8, rule: u8) -> [f32; 3] {
     let (px, py) = (edge_point(d, x), edge_point(d, y));
     let mid: [f32; 3] = std::array::from_fn(|a| 0.5 * (px[a] + py[a]));
     let at = |s: f32| -> [f32; 3] { std::array::from_fn(|a| mid[a] + s * (0.5 - mid[a])) };
     let class = |s: f32| trilinear(d, at(s)) < 0.0;
     let start = class(0.0);
     let mut s = 0.5;
-    if let Some(k) = (1..=OFF_FACE_STEPS).find(|&k| class(k as f32 / OFF_FACE_STEPS as f32) != start) {
+    if let Some(fixed) = CHORD_RULES[rule as usize] {
+        s = fixed;
+    } else if let Some(k) = (1..=OFF_FACE_STEPS).find(|&k| class(k as f32 / OFF_FACE_STEPS as f32) != start) {
         let (mut lo, mut hi) = ((k - 1) as f32 / OFF_FACE_STEPS as f32, k as f32 / OFF_FACE_STEPS as f32);
         for _ in 0..OFF_FACE_BISECTIONS {
             let m = 0.5 * (lo + hi);
@@ -1285,7 +1447,7 @@ mod tests {
             for &y in b {
                 let Some(f) = common_face_of(x, y) else { continue };
                 on_faces += 1;
-                let p = off_face_point(&d, x, y, f);
+                let p = off_face_point(&d, x, y, f, 0);
                 let depth = (p[(f / 2) as usize] - (f % 2) as f32).abs();
                 assert!((OFF_FACE_MIN_DEPTH..=0.5).contains(&depth), "chord {x}–{y}: {p:?} on face {f}");
                 assert!(trilinear(&d, p).abs() < 1e-4, "chord {x}–{y}: {p:?} is off the interpolant");
@@ -1322,5 +1484,30 @@ mod tests {
         assert_eq!(CellTopology::of(&tube).n_tubes, 1);
         assert_eq!(CellTopology::of(&caps).n_tubes, 0);
         assert_eq!(CellTopology::of(&tube).n_loops(), 2);
+    }
+
+    /// Issue 49: the bunny CT's two tunnel cells whose bands crossed themselves (14 pairs of
+    /// triangles, BENCHMARKS §17.2): the default lay folds, the lay chosen does not.
+    #[test]
+    fn issue_49_the_bunny_tunnel_cells_are_laid_without_folds() {
+        let iso = 988.37f32;
+        for (values, folded) in [
+            ([1026.0f32, 1085.0, 957.0, 803.0, 978.0, 1091.0, 998.0, 895.0], 11),
+            ([978.0, 1091.0, 998.0, 895.0, 830.0, 997.0, 1051.0, 1014.0], 3),
+        ] {
+            let d = values.map(|v| v - iso);
+            let topo = CellTopology::of(&d);
+            assert_eq!(topo.n_tubes, 1, "{values:?}: a tunnel cell");
+            assert_eq!(Sketch::of(&topo, 0, &d, Lay::default()).folds(), folded, "{values:?}: the default lay");
+            let lay = Lay::unfolded(&topo, 0, &d);
+            assert_ne!(lay, Lay::default());
+            assert_eq!(Sketch::of(&topo, 0, &d, lay).folds(), 0, "{values:?}: laid as {lay:?}");
+            // What the cell emits is what the sketch counted.
+            let mut probe = ProbeCell::new([0; 3], d);
+            MarchingCubes33.general(&mut probe);
+            assert_eq!(probe.counts, Sketch::of(&topo, 0, &d, lay).counts());
+            let (counts, _) = MarchingCubes33.counts(crate::cube::case_of(&d), [0; 3], || d);
+            assert_eq!(counts, probe.counts);
+        }
     }
 }

@@ -476,10 +476,10 @@ mod tests {
             .all(|&[i, j]| i < j && m.triangles[i as usize].contains(&0) ^ m.triangles[j as usize].contains(&0)));
     }
 
-    /// Issue 49: two of the 14 pairs `check --self-intersections` finds on the bunny CT's mc33
+    /// Issue 49: two of the 14 pairs `check --self-intersections` found on the bunny CT's mc33
     /// mesh (iso 988.37; triangles 1338306 and 1338317, the band of a tunnel in cell
     /// (158, 392, 167), case 12): a real crossing, which the independent oracle sees too, not a
-    /// fault of the test.
+    /// fault of the test. (MC33 now lays that band without folds: `mc33::Lay`.)
     #[test]
     fn issue_49_the_bunny_mc33_band_crosses_itself() {
         let p: [[f32; 3]; 6] = [

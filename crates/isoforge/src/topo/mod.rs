@@ -15,4 +15,5 @@ pub use check::{
 };
 pub use hausdorff::{hausdorff, Hausdorff};
 pub use intersect::self_intersections;
+pub(crate) use intersect::{improper, keep_axis};
 pub use stream::StreamCheck;
