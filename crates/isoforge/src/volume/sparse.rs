@@ -130,7 +130,7 @@ impl SparseGrid<f32> {
                 _ => None,
             }
         };
-        let test: Option<&(dyn Fn([u32; 3], [u32; 3]) -> Option<bool> + Sync)> = bounded.then_some(&test);
+        let test: Option<SideTest<'_>> = bounded.then_some(&test);
         let value = |inside: bool| if inside { inside_value } else { outside_value };
         let node = |coord: [u32; 3]| {
             let base = coord.map(|c| c * NODE_POINTS);
@@ -156,6 +156,9 @@ impl SparseGrid<f32> {
         Ok(Self::build(lattice, outside_value, &node))
     }
 }
+
+/// A bound's verdict on the points of a box `lo .. hi`: their side, or `None` when it cannot tell.
+type SideTest<'a> = &'a (dyn Fn([u32; 3], [u32; 3]) -> Option<bool> + Sync);
 
 /// Blocks per edge of the box [`Judge`] keeps a status for: a node's 16 and a ring of one.
 const BOX_BLOCKS: usize = (NODE + 2) as usize;
@@ -229,7 +232,7 @@ struct Judge<'a> {
     dims: [u32; 3],
     /// The node's first point.
     base: [u32; 3],
-    test: Option<&'a (dyn Fn([u32; 3], [u32; 3]) -> Option<bool> + Sync)>,
+    test: Option<SideTest<'a>>,
     /// The value of points past the lattice in a leaf.
     fill: f32,
     scratch: &'a mut NodeScratch,
