@@ -541,7 +541,7 @@ fn fields_keep_the_leaves_their_samples_ask_for_whatever_the_bound() {
     }
     for spec in ["sphere?n=77", "gyroid?n=90&periods=3&clip=0.9", "torus?n=61"] {
         let b = catalog::parse(spec).unwrap();
-        let field = b.field.clone();
+        let field = b.field;
         field.visit(Check(spec, b));
     }
 }
