@@ -473,3 +473,75 @@ fn surfaces_between_tiles_are_meshed() {
     let t = assert_same_meshes(&grid, &dense, iso, "tiles only");
     assert!(t > 0);
 }
+
+/// A bound, tight (a signed distance's Lipschitz constant), loose (the clipped gyroid's interval
+/// arithmetic, a Lipschitz constant far above the truth) or absent, changes what is sampled but
+/// never what is kept: a leaf exactly where the samples within the margin straddle the iso, with
+/// the samples' values, nowhere else.
+#[test]
+fn fields_keep_the_leaves_their_samples_ask_for_whatever_the_bound() {
+    use isoforge::grid::sparse::{LEAF, SURFACE_MARGIN};
+    use isoforge::volume::catalog;
+    use isoforge::volume::{Field, FieldVisitor};
+    struct Check(&'static str, catalog::Builtin);
+    impl FieldVisitor for Check {
+        type Output = ();
+        fn visit<F: Field + Clone + Sync>(self, field: &F) {
+            let Check(spec, b) = self;
+            let vol = Sampled::new(field.clone(), b.lattice.clone());
+            let dense = dense_samples(&vol);
+            let dims = b.lattice.dims();
+            // The blocks whose points within the margin straddle the iso, in (z, y, x) order.
+            let inside = |p: [u32; 3]| b.iso.exact_offset(dense.get(p) as f64) < 0.0;
+            let mut want = Vec::new();
+            for bz in (0..dims[2]).step_by(LEAF as usize) {
+                for by in (0..dims[1]).step_by(LEAF as usize) {
+                    for bx in (0..dims[0]).step_by(LEAF as usize) {
+                        let o = [bx, by, bz];
+                        let lo = o.map(|v| v.saturating_sub(SURFACE_MARGIN));
+                        let hi = [0, 1, 2].map(|a| (o[a] + LEAF + SURFACE_MARGIN).min(dims[a]));
+                        let (mut i, mut u) = (false, false);
+                        for z in lo[2]..hi[2] {
+                            for y in lo[1]..hi[1] {
+                                for x in lo[0]..hi[0] {
+                                    let s = inside([x, y, z]);
+                                    i |= s;
+                                    u |= !s;
+                                }
+                            }
+                        }
+                        if i && u {
+                            want.push(o);
+                        }
+                    }
+                }
+            }
+            assert!(want.len() > 20, "{spec}: {} blocks straddle", want.len());
+            let mut bounds = vec![None, field.lipschitz().map(|l| l * 7.0)];
+            bounds.extend(field.lipschitz().map(Some));
+            for l in bounds {
+                let what = format!("{spec} with lipschitz {l:?}");
+                let sparse = SparseGrid::from_field(&vol, b.iso, l).unwrap();
+                let mut got: Vec<[u32; 3]> = (0..sparse.num_leaves()).map(|n| sparse.leaf_origin(n)).collect();
+                got.sort_unstable_by_key(|o| (o[2], o[1], o[0]));
+                assert_eq!(got, want, "{what}: leaves");
+                for n in 0..sparse.num_leaves() {
+                    let o = sparse.leaf_origin(n);
+                    let values = sparse.leaf_values(n);
+                    for (k, v) in values.iter().enumerate() {
+                        let p =
+                            [o[0] + k as u32 % LEAF, o[1] + k as u32 / LEAF % LEAF, o[2] + k as u32 / (LEAF * LEAF)];
+                        if (0..3).all(|a| p[a] < dims[a]) {
+                            assert_eq!(v.to_bits(), dense.get(p).to_bits(), "{what}: sample at {p:?}");
+                        }
+                    }
+                }
+            }
+        }
+    }
+    for spec in ["sphere?n=77", "gyroid?n=90&periods=3&clip=0.9", "torus?n=61"] {
+        let b = catalog::parse(spec).unwrap();
+        let field = b.field;
+        field.visit(Check(spec, b));
+    }
+}

@@ -163,6 +163,23 @@ pub trait Volume {
         self.value_at(p.map(f64::from), iso)
     }
 
+    /// [`value_at_point`](Volume::value_at_point)`(p, iso)` of every lattice point `p` of
+    /// `lo .. hi` (half-open, inside the lattice), bit for bit, x fastest, into `out`
+    /// (`out.len()` = the box's points). One call per box instead of one per point: fields
+    /// override it with a loop their value inlines into (sparse sampling), sparse grids with
+    /// copies of leaf rows (surface following).
+    fn fill_values(&self, lo: [u32; 3], hi: [u32; 3], iso: Iso, out: &mut [f32]) {
+        let mut at = 0;
+        for z in lo[2]..hi[2] {
+            for y in lo[1]..hi[1] {
+                for x in lo[0]..hi[0] {
+                    out[at] = self.value_at_point([x, y, z], iso);
+                    at += 1;
+                }
+            }
+        }
+    }
+
     /// The crossing on the segment `p0` → `p1` (index space; a diagonal or a segment to a cell
     /// centre) as a parameter in [0, 1], given the offset values at its ends (one < 0, the other
     /// ≥ 0). Linear by default; fields refine it with their oracle.
@@ -254,6 +271,10 @@ impl<V: Volume + ?Sized> Volume for &V {
     #[inline]
     fn segment_crossing(&self, p0: [f64; 3], p1: [f64; 3], d0: f32, d1: f32, iso: Iso) -> f32 {
         (**self).segment_crossing(p0, p1, d0, d1, iso)
+    }
+    #[inline]
+    fn fill_values(&self, lo: [u32; 3], hi: [u32; 3], iso: Iso, out: &mut [f32]) {
+        (**self).fill_values(lo, hi, iso, out)
     }
     fn value_bounds(&self, lo: [u32; 3], hi: [u32; 3], iso: Iso) -> Option<(f32, f32)> {
         (**self).value_bounds(lo, hi, iso)

@@ -71,8 +71,28 @@ impl<F: Field, O: Oracle> Volume for Sampled<F, O> {
         self.field.gradient(self.world(p))
     }
 
+    /// [`value_at`](Volume::value_at) of each point, in one loop the field's value inlines into.
+    fn fill_values(&self, lo: [u32; 3], hi: [u32; 3], iso: Iso, out: &mut [f32]) {
+        let mut at = 0;
+        for z in lo[2]..hi[2] {
+            for y in lo[1]..hi[1] {
+                for (x, o) in (lo[0]..hi[0]).zip(&mut out[at..]) {
+                    *o = iso.offset(self.field.value(self.world([x as f64, y as f64, z as f64])) as f64);
+                }
+                at += (hi[0] - lo[0]) as usize;
+            }
+        }
+    }
+
     /// The field's [`Field::bounds`] over the world box around the index box's corners.
     fn value_bounds(&self, lo: [u32; 3], hi: [u32; 3], iso: Iso) -> Option<(f32, f32)> {
+        if self.lattice.direction() == crate::grid::IDENTITY {
+            // Axis-aligned: the world box is spanned by the two extreme corners.
+            let (a, b) = (self.world(lo.map(f64::from)), self.world(hi.map(f64::from)));
+            let (a, b) = self.field.bounds(a.min(b), a.max(b))?;
+            let (a, b) = (iso.offset(a as f64), iso.offset(b as f64));
+            return Some((a.min(b), a.max(b)));
+        }
         let corners = (0..8u32).map(|c| {
             let p = [0, 1, 2].map(|a| if c >> a & 1 == 0 { lo[a] } else { hi[a] } as f64);
             self.world(p)

@@ -3,7 +3,7 @@
 
 use crate::cube::CellRange;
 use crate::error::{Error, Result};
-use crate::grid::sparse::{copy_block, SparseNode, LEAF, NODE_POINTS, SURFACE_MARGIN};
+use crate::grid::sparse::{copy_block, in_leaf, SparseNode, LEAF, LEAF_SAMPLES, NODE, NODE_POINTS, SURFACE_MARGIN};
 use crate::grid::{BlockBounds, DenseGrid, Sample, SparseGrid};
 
 use super::{Inside, Iso, Volume};
@@ -52,14 +52,26 @@ impl<S: Sample> SparseGrid<S> {
 
 impl SparseGrid<f32> {
     /// A sparse sampling of `vol` (a field on its lattice) for `iso`, which samples only where the
-    /// surface may pass. With a bound `lipschitz` = L on how fast the values change (|f(p) −
-    /// f(q)| ≤ L·|p − q| in world units; 1 for a true signed distance), a box of points whose
-    /// centre lies farther from the iso than L × its half diagonal grown by [`SURFACE_MARGIN`]
-    /// points holds no crossing within the margin, and becomes a tile of its side without being
-    /// sampled: nodes of 128³ points first, then their blocks of 8³. Without a bound every point is
-    /// sampled, node by node with a ring of one block around it, and a block is a leaf when its
-    /// points within the margin are not all on one side: memory still grows with the surface,
-    /// time with the lattice, and no component of the sampled surface can be missed.
+    /// surface may pass. A block of 8³ points becomes a leaf exactly when its points within
+    /// [`SURFACE_MARGIN`] are not all on one side (as [`from_dense`](SparseGrid::from_dense)
+    /// judges), a tile of its side otherwise.
+    ///
+    /// Which points are sampled: with a bound — the field's interval bounds
+    /// ([`Volume::value_bounds`], a field's `Field::bounds`) or `lipschitz` = L on how fast the
+    /// values change (|f(p) − f(q)| ≤ L·|p − q| in world units; 1 for a true signed distance: a box
+    /// whose centre lies farther from the iso than L × its half diagonal is on one side) — a node of
+    /// 128³ points grown by the margin that the bound proves on one side is a tile and nothing of
+    /// it is sampled; in the other nodes each block (and each ring block's layers within the margin)
+    /// is proven on a side by the bound, or sampled, once, in one [`Volume::fill_values`] call. A
+    /// loose bound then costs samples, not memory: the blocks it cannot decide are decided by their
+    /// samples, and stored only where those straddle the iso. Without a bound every point is
+    /// sampled (time grows with the lattice, memory still with the surface).
+    ///
+    /// No component of the sampled surface can be missed: a crossed cell's corners lie within the
+    /// margin of every block a walk reads around it, and each of those corners' sides is known
+    /// exactly — proven by the bound (which decides only blocks that hold no crossing) or read from
+    /// its sample — so those blocks straddle and are leaves: the bound decides empty blocks, the
+    /// samples only decide among the others.
     ///
     /// Samples are the values (`vol.value_at` at `Iso::below(0)`); tiles hold `iso` ∓ `width`
     /// on their side (`width`: L × a leaf's half diagonal, or 1 without a bound), as a
@@ -80,7 +92,6 @@ impl SparseGrid<f32> {
         let lattice = vol.lattice().clone();
         let dims = lattice.dims();
         let spacing = lattice.spacing();
-        let sample = |p: [u32; 3]| vol.value_at(p.map(f64::from), Iso::below(0.0));
         let offset = |p: [f64; 3]| vol.value_at(p, iso) as f64;
         // A leaf's half diagonal grown by the margin, in world units.
         let leaf_reach = (0..3)
@@ -101,134 +112,229 @@ impl SparseGrid<f32> {
             )));
         }
         // The field's own bounds over a box, when it has them (interval arithmetic), then the
-        // Lipschitz bound.
-        let bounded = lipschitz.is_some() || vol.value_bounds([0; 3], dims.map(|d| d - 1), iso).is_some();
-        let grid = match bounded.then(|| lipschitz.unwrap_or(f64::INFINITY)) {
-            Some(l) => {
-                // The side of all points of the box lo .. hi, or `None` when the bound cannot
-                // tell (then split `depth` more times): uniform when the centre lies farther from
-                // the iso than L × the half diagonal.
-                fn side(
-                    lo: [u32; 3],
-                    hi: [u32; 3],
-                    depth: u32,
-                    test: &dyn Fn([u32; 3], [u32; 3]) -> Option<bool>,
-                ) -> Option<bool> {
-                    if let Some(s) = test(lo, hi) {
-                        return Some(s);
-                    }
-                    if depth == 0 || (0..3).all(|a| hi[a] - lo[a] <= 1) {
-                        return None;
-                    }
-                    let mid = [0, 1, 2].map(|a| lo[a] + (hi[a] - lo[a]).div_ceil(2));
-                    let mut found = None;
-                    for c in 0..8u32 {
-                        let (mut l, mut h) = (lo, hi);
-                        for a in 0..3 {
-                            if c >> a & 1 == 0 {
-                                h[a] = mid[a];
-                            } else {
-                                l[a] = mid[a];
-                            }
-                        }
-                        if (0..3).any(|a| l[a] >= h[a]) {
-                            continue;
-                        }
-                        match (side(l, h, depth - 1, test), found) {
-                            (None, _) => return None,
-                            (Some(s), Some(f)) if s != f => return None,
-                            (s, _) => found = s,
-                        }
-                    }
-                    found
+        // Lipschitz bound: the side of all points of a box, or `None` when they cannot tell.
+        let has_bounds = vol.value_bounds([0; 3], dims.map(|d| d - 1), iso).is_some();
+        let bounded = lipschitz.is_some() || has_bounds;
+        let test = |lo: [u32; 3], hi: [u32; 3]| -> Option<bool> {
+            // The Lipschitz bound first (one value), then the interval bounds.
+            if let Some(l) = lipschitz {
+                let half = [0, 1, 2].map(|a| (hi[a] - lo[a] - 1) as f64 / 2.0);
+                let r = (0..3).map(|a| (half[a] * spacing[a]).powi(2)).sum::<f64>().sqrt();
+                let v = offset([0, 1, 2].map(|a| lo[a] as f64 + half[a]));
+                if v.abs() > l * r {
+                    return Some(v < 0.0);
                 }
-                let test = |lo: [u32; 3], hi: [u32; 3]| -> Option<bool> {
-                    if let Some((min, max)) = vol.value_bounds(lo, hi.map(|v| v - 1), iso) {
-                        if min >= 0.0 || max < 0.0 {
-                            return Some(max < 0.0);
-                        }
-                    }
-                    if !l.is_finite() {
-                        return None;
-                    }
-                    let half = [0, 1, 2].map(|a| (hi[a] - lo[a] - 1) as f64 / 2.0);
-                    let r = (0..3).map(|a| (half[a] * spacing[a]).powi(2)).sum::<f64>().sqrt();
-                    let v = offset([0, 1, 2].map(|a| lo[a] as f64 + half[a]));
-                    (v.abs() > l * r).then_some(v < 0.0)
-                };
-                let value = |inside: bool| if inside { inside_value } else { outside_value };
-                // A box of points grown by the margin, clamped to the lattice.
-                let grown = |o: [u32; 3], n: u32| {
-                    let lo = o.map(|v| v.saturating_sub(SURFACE_MARGIN));
-                    let hi = [0, 1, 2].map(|a| (o[a] + n + SURFACE_MARGIN).min(dims[a]));
-                    (lo, hi)
-                };
-                let node = |coord: [u32; 3]| {
-                    let (lo, hi) = grown(coord.map(|c| c * NODE_POINTS), NODE_POINTS);
-                    if let Some(s) = side(lo, hi, 3, &test) {
-                        return SparseNode::tile(value(s));
-                    }
-                    SparseNode::blocks(coord, dims, outside_value, &mut |o: [u32; 3], out: &mut [f32]| {
-                        let (lo, hi) = grown(o, LEAF);
-                        side(lo, hi, 2, &test).map(value).or_else(|| {
-                            copy_block(o, dims, out, sample);
-                            None
-                        })
-                    })
-                };
-                Self::build(lattice, outside_value, &node)
             }
+            match has_bounds.then(|| vol.value_bounds(lo, hi.map(|v| v - 1), iso)).flatten() {
+                Some((min, max)) if min >= 0.0 || max < 0.0 => Some(max < 0.0),
+                _ => None,
+            }
+        };
+        let test: Option<SideTest<'_>> = bounded.then_some(&test);
+        let value = |inside: bool| if inside { inside_value } else { outside_value };
+        let node = |coord: [u32; 3]| {
+            let base = coord.map(|c| c * NODE_POINTS);
+            if let Some(test) = test {
+                // The whole node and its margin proven on one side: a tile, nothing sampled.
+                let lo = base.map(|v| v.saturating_sub(SURFACE_MARGIN));
+                let hi = [0, 1, 2].map(|a| (base[a] + NODE_POINTS + SURFACE_MARGIN).min(dims[a]));
+                if let Some(s) = bound_side(lo, hi, 3, test) {
+                    return SparseNode::tile(value(s));
+                }
+            }
+            NODE_SCRATCH.with(|scratch| {
+                let scratch = &mut *scratch.borrow_mut();
+                scratch.status.clear();
+                scratch.status.resize(BOX_BLOCKS.pow(3), UNKNOWN);
+                scratch.pool.clear();
+                let mut judge = Judge { vol, iso, dims, base, test, fill: outside_value, scratch };
+                SparseNode::blocks(coord, dims, outside_value, &mut |o: [u32; 3], out: &mut [f32]| {
+                    judge.block(o, out).map(value)
+                })
+            })
+        };
+        Ok(Self::build(lattice, outside_value, &node))
+    }
+}
+
+/// A bound's verdict on the points of a box `lo .. hi`: their side, or `None` when it cannot tell.
+type SideTest<'a> = &'a (dyn Fn([u32; 3], [u32; 3]) -> Option<bool> + Sync);
+
+/// Blocks per edge of the box [`Judge`] keeps a status for: a node's 16 and a ring of one.
+const BOX_BLOCKS: usize = (NODE + 2) as usize;
+/// A box block's status before it is needed.
+const UNKNOWN: u32 = u32::MAX;
+/// A box block whose points the bound proves inside.
+const PROVEN_INSIDE: u32 = u32::MAX - 1;
+/// A box block whose points the bound proves outside.
+const PROVEN_OUTSIDE: u32 = u32::MAX - 2;
+
+/// What [`Judge`] reuses from node to node on a thread (no fresh pages per node).
+#[derive(Default)]
+struct NodeScratch {
+    /// Per block of the node's box: [`UNKNOWN`], proven on a side, or its slot in `pool`.
+    status: Vec<u32>,
+    /// Sampled blocks, [`LEAF_SAMPLES`] each (8³ layout, x fastest).
+    pool: Vec<f32>,
+    /// One box of values as [`Volume::fill_values`] writes them.
+    rows: Vec<f32>,
+}
+
+thread_local! {
+    static NODE_SCRATCH: std::cell::RefCell<NodeScratch> = std::cell::RefCell::new(NodeScratch::default());
+}
+
+/// The side of all points of the box `lo .. hi` (half-open) by the bound `test`, or `None` when
+/// it cannot tell even after splitting the box `depth` more times.
+fn bound_side(
+    lo: [u32; 3],
+    hi: [u32; 3],
+    depth: u32,
+    test: &dyn Fn([u32; 3], [u32; 3]) -> Option<bool>,
+) -> Option<bool> {
+    if let Some(s) = test(lo, hi) {
+        return Some(s);
+    }
+    if depth == 0 || (0..3).all(|a| hi[a] - lo[a] <= 1) {
+        return None;
+    }
+    let mid = [0, 1, 2].map(|a| lo[a] + (hi[a] - lo[a]).div_ceil(2));
+    let mut found = None;
+    for c in 0..8u32 {
+        let (mut l, mut h) = (lo, hi);
+        for a in 0..3 {
+            if c >> a & 1 == 0 {
+                h[a] = mid[a];
+            } else {
+                l[a] = mid[a];
+            }
+        }
+        if (0..3).any(|a| l[a] >= h[a]) {
+            continue;
+        }
+        match (bound_side(l, h, depth - 1, test), found) {
+            (None, _) => return None,
+            (Some(s), Some(f)) if s != f => return None,
+            (s, _) => found = s,
+        }
+    }
+    found
+}
+
+/// Decides the blocks of one node of [`SparseGrid::from_field`]: a block is a leaf exactly when
+/// its points within [`SURFACE_MARGIN`] are not all on one side. Each block of the node and of a
+/// ring of one block around it is, once and only when a judgement needs it, either proven on one
+/// side by the bound (never sampled) or sampled where judgements read it (the whole block inside
+/// the node, the margin's layers in the ring).
+struct Judge<'a> {
+    vol: &'a (dyn Volume + Sync),
+    iso: Iso,
+    dims: [u32; 3],
+    /// The node's first point.
+    base: [u32; 3],
+    test: Option<SideTest<'a>>,
+    /// The value of points past the lattice in a leaf.
+    fill: f32,
+    scratch: &'a mut NodeScratch,
+}
+
+impl Judge<'_> {
+    /// The status of the block at `b` (see [`NodeScratch::status`]), deciding it when unknown.
+    fn status(&mut self, b: [u32; 3]) -> u32 {
+        let i = [0, 1, 2].map(|a| (b[a] / LEAF + 1 - self.base[a] / LEAF) as usize);
+        let at = (i[2] * BOX_BLOCKS + i[1]) * BOX_BLOCKS + i[0];
+        if self.scratch.status[at] != UNKNOWN {
+            return self.scratch.status[at];
+        }
+        // The points of the block judgements of this node read: within the margin of the node.
+        let lo = [0, 1, 2].map(|a| b[a].max(self.base[a].saturating_sub(SURFACE_MARGIN)));
+        let hi = [0, 1, 2].map(|a| (b[a] + LEAF).min(self.base[a] + NODE_POINTS + SURFACE_MARGIN).min(self.dims[a]));
+        let proven = self.test.and_then(|t| bound_side(lo, hi, 2, t));
+        let st = match proven {
+            Some(true) => PROVEN_INSIDE,
+            Some(false) => PROVEN_OUTSIDE,
             None => {
-                // The node and a ring of one block, sampled once into a box; each block judged
-                // from the box's points within the margin.
-                let node = |coord: [u32; 3]| {
-                    let base = coord.map(|c| c * NODE_POINTS);
-                    let lo = base.map(|v| v.saturating_sub(LEAF));
-                    let hi = [0, 1, 2].map(|a| (base[a] + NODE_POINTS + LEAF).min(dims[a]));
-                    let d = [0, 1, 2].map(|a| (hi[a] - lo[a]) as usize);
-                    let mut values = vec![0.0f32; d[0] * d[1] * d[2]];
-                    for z in lo[2]..hi[2] {
-                        for y in lo[1]..hi[1] {
-                            let at = ((z - lo[2]) as usize * d[1] + (y - lo[1]) as usize) * d[0];
-                            for x in lo[0]..hi[0] {
-                                values[at + (x - lo[0]) as usize] = sample([x, y, z]);
-                            }
-                        }
-                    }
-                    let get = |p: [u32; 3]| {
-                        values[((p[2] - lo[2]) as usize * d[1] + (p[1] - lo[1]) as usize) * d[0]
-                            + (p[0] - lo[0]) as usize]
-                    };
-                    let inside = |v: f32| iso.exact_offset(v as f64) < 0.0;
-                    SparseNode::blocks(coord, dims, outside_value, &mut |o: [u32; 3], out: &mut [f32]| {
-                        let blo = o.map(|v| v.saturating_sub(SURFACE_MARGIN));
-                        let bhi = [0, 1, 2].map(|a| (o[a] + LEAF + SURFACE_MARGIN).min(dims[a]));
-                        let (mut any_in, mut any_out) = (false, false);
-                        for z in blo[2]..bhi[2] {
-                            for y in blo[1]..bhi[1] {
-                                for x in blo[0]..bhi[0] {
-                                    if inside(get([x, y, z])) {
-                                        any_in = true;
-                                    } else {
-                                        any_out = true;
+                let slot = self.scratch.pool.len() / LEAF_SAMPLES;
+                self.scratch.pool.resize(self.scratch.pool.len() + LEAF_SAMPLES, self.fill);
+                let NodeScratch { pool, rows, .. } = &mut *self.scratch;
+                sample_block(self.vol, b, lo, hi, &mut pool[slot * LEAF_SAMPLES..], rows);
+                slot as u32
+            }
+        };
+        self.scratch.status[at] = st;
+        st
+    }
+
+    /// The block at `o` (inside the node): `Some(side)` when its points within the margin are
+    /// all on one side, else `None` after writing its samples into `out`.
+    fn block(&mut self, o: [u32; 3], out: &mut [f32]) -> Option<bool> {
+        let glo = o.map(|v| v.saturating_sub(SURFACE_MARGIN));
+        let ghi = [0, 1, 2].map(|a| (o[a] + LEAF + SURFACE_MARGIN).min(self.dims[a]));
+        let (mut any_in, mut any_out) = (false, false);
+        let first = glo.map(|v| v / LEAF * LEAF);
+        'scan: for bz in (first[2]..ghi[2]).step_by(LEAF as usize) {
+            for by in (first[1]..ghi[1]).step_by(LEAF as usize) {
+                for bx in (first[0]..ghi[0]).step_by(LEAF as usize) {
+                    let b = [bx, by, bz];
+                    match self.status(b) {
+                        PROVEN_INSIDE => any_in = true,
+                        PROVEN_OUTSIDE => any_out = true,
+                        slot => {
+                            let s = [0, 1, 2].map(|a| b[a].max(glo[a]));
+                            let e = [0, 1, 2].map(|a| (b[a] + LEAF).min(ghi[a]));
+                            let values = &self.scratch.pool[slot as usize * LEAF_SAMPLES..][..LEAF_SAMPLES];
+                            for z in s[2]..e[2] {
+                                for y in s[1]..e[1] {
+                                    let at = in_leaf([s[0], y, z]);
+                                    for &v in &values[at..at + (e[0] - s[0]) as usize] {
+                                        if self.iso.exact_offset(v as f64) < 0.0 {
+                                            any_in = true;
+                                        } else {
+                                            any_out = true;
+                                        }
                                     }
                                 }
                             }
                         }
-                        match (any_in, any_out) {
-                            (true, true) => {
-                                copy_block(o, dims, out, get);
-                                None
-                            }
-                            (true, false) => Some(inside_value),
-                            _ => Some(outside_value),
-                        }
-                    })
-                };
-                Self::build(lattice, outside_value, &node)
+                    }
+                    if any_in && any_out {
+                        break 'scan;
+                    }
+                }
             }
-        };
-        Ok(grid)
+        }
+        if !(any_in && any_out) {
+            return Some(any_in);
+        }
+        match self.status(o) {
+            PROVEN_INSIDE | PROVEN_OUTSIDE => {
+                // Proven on one side itself, beside a crossing: its samples are needed all the same.
+                let hi = [0, 1, 2].map(|a| (o[a] + LEAF).min(self.dims[a]));
+                sample_block(self.vol, o, o, hi, out, &mut self.scratch.rows);
+            }
+            slot => out.copy_from_slice(&self.scratch.pool[slot as usize * LEAF_SAMPLES..][..LEAF_SAMPLES]),
+        }
+        None
+    }
+}
+
+/// The values of the points `lo .. hi` of the block at `b` into `out` (the block's 8³ layout),
+/// through one [`Volume::fill_values`] call.
+fn sample_block(
+    vol: &(dyn Volume + Sync),
+    b: [u32; 3],
+    lo: [u32; 3],
+    hi: [u32; 3],
+    out: &mut [f32],
+    rows: &mut Vec<f32>,
+) {
+    let d = [0, 1, 2].map(|a| (hi[a] - lo[a]) as usize);
+    rows.resize(d[0] * d[1] * d[2], 0.0);
+    vol.fill_values(lo, hi, Iso::below(0.0), rows);
+    for (r, row) in rows.chunks_exact(d[0]).enumerate() {
+        let (y, z) = (lo[1] + (r % d[1]) as u32, lo[2] + (r / d[1]) as u32);
+        let at = in_leaf([lo[0] - b[0], y - b[1], z - b[2]]);
+        out[at..at + d[0]].copy_from_slice(row);
     }
 }
 
@@ -404,6 +510,14 @@ impl<S: Sample> Volume for SparseVolume<'_, S> {
     #[inline]
     fn value_at_point(&self, p: [u32; 3], iso: Iso) -> f32 {
         iso.offset(self.at(p))
+    }
+    /// The box's samples copied leaf row by leaf row ([`SparseGrid::fill_box`]), then offset.
+    fn fill_values(&self, lo: [u32; 3], hi: [u32; 3], iso: Iso, out: &mut [f32]) {
+        let mut rows = Vec::new();
+        self.grid.fill_box(lo, hi, &mut rows);
+        for (o, v) in out.iter_mut().zip(rows) {
+            *o = iso.offset(v.to_f64());
+        }
     }
     fn gradient_at(&self, p: [f64; 3]) -> crate::math::Vec3 {
         super::point_gradient_at(self.grid.lattice(), p, &|q| self.at(q))

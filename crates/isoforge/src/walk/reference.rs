@@ -47,7 +47,8 @@ impl<V: Volume> Walker<V> for ReferenceWalker {
 
 /// Walks exactly `cells` of `vol` (sorted (z, y, x), each once) with `x` at `iso`, as the
 /// reference walker does (values from [`Volume::value_at_point`] at the corners, vertices joined
-/// by key in maps): what surface following walks, the cells it found.
+/// by key in maps) but computing each crossing once: what surface following walks, the cells it
+/// found.
 ///
 /// # Errors
 /// [`Error::Internal`] when a crossing is not reproducible.
@@ -59,7 +60,9 @@ pub(crate) fn walk_cells<V: Volume + ?Sized, X: Extractor>(
     out: &mut MeshBuilder,
 ) -> Result<WalkStats> {
     out.set_reverse_winding(vol.lattice().is_mirrored());
-    let mut keyed = Keyed::default();
+    // A vertex's crossing is computed once: the oracle's check that it reproduces is the
+    // reference walker's business, not the flood's (a lookup instead of a root refinement).
+    let mut keyed = Keyed { trust: true, ..Keyed::default() };
     for &c in cells {
         let d = CORNER_OFFSETS.map(|o| vol.value_at_point([0, 1, 2].map(|a| c[a] + o[a]), iso));
         keyed.visit(vol, iso, x, c, d, out);
@@ -81,6 +84,8 @@ struct Keyed {
     placed: PlacedMap,
     mismatch: Option<String>,
     stats: WalkStats,
+    /// Whether a vertex met again is taken by its key alone (no recomputed crossing to compare).
+    trust: bool,
 }
 
 impl Keyed {
@@ -116,6 +121,7 @@ impl Keyed {
                 memo: [f32::NAN; 7],
                 out,
                 mismatch: &mut self.mismatch,
+                trust: self.trust,
             };
             x.place(&mut cell);
             x.process(&mut cell);
@@ -144,6 +150,7 @@ struct RefCell<'a, V: ?Sized> {
     memo: [f32; 7],
     out: &'a mut MeshBuilder,
     mismatch: &'a mut Option<String>,
+    trust: bool,
 }
 
 impl<V: Volume + ?Sized> Cell for RefCell<'_, V> {
@@ -168,13 +175,17 @@ impl<V: Volume + ?Sized> Cell for RefCell<'_, V> {
         let [c0, c1] = e.corners();
         let key = EdgeKey::of_cell(self.ijk, e);
         let (d0, d1) = (self.d[c0 as usize], self.d[c1 as usize]);
-        let (p, _) = edge_crossing(self.vol, key, d0, d1, self.iso);
         if let Some(&(id, first)) = self.ids.get(&key) {
-            if p.map(f32::to_bits) != first.map(f32::to_bits) {
-                *self.mismatch = Some(format!("{key:?}"));
+            if !self.trust {
+                let (p, _) = edge_crossing(self.vol, key, d0, d1, self.iso);
+                if p.map(f32::to_bits) != first.map(f32::to_bits) {
+                    *self.mismatch = Some(format!("{key:?}"));
+                }
             }
             return id;
         }
+        // The crossing kept to compare with later computations (none when trusted).
+        let p = if self.trust { [0.0; 3] } else { edge_crossing(self.vol, key, d0, d1, self.iso).0 };
         let id = push_edge_vertex(self.vol, key, d0, d1, self.iso, self.out);
         self.ids.insert(key, (id, p));
         id
@@ -194,13 +205,14 @@ impl<V: Volume + ?Sized> Cell for RefCell<'_, V> {
         }
         let (vol, iso) = (self.vol, self.iso);
         let (key, d0, d1) = segment::cell_segment(vol, iso, self.ijk, &self.d, &mut self.memo, (a, b));
-        let p = segment::world_point(vol, segment::segment_point(vol, key, d0, d1, iso));
+        let point = || segment::world_point(vol, segment::segment_point(vol, key, d0, d1, iso));
         if let Some(&(id, first)) = self.seg_ids.get(&key) {
-            if p.map(f32::to_bits) != first.map(f32::to_bits) {
+            if !self.trust && point().map(f32::to_bits) != first.map(f32::to_bits) {
                 *self.mismatch = Some(format!("{key:?}"));
             }
             return id;
         }
+        let p = if self.trust { [0.0; 3] } else { point() };
         let id = segment::push_segment_vertex(vol, key, d0, d1, iso, self.out);
         self.seg_ids.insert(key, (id, p));
         id
