@@ -342,8 +342,8 @@ fn run_pass(
     loops.sort_by(|a, b| a.weight.total_cmp(&b.weight).then(a.element.cmp(&b.element)));
     let candidate_sets = loop_candidates(&c, &edges, &loops);
     let pull = PullBack::new(&whole, &t.pairs);
-    let sizes = membrane_sizes(&whole, &pull, &candidate_sets, area);
     let mut bits = vec![0u64; whole.len()];
+    let sizes = membrane_sizes(&whole, &pull, &candidate_sets, area, &mut bits);
     let mut ops = Vec::new();
     let mut done = HashSet::new();
     for (set, sizes) in candidate_sets.iter().zip(&sizes) {
@@ -545,21 +545,22 @@ impl PullBack {
 }
 
 /// The size of every candidate's membrane (squared model units: each edge counts its dual
-/// quad, `area` by axis), 64 candidates — of any loops — to a play of the collapses.
+/// quad, `area` by axis), 64 candidates — of any loops — to a play of the collapses (`bits`:
+/// [`PullBack::play`]'s scratch).
 fn membrane_sizes(
     whole: &CellComplex,
     pull: &PullBack,
     sets: &[Vec<(usize, Vec<usize>)>],
     area: [f64; 3],
+    bits: &mut [u64],
 ) -> Vec<Vec<f64>> {
     let all: Vec<(usize, &[usize])> =
         sets.iter().enumerate().flat_map(|(l, set)| set.iter().map(move |(_, s)| (l, s.as_slice()))).collect();
     let mut counts = vec![[0u64; 3]; all.len()];
-    let mut bits = vec![0u64; whole.len()];
     for (batch, chunk) in all.chunks(64).enumerate() {
         let supports: Vec<&[usize]> = chunk.iter().map(|&(_, s)| s).collect();
         let counts = &mut counts[batch * 64..];
-        pull.play(&mut bits, &supports, |i, mut v| {
+        pull.play(bits, &supports, |i, mut v| {
             let axis = whole.axis(i).expect("membranes are made of edges");
             while v != 0 {
                 counts[v.trailing_zeros() as usize][axis] += 1;

@@ -226,7 +226,9 @@ fn a_loops_size_is_its_smallest_membrane_over_every_edge_of_its_cycle() {
     let loops: Vec<&SkeletonEdge> = edges.iter().filter(|e| e.closes_loop && e.weight.is_finite()).collect();
     assert_eq!(loops.len(), 1);
     let sets = loop_candidates(&c, &edges, &loops);
-    let sizes = membrane_sizes(&whole, &PullBack::new(&whole, &t.pairs), &sets, [1.0; 3]);
+    let pull = PullBack::new(&whole, &t.pairs);
+    let mut bits = vec![0u64; whole.len()];
+    let sizes = membrane_sizes(&whole, &pull, &sets, [1.0; 3], &mut bits);
     let s = &sizes[0];
     assert_eq!(s.len(), 164);
     assert_eq!(s[0], 3.0, "the spanning tree closes the loop on the flat stretch");
@@ -235,8 +237,6 @@ fn a_loops_size_is_its_smallest_membrane_over_every_edge_of_its_cycle() {
     assert_eq!((sampled, exact), (3.0, 1.0));
     // Each size is its membrane's edge count here (unit spacing): a pull-back of one candidate
     // alone gives the same membrane as its batch of 64.
-    let pull = PullBack::new(&whole, &t.pairs);
-    let mut bits = vec![0u64; whole.len()];
     for (k, (_, support)) in sets[0].iter().enumerate().step_by(7) {
         let mut count = 0;
         pull.play(&mut bits, &[support.as_slice()], |_, _| count += 1);
