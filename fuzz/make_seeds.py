@@ -276,6 +276,30 @@ def sogs():
             seed("read_sog", "wisky_cut_%d.sog" % cut, 0, wisky[:cut])
 
 
+# ------------------------------------------------------------------------------------------
+# SKT (TopoMender's skeletons)
+
+def skt_record(kind, weight, a, b):
+    """One 21-byte record: type, f32 weight, two positions z | y << 20 | x << 40."""
+    pos = lambda p: p[2] | p[1] << 20 | p[0] << 40
+    return struct.pack("<BfQQ", kind, weight, pos(a), pos(b))
+
+
+def skts():
+    """Both passes (kept, cut, filled, an infinite weight), the outside's pass alone, no
+    skeleton, two empty passes, and must-fail ones: cut inside a record, a pass not closed,
+    a bad type, a NaN weight, a third pass."""
+    s = 1 << 15
+    solid = skt_record(0, 0.5, (s, 2 * s, 3 * s), (2 * s, 2 * s, 3 * s)) + skt_record(1, 0.25, (2 * s, 2 * s, 3 * s), (2 * s, 3 * s, 3 * s))
+    solid += skt_record(0, float("inf"), (0, 0, 0), (0, 0, s))
+    outside = skt_record(2, 4.0, (s, s, s), (s, s, 2 * s)) + skt_record(3, 1.5, (s, s, 2 * s), (s, 2 * s, 2 * s))
+    both = solid + b"\xff" + outside + b"\xff"
+    for name, body in [("both", both), ("outside", outside + b"\xff"), ("none", b""), ("empty_passes", b"\xff\xff"),
+                       ("cut", both[:30]), ("open", solid), ("type", b"\x07" + both[1:]),
+                       ("nan", both[:1] + struct.pack("<f", float("nan")) + both[5:]), ("third", b"\xff\xff\xff")]:
+        seed("read_skt", name + ".skt", 0, body)
+
+
 if __name__ == "__main__":
     shutil.rmtree(OUT, ignore_errors=True)
     volumes()
@@ -284,5 +308,6 @@ if __name__ == "__main__":
     dicoms()
     vdbs()
     sogs()
+    skts()
     for d in sorted(OUT.iterdir()):
         print(f"{d.name}: {len(list(d.iterdir()))} seeds")

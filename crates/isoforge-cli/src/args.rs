@@ -425,7 +425,8 @@ pub struct SimplifyArgs {
 
 #[derive(Debug, ClapArgs)]
 pub struct InfoArgs {
-    /// Volume file or built-in field (as for `extract -i`).
+    /// Volume file or built-in field (as for `extract -i`), or a TopoMender skeleton (.skt):
+    /// its records by type and weights.
     #[arg(value_name = "INPUT")]
     pub input: String,
     #[command(flatten)]

@@ -751,6 +751,11 @@ fn extract_one(
 }
 
 pub fn info(input: &InputConfig, json_out: bool) -> Result<Outcome> {
+    if let Source::File { path, raw: None } = &input.source {
+        if path.to_string_lossy().to_ascii_lowercase().ends_with(".skt") {
+            return skeleton_info(path, &input.limits, json_out);
+        }
+    }
     let name = input_name(input);
     let loaded = load(input)?;
     let (lattice, kind) = match &loaded {
@@ -910,6 +915,37 @@ fn post_process(
     Ok(PostDone { lines: stats.lines(post), seconds })
 }
 
+/// `info` of a TopoMender skeleton (`.skt`): records by type, passes, the weights' range.
+fn skeleton_info(path: &Path, limits: &Limits, json_out: bool) -> Result<Outcome> {
+    let s = isoforge_io::read_skt(path, limits)?;
+    let c = s.counts();
+    let range = s.weight_range();
+    if json_out {
+        let v = json!({
+            "input": path.display().to_string(),
+            "format": "skt",
+            "passes": s.passes,
+            "records": s.records.len(),
+            "counts": { "handle_kept": c[0], "handle_cut": c[1], "tunnel_kept": c[2], "tunnel_filled": c[3] },
+            "weights": range.map(|(lo, hi)| json!({ "min": lo, "max": hi })),
+            "infinite_weights": s.unbounded(),
+        });
+        println!("{}", serde_json::to_string_pretty(&v)?);
+        return Ok(Outcome::Success);
+    }
+    println!("input:       {}", path.display());
+    println!("format:      TopoMender skeleton (.skt): {} records in {} passes", s.records.len(), s.passes);
+    println!("solid:       {} edges kept, {} cut (handles)", c[0], c[1]);
+    println!("outside:     {} edges kept, {} filled (tunnels)", c[2], c[3]);
+    match range {
+        Some((lo, hi)) => println!(
+            "weights:     {lo} to {hi} squared units; {} infinite (edges still bounding a face)",
+            s.unbounded()
+        ),
+        None => println!("weights:     none finite; {} infinite", s.unbounded()),
+    }
+    Ok(Outcome::Success)
+}
 pub fn simplify(c: &SimplifyConfig) -> Result<Outcome> {
     let batch = crate::outputs::plan_one(&c.output, "-o", Some(c.format), None, Some(&c.mesh))?;
     let name = c.mesh.display().to_string();

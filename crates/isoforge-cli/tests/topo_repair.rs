@@ -58,6 +58,25 @@ fn a_torus_handle_is_cut_below_the_threshold_and_kept_above_it() {
     assert_eq!(bytes.len() % 21, 1);
     assert_eq!(*bytes.last().unwrap(), 0xff);
     assert_eq!(bytes.chunks(21).filter(|r| r.len() == 21 && r[0] == 1).count(), 1);
+    // Read back by `info`: one pass, every record of the solid, one cut, finite weights.
+    let info = json(&["info", p(&skt), "--json"]);
+    assert_eq!(info["format"], "skt");
+    assert_eq!(info["passes"], 1);
+    assert_eq!(info["records"].as_u64().unwrap() as usize, bytes.len() / 21);
+    assert_eq!(info["counts"]["handle_cut"], 1);
+    assert_eq!(info["counts"]["tunnel_kept"], 0);
+    let (lo, hi) = (info["weights"]["min"].as_f64().unwrap(), info["weights"]["max"].as_f64().unwrap());
+    assert!(lo > 0.0 && hi >= lo, "{info}");
+    let text = isoforge(&["info", p(&skt)]);
+    assert!(String::from_utf8_lossy(&text.stdout).contains("1 cut (handles)"), "{text:?}");
+    // A damaged skeleton: one line naming the file and the byte.
+    let bad = dir.path().join("bad.skt");
+    std::fs::write(&bad, &bytes[..bytes.len() - 10]).unwrap();
+    fails(
+        &["info", p(&bad)],
+        &format!("bad.skt: byte {}: a record needs 21 bytes", (bytes.len() - 1) / 21 * 21 - 21),
+        &out.with_extension("none"),
+    );
     // The repaired grid reads back with the points the report counts on the other side now (the
     // values around them made sign-like, the rest untouched).
     let AnyGrid::F32(g) = isoforge_io::read_volume(&grid, &isoforge_io::Limits::default()).unwrap() else { panic!() };

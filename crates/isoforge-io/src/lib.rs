@@ -47,6 +47,8 @@ pub use memory::keep_freed_memory;
 #[cfg(feature = "raw")]
 pub use read::raw::RawSpec;
 #[cfg(feature = "sog")]
+pub use read::skt::read_skt;
+#[cfg(feature = "sog")]
 pub use read::sog::read_sog;
 #[cfg(feature = "vdb")]
 pub use read::sparse::{dense_region, read_sparse, SparseFile};

@@ -1,4 +1,4 @@
-//! Readers: volumes (raw, NRRD, NIfTI-1, MetaImage, …), signed octrees (SOG) and meshes (PLY, OBJ, STL, OFF).
+//! Readers: volumes (raw, NRRD, NIfTI-1, MetaImage, …), signed octrees (SOG), TopoMender's skeletons (SKT) and meshes (PLY, OBJ, STL, OFF).
 
 pub(crate) mod decode;
 #[cfg(feature = "dicom")]
@@ -23,6 +23,8 @@ pub mod ply;
 pub mod png;
 #[cfg(feature = "raw")]
 pub mod raw;
+#[cfg(feature = "sog")]
+pub mod skt;
 #[cfg(feature = "sog")]
 pub mod sog;
 #[cfg(feature = "vdb")]

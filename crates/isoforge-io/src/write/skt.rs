@@ -8,7 +8,8 @@
 //!                               of 2^-20 of the root cube (a point, or a cell by its lowest corner)
 //!   0xff     after each pass's records (the solid's first, then the outside's)
 //! ```
-//! Little-endian, no header: the lattice comes from the SOG file beside it.
+//! Little-endian, no header: the lattice comes from the SOG file beside it. Read back by
+//! [`crate::read::skt`].
 
 use std::io::{self, Write};
 

@@ -21,8 +21,8 @@
 //! cochain pulled back through the collapses (an edge collapsed with a face takes the sum mod 2
 //! of the face's other edges) — a set of edges crossing every loop through it once. Its *size* is
 //! its area, each edge counting its dual quad (TopoMender's weights: dual-quad areas plus what
-//! retracted onto the edge); a loop's size is its smallest membrane along its cycle (64 edges
-//! sampled). A cut takes one point of each membrane edge out of the solid; a fill (on the dual)
+//! retracted onto the edge); a loop's size is its smallest membrane along its cycle, every edge
+//! of the cycle measured (64 at a time: one play of the collapses backwards sizes 64 membranes). A cut takes one point of each membrane edge out of the solid; a fill (on the dual)
 //! puts the four points of each primal face its membrane crosses in. A change is kept only when
 //! the solid lost exactly one loop: its Euler characteristic up by one, its components and the
 //! outside's unchanged; otherwise a ball around the membrane's edge is tried, else the loop is
@@ -340,44 +340,25 @@ fn run_pass(
     let area = [spacing[1] * spacing[2], spacing[0] * spacing[2], spacing[0] * spacing[1]];
     let mut loops: Vec<&SkeletonEdge> = edges.iter().filter(|e| e.closes_loop && e.weight.is_finite()).collect();
     loops.sort_by(|a, b| a.weight.total_cmp(&b.weight).then(a.element.cmp(&b.element)));
-    // Each loop's candidate cocycles, each with the edge it stands at: on the graph, the
-    // indicators of edges along its cycle (only edges that bound no face left by thinning: their
-    // indicators are cocycles); on a sheet, the one cocycle dual to it.
-    let mut candidate_sets: Vec<Vec<(usize, Vec<usize>)>> = loops
-        .iter()
-        .map(|e| {
-            let along = fundamental_cycle(&edges, e, |x| c.present_cofaces(x).0 == 0, 64);
-            along.into_iter().map(|x| (x, vec![x])).collect()
-        })
-        .collect();
-    candidate_sets.extend(sheet_loops(&c, &edges).into_iter().map(|l| vec![(l.element, l.cocycle)]));
+    let candidate_sets = loop_candidates(&c, &edges, &loops);
+    let pull = PullBack::new(&whole, &t.pairs);
+    let mut bits = vec![0u64; whole.len()];
+    let sizes = membrane_sizes(&whole, &pull, &candidate_sets, area, &mut bits);
     let mut ops = Vec::new();
     let mut done = HashSet::new();
-    for set in candidate_sets {
-        // The loop's membranes: the edges of the whole complex whose cochain, pulled back
-        // through the collapses, is 1; the smallest is the loop's size.
-        let candidates: Vec<usize> = set.iter().map(|(x, _)| *x).collect();
-        let supports: Vec<&[usize]> = set.iter().map(|(_, s)| s.as_slice()).collect();
-        let bits = pull_back(&whole, &t.pairs, &supports);
-        let mut areas = vec![0.0; candidates.len()];
-        for (i, &b) in bits.iter().enumerate() {
-            if b != 0 {
-                let a = area[whole.axis(i).expect("membranes are made of edges")];
-                for (k, s) in areas.iter_mut().enumerate() {
-                    if b >> k & 1 == 1 {
-                        *s += a;
-                    }
-                }
-            }
-        }
-        let best = (0..candidates.len()).min_by(|&a, &b| areas[a].total_cmp(&areas[b])).expect("a loop has its edge");
-        let x = c.coords(candidates[best]);
+    for (set, sizes) in candidate_sets.iter().zip(&sizes) {
+        // The loop's size: its smallest membrane, over every candidate of its cycle.
+        let best = (0..set.len()).min_by(|&a, &b| sizes[a].total_cmp(&sizes[b])).expect("a loop has its edge");
+        let edge = set[best].0;
+        let x = c.coords(edge);
         let at = frame.world(to_input(x));
-        let mut op = Operation { kind, size: areas[best], at, performed: false, points_changed: 0 };
+        let mut op = Operation { kind, size: sizes[best], at, performed: false, points_changed: 0 };
         if op.size < threshold {
             let components = components(inside, frame.n);
-            let membrane: Vec<[i64; 3]> =
-                (0..bits.len()).filter(|&i| bits[i] >> best & 1 == 1).map(|i| shift(whole.coords(i))).collect();
+            let mut support = Vec::new();
+            pull.play(&mut bits, &[set[best].1.as_slice()], |i, _| support.push(i));
+            support.sort_unstable();
+            let membrane: Vec<[i64; 3]> = support.iter().map(|&i| shift(whole.coords(i))).collect();
             // Which points make the membrane: a cut takes each edge's lower point (else its
             // upper, else both) out of the solid; a fill puts the four points of each primal
             // face the dual edges cross into it.
@@ -426,7 +407,7 @@ fn run_pass(
                         })
                     })
                     .collect();
-                let radius = 3.0 * (d2[candidates[best]] as f64).sqrt() + reach;
+                let radius = 3.0 * (d2[edge] as f64).sqrt() + reach;
                 let from = pass == Pass::Closed;
                 flipped =
                     grow_section(inside, frame, None, &starts, b.map(|v| v as f64 / 2.0), radius, from, components);
@@ -434,7 +415,7 @@ fn run_pass(
             if !flipped.is_empty() {
                 op.performed = true;
                 op.points_changed = flipped.len() as u64;
-                done.insert(candidates[best]);
+                done.insert(edge);
             }
         }
         ops.push(op);
@@ -452,13 +433,8 @@ fn run_pass(
 }
 
 /// The skeleton edges of the cycle loop edge `e` closes through the spanning tree (`e` first),
-/// those `usable`, at most `most` of them, evenly spread.
-fn fundamental_cycle(
-    edges: &[SkeletonEdge],
-    e: &SkeletonEdge,
-    usable: impl Fn(usize) -> bool,
-    most: usize,
-) -> Vec<usize> {
+/// those `usable`.
+fn fundamental_cycle(edges: &[SkeletonEdge], e: &SkeletonEdge, usable: impl Fn(usize) -> bool) -> Vec<usize> {
     let mut next: std::collections::HashMap<usize, Vec<(usize, usize)>> = Default::default();
     for t in edges.iter().filter(|t| !t.closes_loop) {
         next.entry(t.ends[0]).or_default().push((t.ends[1], t.element));
@@ -489,32 +465,114 @@ fn fundamental_cycle(
         p = from;
     }
     path.retain(|&x| x == e.element || usable(x));
-    if path.len() <= most {
-        return path;
-    }
-    (0..most).map(|k| path[k * path.len() / most]).collect()
+    path
 }
 
-/// The cochains of the whole complex that thinning's collapses, played backwards, give the
-/// cocycles of the thinned complex whose supports are `supports` (at most 64; bit `k` for the
-/// `k`-th): an edge collapsed with a face takes the sum (mod 2) of the face's other edges, an
-/// edge collapsed away from a point takes 0. Each is a cocycle whose support — a membrane of
-/// edges — crosses every loop its cocycle counts once: removing it cuts them there.
-fn pull_back(whole: &CellComplex, pairs: &[(u32, u32)], supports: &[&[usize]]) -> Vec<u64> {
-    assert!(supports.len() <= 64);
-    let mut bits = vec![0u64; whole.len()];
-    for (k, support) in supports.iter().enumerate() {
-        for &e in *support {
-            bits[e] ^= 1 << k;
+/// Each loop's candidate cocycles, each with the skeleton edge it stands at: for a loop of the
+/// graph (`loops`), the indicator of every edge along its cycle that bounds no face left by
+/// thinning (such an indicator is a cocycle); for a loop held by sheets ([`sheet_loops`]), its
+/// one dual cocycle.
+fn loop_candidates(c: &CellComplex, edges: &[SkeletonEdge], loops: &[&SkeletonEdge]) -> Vec<Vec<(usize, Vec<usize>)>> {
+    let mut sets: Vec<Vec<(usize, Vec<usize>)>> = loops
+        .iter()
+        .map(|e| {
+            let along = fundamental_cycle(edges, e, |x| c.present_cofaces(x).0 == 0);
+            along.into_iter().map(|x| (x, vec![x])).collect()
+        })
+        .collect();
+    sets.extend(sheet_loops(c, edges).into_iter().map(|l| vec![(l.element, l.cocycle)]));
+    sets
+}
+
+/// Thinning's collapses that move a cochain, in the order a pull-back plays them (the last
+/// collapse first): each edge collapsed with a face, with the face's three other edges. Points,
+/// faces and cells collapsed carry no cochain of edges; an edge collapsed away from a point
+/// takes 0, which its never-written bits already are.
+struct PullBack {
+    steps: Vec<[u32; 4]>,
+}
+
+impl PullBack {
+    fn new(whole: &CellComplex, pairs: &[(u32, u32)]) -> Self {
+        let steps = pairs
+            .iter()
+            .rev()
+            .filter(|&&(s, _)| whole.dimension(s as usize) == 1)
+            .map(|&(s, t)| {
+                let mut step = [s; 4];
+                for (k, (f, _)) in whole.faces(t as usize).filter(|&(f, _)| f != s as usize).enumerate() {
+                    step[k + 1] = f as u32;
+                }
+                step
+            })
+            .collect();
+        PullBack { steps }
+    }
+
+    /// Pulls up to 64 cocycles of the thinned complex (bit `k` for the one whose support is
+    /// `supports[k]`) back onto the whole complex: an edge collapsed with a face takes the sum
+    /// (mod 2) of the face's other edges. Each result is a cocycle whose support — a membrane of
+    /// edges — crosses every loop its cocycle counts once: removing it cuts them there. Calls
+    /// `visit` once for every edge of the whole complex with some bit set (`bits` is scratch of
+    /// the whole complex's length, zero where no step writes; left so).
+    ///
+    /// A collapsed edge's bits are read only after they are written in the same play: when an
+    /// edge is collapsed with a face, the face's other edges are still present, so they are
+    /// collapsed later (played earlier) or never (the supports, or zero).
+    fn play(&self, bits: &mut [u64], supports: &[&[usize]], mut visit: impl FnMut(usize, u64)) {
+        assert!(supports.len() <= 64);
+        for (k, support) in supports.iter().enumerate() {
+            for &e in *support {
+                bits[e] ^= 1 << k;
+            }
+        }
+        for &[s, a, b, c] in &self.steps {
+            let v = bits[a as usize] ^ bits[b as usize] ^ bits[c as usize];
+            bits[s as usize] = v;
+            if v != 0 {
+                visit(s as usize, v);
+            }
+        }
+        for support in supports {
+            for &e in *support {
+                if bits[e] != 0 {
+                    visit(e, bits[e]);
+                    bits[e] = 0;
+                }
+            }
         }
     }
-    for &(s, t) in pairs.iter().rev() {
-        let (s, t) = (s as usize, t as usize);
-        if whole.dimension(s) == 1 {
-            bits[s] = whole.faces(t).filter(|&(f, _)| f != s).fold(0, |acc, (f, _)| acc ^ bits[f]);
-        }
+}
+
+/// The size of every candidate's membrane (squared model units: each edge counts its dual
+/// quad, `area` by axis), 64 candidates — of any loops — to a play of the collapses (`bits`:
+/// [`PullBack::play`]'s scratch).
+fn membrane_sizes(
+    whole: &CellComplex,
+    pull: &PullBack,
+    sets: &[Vec<(usize, Vec<usize>)>],
+    area: [f64; 3],
+    bits: &mut [u64],
+) -> Vec<Vec<f64>> {
+    let all: Vec<(usize, &[usize])> =
+        sets.iter().enumerate().flat_map(|(l, set)| set.iter().map(move |(_, s)| (l, s.as_slice()))).collect();
+    let mut counts = vec![[0u64; 3]; all.len()];
+    for (batch, chunk) in all.chunks(64).enumerate() {
+        let supports: Vec<&[usize]> = chunk.iter().map(|&(_, s)| s).collect();
+        let counts = &mut counts[batch * 64..];
+        pull.play(bits, &supports, |i, mut v| {
+            let axis = whole.axis(i).expect("membranes are made of edges");
+            while v != 0 {
+                counts[v.trailing_zeros() as usize][axis] += 1;
+                v &= v - 1;
+            }
+        });
     }
-    bits
+    let mut sizes: Vec<Vec<f64>> = sets.iter().map(|s| Vec::with_capacity(s.len())).collect();
+    for ((l, _), n) in all.iter().zip(&counts) {
+        sizes[*l].push((0..3).map(|a| n[a] as f64 * area[a]).sum());
+    }
+    sizes
 }
 
 /// Flips the given points (doubled box coordinates; beyond the box ignored) to the other side

@@ -187,3 +187,71 @@ fn a_knotted_tube_has_its_tunnel_found_on_the_outside_sheets_and_kept() {
     assert_eq!(report.cuts().count(), 1, "{report:?}");
     assert_eq!(genus(&cut, Iso::below(0.0)), 0);
 }
+
+/// A square ring (a 3 × 3-point tube around a 44-point square) with a one-point neck on one wall
+/// (cross-section 1: the smallest membrane) and a flat stretch one point thick and three wide on
+/// the opposite wall (cross-section 3, but the thinnest by the distance transform: the spanning
+/// tree closes the loop there). The loop's cycle has 164 usable edges; 64 of them evenly spread
+/// (the earlier sampling) miss the neck and give 3; every edge gives 1.
+fn necked_ring() -> (DenseGrid<f32>, Vec<bool>) {
+    let n = [48u32, 48, 7];
+    let (lo, side, w, neck) = (2u32, 44u32, 3u32, 8u32);
+    let solid = |p: [u32; 3]| {
+        let in_box = |a: u32, b: u32| (a..b).contains(&p[0]) && (a..b).contains(&p[1]);
+        let ring = (2..2 + w).contains(&p[2]) && in_box(lo, lo + side) && !in_box(lo + w, lo + side - w);
+        if p[0] == lo + neck && p[1] < lo + w {
+            return p[1] == lo + 1 && p[2] == 3;
+        }
+        if (20..30).contains(&p[0]) && p[1] >= lo + side - w {
+            return ring && p[2] == 3;
+        }
+        ring
+    };
+    let lattice = Lattice::with_geometry(n, [1.0; 3], [0.0; 3]).unwrap();
+    let g = DenseGrid::from_fn(lattice.clone(), |p| if solid(p) { -1.0 } else { 3.0 });
+    let flags = (0..lattice.num_points() as usize).map(|i| solid(lattice.ijk(i))).collect();
+    (g, flags)
+}
+
+#[test]
+fn a_loops_size_is_its_smallest_membrane_over_every_edge_of_its_cycle() {
+    let (g, solid) = necked_ring();
+    let n = g.lattice().dims().map(|v| v as usize);
+    // The sizes of every candidate along the cycle, and what 64 evenly spread ones gave.
+    let mut c = CellComplex::of_solid(n, &solid);
+    let whole = c.clone();
+    let d2 = squared_distance_to_absent(&c, [0.5; 3]);
+    let t = thin(&mut c, false);
+    let edges = spanning_loops(&c, |e| local_thickness(&c, &d2, e, [1.0; 3]));
+    let loops: Vec<&SkeletonEdge> = edges.iter().filter(|e| e.closes_loop && e.weight.is_finite()).collect();
+    assert_eq!(loops.len(), 1);
+    let sets = loop_candidates(&c, &edges, &loops);
+    let pull = PullBack::new(&whole, &t.pairs);
+    let mut bits = vec![0u64; whole.len()];
+    let sizes = membrane_sizes(&whole, &pull, &sets, [1.0; 3], &mut bits);
+    let s = &sizes[0];
+    assert_eq!(s.len(), 164);
+    assert_eq!(s[0], 3.0, "the spanning tree closes the loop on the flat stretch");
+    let sampled = (0..64).map(|k| s[k * s.len() / 64]).fold(f64::INFINITY, f64::min);
+    let exact = s.iter().copied().fold(f64::INFINITY, f64::min);
+    assert_eq!((sampled, exact), (3.0, 1.0));
+    // Each size is its membrane's edge count here (unit spacing): a pull-back of one candidate
+    // alone gives the same membrane as its batch of 64.
+    for (k, (_, support)) in sets[0].iter().enumerate().step_by(7) {
+        let mut count = 0;
+        pull.play(&mut bits, &[support.as_slice()], |_, _| count += 1);
+        assert_eq!(count as f64, s[k], "candidate {k}");
+    }
+    assert!(bits.iter().enumerate().all(|(i, &b)| b == 0 || whole.dimension(i) == 1));
+    // The repair: the handle measures 1 and a threshold of 1.5 cuts it at the neck (one point),
+    // genus 1 → 0.
+    assert_eq!(genus(&g, Iso::below(0.0)), 1);
+    let (out, report) = run(&g, 1.5, 0.0);
+    assert_eq!(report.handles.len(), 1, "{report:?}");
+    assert_eq!(report.handles[0].size, 1.0);
+    assert!(report.handles[0].performed);
+    assert_eq!(report.points_changed, 1, "{report:?}");
+    assert_eq!(report.handles[0].at, [10.5, 3.0, 3.0], "the membrane's edge leaves the neck");
+    assert!(out.data()[g.lattice().linear([10, 3, 3])] > 0.0, "the neck's point is cut");
+    assert_eq!(genus(&out, Iso::below(0.0)), 0);
+}
