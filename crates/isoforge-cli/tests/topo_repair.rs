@@ -175,10 +175,11 @@ fn the_knots_tunnel_is_found_on_its_outside_sheets() {
     assert!(j["stuck_elements"][1].as_u64().unwrap() > 0, "{j}");
     let kept = j["tunnels_kept"].as_array().unwrap();
     assert_eq!(kept.len(), 1, "{j}");
-    assert!(kept[0]["size"].as_f64().unwrap() > 584.0, "the knot's membrane is larger than its tube's: {j}");
     assert_eq!(j["genus_after"], 1);
-    let j = json(&tr(&[p(&sog), "--thin", "1e9", "--grow", "1e9", "-o", p(&out), "--json"]));
-    assert_eq!(j["genus_after"], 0);
+    let cut = json(&tr(&[p(&sog), "--thin", "1e9", "--grow", "1e9", "-o", p(&out), "--json"]));
+    assert_eq!(cut["genus_after"], 0);
+    let handle = cut["cuts"][0]["size"].as_f64().unwrap();
+    assert!(kept[0]["size"].as_f64().unwrap() > handle, "the knot's membrane is larger than its tube's ({handle}): {j}");
 }
 
 #[test]
