@@ -1,0 +1,160 @@
+//! Samples the caller owns in any layout: element strides per axis, of either sign (a numpy
+//! array in C or Fortran order, a view taking every other plane, a reversed axis, a broadcast).
+
+use super::SlabSource;
+use crate::error::{Error, Result};
+use crate::grid::{DenseGrid, Lattice, Sample};
+use crate::mesh::ExternalError;
+
+/// Borrowed samples on a lattice, the sample of point `(x, y, z)` at index
+/// `first + x·sx + y·sy + z·sz` of `samples` (strides in elements, any sign, 0 for a broadcast
+/// axis). Walked in place when the layout is the library's own (x fastest, packed:
+/// [`contiguous`](StridedSamples::contiguous)); otherwise read slab by slab
+/// ([`slabs`](StridedSamples::slabs)), never copied whole.
+#[derive(Debug, Clone)]
+pub struct StridedSamples<'a, S> {
+    samples: &'a [S],
+    first: usize,
+    strides: [isize; 3],
+    lattice: Lattice,
+}
+
+impl<'a, S: Sample> StridedSamples<'a, S> {
+    /// Wraps `samples` with point `(0, 0, 0)` at index `first` and `strides` (elements) along x,
+    /// y and z.
+    ///
+    /// # Errors
+    /// [`Error::InvalidInput`] naming the index when a point of the lattice falls outside
+    /// `samples`.
+    pub fn new(lattice: Lattice, samples: &'a [S], first: usize, strides: [isize; 3]) -> Result<Self> {
+        let dims = lattice.dims();
+        // The lowest and highest index any point reaches, in i128 (no overflow for any input).
+        let (mut lo, mut hi) = (first as i128, first as i128);
+        for a in 0..3 {
+            let reach = i128::from(dims[a].saturating_sub(1)) * strides[a] as i128;
+            lo += reach.min(0);
+            hi += reach.max(0);
+        }
+        if lo < 0 || hi >= samples.len() as i128 {
+            return Err(Error::InvalidInput(format!(
+                "strides {strides:?} from index {first} reach indices {lo}..={hi} of {} samples for a lattice of {dims:?} \
+                 points",
+                samples.len()
+            )));
+        }
+        Ok(StridedSamples { samples, first, strides, lattice })
+    }
+
+    /// The lattice.
+    pub fn lattice(&self) -> &Lattice {
+        &self.lattice
+    }
+
+    /// The samples as one packed slice, x fastest (what [`GridVolume::borrowed`](super::GridVolume::borrowed)
+    /// walks in place), when that is their layout.
+    pub fn contiguous(&self) -> Option<&'a [S]> {
+        let [nx, ny, nz] = self.lattice.dims().map(|d| d as usize);
+        let n = nx * ny * nz;
+        // Strides along axes of one point never matter.
+        let packed = [1, nx, nx * ny];
+        let same = (0..3).all(|a| self.lattice.dims()[a] < 2 || self.strides[a] == packed[a] as isize);
+        same.then(|| &self.samples[self.first..self.first + n])
+    }
+
+    /// The sample at point `p`.
+    #[inline]
+    pub fn get(&self, p: [u32; 3]) -> S {
+        let i = self.first as isize + (0..3).map(|a| p[a] as isize * self.strides[a]).sum::<isize>();
+        self.samples[i as usize]
+    }
+
+    /// A copy in a grid (for the walks that need the whole grid in the library's layout).
+    ///
+    /// # Errors
+    /// As [`DenseGrid::new`].
+    pub fn to_grid(&self) -> Result<DenseGrid<S>> {
+        let [nx, ny, nz] = self.lattice.dims().map(|d| d as usize);
+        let mut data = vec![S::from_f64(0.0); nx * ny * nz];
+        self.gather(0, &mut data);
+        DenseGrid::new(self.lattice.clone(), data)
+    }
+
+    /// The samples z-slab by z-slab, x fastest: a [`SlabSource`] for the streamed walk.
+    pub fn slabs(&self) -> StridedSlabs<'a, S> {
+        let [sx, sy, sz] = self.strides.map(isize::unsigned_abs);
+        let nz = self.lattice.dims()[2] as usize;
+        // Where z is the fastest axis in memory (Fortran order), one cache line holds several
+        // slabs' samples: gather as many slabs as a line holds at once.
+        let block = if sz < sx.min(sy) && sz > 0 { (64 / std::mem::size_of::<S>()).clamp(1, nz.max(1)) } else { 1 };
+        StridedSlabs { src: self.clone(), next: 0, block, held: Vec::new(), held_from: 0, held_count: 0 }
+    }
+}
+
+/// A [`StridedSamples`]' slabs in order ([`StridedSamples::slabs`]), each gathered from the
+/// caller's memory when asked for; a few slabs are held at a time when z is the fastest axis in
+/// memory.
+#[derive(Debug)]
+pub struct StridedSlabs<'a, S> {
+    src: StridedSamples<'a, S>,
+    /// The next slab handed out.
+    next: usize,
+    /// Slabs gathered at once.
+    block: usize,
+    /// `held_count` slabs from `held_from` on, one after the other.
+    held: Vec<S>,
+    held_from: usize,
+    held_count: usize,
+}
+
+impl<S: Sample> StridedSamples<'_, S> {
+    /// Slabs `from`, `from + 1`, … (as many as `out` holds whole slabs) into `out`, x fastest.
+    fn gather(&self, from: usize, out: &mut [S]) {
+        let [nx, ny, _] = self.lattice.dims().map(|d| d as usize);
+        let n = nx * ny;
+        let count = out.len().checked_div(n).unwrap_or(0);
+        let [sx, sy, sz] = self.strides;
+        let base = self.first as isize + from as isize * sz;
+        // The inner loop along the smaller stride of x and y.
+        let x_inner = sx.unsigned_abs() <= sy.unsigned_abs();
+        let (outer, inner, so, si) = if x_inner { (ny, nx, sy, sx) } else { (nx, ny, sx, sy) };
+        for o in 0..outer {
+            for i in 0..inner {
+                let at = if x_inner { o * nx + i } else { i * nx + o };
+                let p = base + o as isize * so + i as isize * si;
+                for b in 0..count {
+                    out[b * n + at] = self.samples[(p + b as isize * sz) as usize];
+                }
+            }
+        }
+    }
+}
+
+impl<S: Sample, T: Sample> SlabSource<T> for StridedSlabs<'_, S> {
+    fn lattice(&self) -> &Lattice {
+        &self.src.lattice
+    }
+
+    fn read_slab(&mut self, out: &mut [T]) -> std::result::Result<(), ExternalError> {
+        let [nx, ny, nz] = self.src.lattice.dims().map(|d| d as usize);
+        let (n, k) = (nx * ny, self.next);
+        if out.len() != n {
+            return Err(format!("a slab of {} samples asked for, slabs hold {n}", out.len()).into());
+        }
+        if k >= nz {
+            return Err(format!("slab {k} asked for, the volume has {nz}").into());
+        }
+        if !(self.held_from..self.held_from + self.held_count).contains(&k) {
+            let count = self.block.min(nz - k);
+            self.held.resize(count * n, S::from_f64(0.0));
+            self.src.gather(k, &mut self.held);
+            (self.held_from, self.held_count) = (k, count);
+        }
+        let i = k - self.held_from;
+        // The same type converts exactly (every sample type is exact in f64).
+        for (o, v) in out.iter_mut().zip(&self.held[i * n..(i + 1) * n]) {
+            *o = T::from_f64(v.to_f64());
+        }
+        self.next += 1;
+        Ok(())
+    }
+}
