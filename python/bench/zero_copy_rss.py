@@ -2,7 +2,8 @@
 (issue 48): `python python/bench/zero_copy_rss.py LAYOUT` with LAYOUT one of
 C (C order: walked in place), F (Fortran order), strided (every other plane of a 512×256×256
 array), reversed (x and z reversed: negative strides) — the last three are read slab by slab —
-or copy (the F-ordered array copied to C order by numpy first: what a copy costs)."""
+or copy (the F-ordered array copied to C order by numpy first: what a copy costs). A second
+argument `extract` measures isoforge.extract (mc33, normals) instead of marching_cubes."""
 import resource, sys, time
 import numpy as np
 import isoforge
@@ -26,7 +27,10 @@ base = resource.getrusage(resource.RUSAGE_SELF).ru_maxrss
 t = time.perf_counter()
 if layout == "copy":
     vol = np.ascontiguousarray(vol)
-v, f, nrm, val = isoforge.marching_cubes(vol, 100.0, threads=2)
+if sys.argv[2:] == ["extract"]:
+    f = isoforge.extract(vol, 100.0, threads=2).faces
+else:
+    v, f, nrm, val = isoforge.marching_cubes(vol, 100.0, threads=2)
 dt = time.perf_counter() - t
 peak = resource.getrusage(resource.RUSAGE_SELF).ru_maxrss
-print(layout, "layout: peak RSS over the input's", (peak - base) // 1024, "MiB;", len(f), "triangles;", f"{dt:.2f} s")
+print(layout, " ".join(sys.argv[2:]), "layout: peak RSS over the input's", (peak - base) // 1024, "MiB;", len(f), "triangles;", f"{dt:.2f} s")

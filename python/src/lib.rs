@@ -19,7 +19,7 @@ use isoforge::extract::PointMask;
 use isoforge::grid::{AnyGrid, DenseGrid, Lattice, Sample};
 use isoforge::mesh::{Mesh, Normals};
 use isoforge::pipeline::{extract_grid, extract_request, extract_strided, Method, Options, Request, Source};
-use isoforge::volume::{Iso, StridedSamples};
+use isoforge::volume::{AnySamples, Iso, StridedSamples};
 use isoforge::walk::Progress;
 use numpy::{PyArray1, PyArrayMethods, PyReadonlyArray2, PyReadonlyArray3, PyUntypedArray, PyUntypedArrayMethods};
 use pyo3::exceptions::{PyMemoryError, PyRuntimeError, PyValueError};
@@ -54,13 +54,14 @@ fn grid_of<T: Sample + numpy::Element>(
 fn strided_of<'a, T: Sample + numpy::Element>(
     a: &'a PyReadonlyArray3<'_, T>,
     spacing: [f64; 3],
+    origin: [f64; 3],
 ) -> PyResult<Option<StridedSamples<'a, T>>> {
     let (shape, bytes, size) = (a.shape(), a.strides(), std::mem::size_of::<T>() as isize);
     if !a.is_aligned() || shape.contains(&0) || bytes.iter().any(|b| b % size != 0) {
         return Ok(None);
     }
     let dims = [shape[2], shape[1], shape[0]].map(|d| u32::try_from(d).unwrap_or(u32::MAX));
-    let lattice = Lattice::with_geometry(dims, spacing, [0.0; 3]).map_err(value_error)?;
+    let lattice = Lattice::with_geometry(dims, spacing, origin).map_err(value_error)?;
     let strides = [bytes[2] / size, bytes[1] / size, bytes[0] / size];
     // The lowest and highest sample any point reaches, from the first point.
     let (mut lo, mut hi) = (0isize, 0isize);
@@ -236,7 +237,7 @@ fn extract_array<'py>(
         macro_rules! walk_in_place {
             ($($t:ty),*) => {
                 $(if let Ok(a) = volume.extract::<PyReadonlyArray3<'py, $t>>() {
-                    if let Some(s) = strided_of(&a, xyz)? {
+                    if let Some(s) = strided_of(&a, xyz, [0.0; 3])? {
                         let dims = s.lattice().dims();
                         let opts = options(dims)?;
                         let mut ex = cancellable(py, |p| extract_strided(&s, iso, &opts, Some(p)))?;
@@ -348,18 +349,6 @@ fn extract_mesh<'py>(
     normals: bool,
 ) -> PyResult<(Bound<'py, PyAny>, Bound<'py, PyAny>, Bound<'py, PyAny>)> {
     let method = Method::parse(method).ok_or_else(|| PyValueError::new_err(format!("method {method:?}: unknown")))?;
-    let grid = match (volume, path) {
-        (Some(v), None) => {
-            if v.ndim() != 3 {
-                return Err(PyValueError::new_err(format!("volume: {} dimensions, expected 3", v.ndim())));
-            }
-            any_grid(v, spacing, origin)?
-        }
-        (None, Some(p)) => {
-            py.detach(|| isoforge_io::read_volume(&p, &isoforge_io::Limits::default())).map_err(io_error)?
-        }
-        _ => return Err(PyValueError::new_err("extract: pass an array or a path")),
-    };
     let options = Options {
         method,
         normals: if normals { Normals::Gradient } else { Normals::None },
@@ -369,10 +358,38 @@ fn extract_mesh<'py>(
     // The library's one entry point, as the CLI's `extract`: the iso checked against the values,
     // no surface refused with the same sentence.
     let request: Request = Request { isos: vec![iso], options, ..Request::default() };
-    let surfaces = cancellable(py, |p| extract_request(&request, Source::Grid(Cow::Borrowed(&grid)), None, Some(p)))?;
-    let mut mesh = surfaces.into_iter().next().map(|s| s.extraction.mesh).unwrap_or_default();
-    mesh.triangulate();
-    mesh_arrays(py, mesh)
+    let extract = |source: Source<'_>| -> PyResult<(Bound<'py, PyAny>, Bound<'py, PyAny>, Bound<'py, PyAny>)> {
+        let surfaces = cancellable(py, |p| extract_request(&request, source, None, Some(p)))?;
+        let mut mesh = surfaces.into_iter().next().map(|s| s.extraction.mesh).unwrap_or_default();
+        mesh.triangulate();
+        mesh_arrays(py, mesh)
+    };
+    match (volume, path) {
+        (Some(v), None) => {
+            if v.ndim() != 3 {
+                return Err(PyValueError::new_err(format!("volume: {} dimensions, expected 3", v.ndim())));
+            }
+            // Walked where numpy keeps the array, in any layout (issue 48); copied only when
+            // unaligned or strided by parts of a sample.
+            macro_rules! in_place {
+                ($($t:ty => $v:ident),*) => {
+                    $(if let Ok(a) = v.extract::<PyReadonlyArray3<'py, $t>>() {
+                        if let Some(s) = strided_of(&a, spacing, origin)? {
+                            return extract(Source::Samples(AnySamples::$v(s)));
+                        }
+                    })*
+                };
+            }
+            in_place!(u8 => U8, i8 => I8, u16 => U16, i16 => I16, u32 => U32, i32 => I32, f32 => F32, f64 => F64);
+            let grid = any_grid(v, spacing, origin)?;
+            extract(Source::Grid(Cow::Borrowed(&grid)))
+        }
+        (None, Some(p)) => {
+            let grid = py.detach(|| isoforge_io::read_volume(&p, &isoforge_io::Limits::default())).map_err(io_error)?;
+            extract(Source::Grid(Cow::Borrowed(&grid)))
+        }
+        _ => Err(PyValueError::new_err("extract: pass an array or a path")),
+    }
 }
 
 /// A volume file through isoforge-io's readers: `(array of shape (nz, ny, nx) in the file's

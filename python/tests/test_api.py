@@ -215,3 +215,22 @@ def test_marching_cubes_walks_every_layout_in_place_as_its_copy(dtype):
     assert 0 < len(b[1]) < len(want[1])
     for g, w in zip(a, b):
         np.testing.assert_array_equal(g, w)
+
+
+@pytest.mark.parametrize("dtype", DTYPES)
+def test_extract_walks_every_layout_in_place_as_its_copy(dtype):
+    # Issue 48: `extract` reads arrays where numpy keeps them too (a borrowed-samples source of
+    # the library's entry point): the same mesh in every layout, the same value-range refusal.
+    vol = (ball(23, 8.0) * 5).astype(dtype)
+    for method in ("mc33", "mt6", "dc"):
+        want = isoforge.extract(vol, 40.5, method=method, spacing=(1.0, 0.5, 2.0), origin=(1.0, 2.0, 3.0))
+        assert len(want.faces) > 0
+        for name, view in layouts(vol):
+            got = isoforge.extract(view, 40.5, method=method, spacing=(1.0, 0.5, 2.0), origin=(1.0, 2.0, 3.0))
+            for what in ("vertices", "faces", "normals"):
+                np.testing.assert_array_equal(getattr(got, what), getattr(want, what), err_msg=f"{name} {method}")
+    with pytest.raises(ValueError) as c_order:
+        isoforge.extract(vol, 500.0)
+    with pytest.raises(ValueError) as fortran:
+        isoforge.extract(np.asfortranarray(vol), 500.0)
+    assert str(c_order.value) == str(fortran.value) and "500" in str(fortran.value)

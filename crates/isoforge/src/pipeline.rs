@@ -31,8 +31,8 @@ use crate::mesh::post::PostProcess;
 use crate::mesh::{KeyRecord, Mesh, MeshBuilder, MeshSink, WriteBehind};
 use crate::volume::catalog::Builtin;
 use crate::volume::{
-    Field, FieldVisitor, GridVolume, Iso, Prefetch, Sampled, SlabSource, SparseVolume, StridedSamples, StridedSlabs,
-    Tabulated, Volume,
+    AnySamples, Field, FieldVisitor, GridVolume, Iso, Prefetch, Sampled, SlabSource, SparseVolume, StridedSamples,
+    StridedSlabs, Tabulated, Volume,
 };
 use crate::walk::{
     walk_cells, walk_ranges, FlyingEdgesWalker, FollowStats, Follower, Progress, SlabWalker, StreamStats, WalkStats,
@@ -524,6 +524,19 @@ pub fn extract_strided<S: Sample>(
     let mut keep = Keep(Mesh::default());
     let stats = extract_streamed(&mut samples.slabs(), iso, opts, &mut keep, progress)?;
     Ok(Extraction { mesh: keep.0, stats: stats.walk, keys: Vec::new() })
+}
+
+/// [`extract_strided`] on samples of any type (matched once).
+///
+/// # Errors
+/// As [`extract_strided`].
+pub fn extract_any_strided(
+    samples: &AnySamples<'_>,
+    iso: Iso,
+    opts: &Options,
+    progress: Option<&dyn Progress>,
+) -> Result<Extraction> {
+    crate::with_samples!(samples, s => extract_strided(s, iso, opts, progress))
 }
 
 impl<S: Sample> AnySlabSource for StridedSlabs<'_, S> {

@@ -31,7 +31,7 @@ pub use prefetch::Prefetch;
 pub use sampled::Sampled;
 pub use source::SlabSource;
 pub use sparse::SparseVolume;
-pub use strided::{StridedSamples, StridedSlabs};
+pub use strided::{AnySamples, StridedSamples, StridedSlabs};
 pub use tabulated::Tabulated;
 
 use crate::cube::EdgeKey;

@@ -3,7 +3,7 @@
 
 use super::SlabSource;
 use crate::error::{Error, Result};
-use crate::grid::{DenseGrid, Lattice, Sample};
+use crate::grid::{value_range_of, AnyGrid, DenseGrid, Lattice, Sample, ValueRange};
 use crate::mesh::ExternalError;
 
 /// Borrowed samples on a lattice, the sample of point `(x, y, z)` at index
@@ -77,6 +77,24 @@ impl<'a, S: Sample> StridedSamples<'a, S> {
         let mut data = vec![S::from_f64(0.0); nx * ny * nz];
         self.gather(0, &mut data);
         DenseGrid::new(self.lattice.clone(), data)
+    }
+
+    /// The smallest and largest sample (NaN skipped; None when all are NaN), read slab by slab
+    /// unless packed.
+    pub fn value_range(&self) -> Option<ValueRange> {
+        if let Some(packed) = self.contiguous() {
+            return value_range_of(packed);
+        }
+        let [nx, ny, nz] = self.lattice.dims().map(|d| d as usize);
+        let mut slab = vec![S::from_f64(0.0); nx * ny];
+        let mut range: Option<ValueRange> = None;
+        for k in 0..nz {
+            self.gather(k, &mut slab);
+            if let Some(r) = value_range_of(&slab) {
+                range = Some(range.map_or(r, |a| ValueRange { min: a.min.min(r.min), max: a.max.max(r.max) }));
+            }
+        }
+        range
     }
 
     /// The samples z-slab by z-slab, x fastest: a [`SlabSource`] for the streamed walk.
@@ -156,5 +174,73 @@ impl<S: Sample, T: Sample> SlabSource<T> for StridedSlabs<'_, S> {
         }
         self.next += 1;
         Ok(())
+    }
+}
+
+/// [`StridedSamples`] of any sample type (an array whose type is known at run time).
+#[derive(Debug, Clone)]
+pub enum AnySamples<'a> {
+    /// `u8` samples.
+    U8(StridedSamples<'a, u8>),
+    /// `i8` samples.
+    I8(StridedSamples<'a, i8>),
+    /// `u16` samples.
+    U16(StridedSamples<'a, u16>),
+    /// `i16` samples.
+    I16(StridedSamples<'a, i16>),
+    /// `u32` samples.
+    U32(StridedSamples<'a, u32>),
+    /// `i32` samples.
+    I32(StridedSamples<'a, i32>),
+    /// `f32` samples.
+    F32(StridedSamples<'a, f32>),
+    /// `f64` samples.
+    F64(StridedSamples<'a, f64>),
+}
+
+/// Runs `$body` with `$s` bound to the [`StridedSamples`] inside an [`AnySamples`].
+#[macro_export]
+macro_rules! with_samples {
+    ($samples:expr, $s:ident => $body:expr) => {{
+        use $crate::volume::AnySamples as A;
+        match $samples {
+            A::U8($s) => $body,
+            A::I8($s) => $body,
+            A::U16($s) => $body,
+            A::I16($s) => $body,
+            A::U32($s) => $body,
+            A::I32($s) => $body,
+            A::F32($s) => $body,
+            A::F64($s) => $body,
+        }
+    }};
+}
+
+impl AnySamples<'_> {
+    /// The lattice.
+    pub fn lattice(&self) -> &Lattice {
+        crate::with_samples!(self, s => s.lattice())
+    }
+
+    /// See [`StridedSamples::value_range`].
+    pub fn value_range(&self) -> Option<ValueRange> {
+        crate::with_samples!(self, s => s.value_range())
+    }
+
+    /// A copy in a grid of the same sample type.
+    ///
+    /// # Errors
+    /// As [`DenseGrid::new`].
+    pub fn to_grid(&self) -> Result<AnyGrid> {
+        Ok(match self {
+            AnySamples::U8(s) => AnyGrid::U8(s.to_grid()?),
+            AnySamples::I8(s) => AnyGrid::I8(s.to_grid()?),
+            AnySamples::U16(s) => AnyGrid::U16(s.to_grid()?),
+            AnySamples::I16(s) => AnyGrid::I16(s.to_grid()?),
+            AnySamples::U32(s) => AnyGrid::U32(s.to_grid()?),
+            AnySamples::I32(s) => AnyGrid::I32(s.to_grid()?),
+            AnySamples::F32(s) => AnyGrid::F32(s.to_grid()?),
+            AnySamples::F64(s) => AnyGrid::F64(s.to_grid()?),
+        })
     }
 }
