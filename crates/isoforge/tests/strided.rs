@@ -97,6 +97,7 @@ fn check_type<S: Sample>(wrap: fn(DenseGrid<S>) -> AnyGrid) {
                     let (memory, first, strides) = lay_out(dims, &values, layout);
                     let s = StridedSamples::new(lattice.clone(), &memory, first, strides).unwrap();
                     assert_eq!(s.contiguous().is_some(), matches!(layout, Layout::C), "{layout:?}");
+                    assert_eq!(s.value_range(), grid.value_range(), "{layout:?}");
                     let got = extract_strided(&s, iso, &opts, None).unwrap();
                     let what =
                         format!("{:?} {} {layout:?} normals {normals:?} threads {threads}", S::DTYPE, method.name());

@@ -86,11 +86,13 @@ impl<'a, S: Sample> StridedSamples<'a, S> {
             return value_range_of(packed);
         }
         let [nx, ny, nz] = self.lattice.dims().map(|d| d as usize);
-        let mut slab = vec![S::from_f64(0.0); nx * ny];
+        let block = self.block();
+        let mut slabs = vec![S::from_f64(0.0); block * nx * ny];
         let mut range: Option<ValueRange> = None;
-        for k in 0..nz {
-            self.gather(k, &mut slab);
-            if let Some(r) = value_range_of(&slab) {
+        for k in (0..nz).step_by(block) {
+            let some = &mut slabs[..block.min(nz - k) * nx * ny];
+            self.gather(k, some);
+            if let Some(r) = value_range_of(some) {
                 range = Some(range.map_or(r, |a| ValueRange { min: a.min.min(r.min), max: a.max.max(r.max) }));
             }
         }
@@ -99,12 +101,19 @@ impl<'a, S: Sample> StridedSamples<'a, S> {
 
     /// The samples z-slab by z-slab, x fastest: a [`SlabSource`] for the streamed walk.
     pub fn slabs(&self) -> StridedSlabs<'a, S> {
+        StridedSlabs { src: self.clone(), next: 0, block: self.block(), held: Vec::new(), held_from: 0, held_count: 0 }
+    }
+
+    /// Slabs gathered at once: where z is the fastest axis in memory (Fortran order), one cache
+    /// line holds several slabs' samples, so as many slabs as a line holds; else one.
+    fn block(&self) -> usize {
         let [sx, sy, sz] = self.strides.map(isize::unsigned_abs);
         let nz = self.lattice.dims()[2] as usize;
-        // Where z is the fastest axis in memory (Fortran order), one cache line holds several
-        // slabs' samples: gather as many slabs as a line holds at once.
-        let block = if sz < sx.min(sy) && sz > 0 { (64 / std::mem::size_of::<S>()).clamp(1, nz.max(1)) } else { 1 };
-        StridedSlabs { src: self.clone(), next: 0, block, held: Vec::new(), held_from: 0, held_count: 0 }
+        if sz < sx.min(sy) && sz > 0 {
+            (64 / std::mem::size_of::<S>()).clamp(1, nz.max(1))
+        } else {
+            1
+        }
     }
 }
 
