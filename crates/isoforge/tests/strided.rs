@@ -147,6 +147,12 @@ fn layouts_reaching_outside_the_samples_are_refused_and_slabs_are_counted() {
     assert!(e.contains("reach indices 0..=24 of 24 samples"), "{e}");
     let e = StridedSamples::new(lattice.clone(), &memory, 2, [-1, 4, 12]).unwrap_err().to_string();
     assert!(e.contains("reach indices -1..=22"), "{e}");
+    // Overlapping strides whose reach is as long as the points are many: the range is the
+    // points' (index 4, the largest value, is never reached), not the memory's.
+    let overlap: Vec<u8> = (0..8).map(|i| if i == 4 { 200 } else { i }).collect();
+    let s = StridedSamples::new(Lattice::new([2, 2, 2]).unwrap(), &overlap, 0, [1, 1, 5]).unwrap();
+    let r = s.value_range().unwrap();
+    assert_eq!((r.min, r.max), (0.0, 7.0));
     let s = StridedSamples::new(lattice, &memory, 0, [1, 4, 12]).unwrap();
     let mut slabs = s.slabs();
     let mut out = vec![0u8; 12];

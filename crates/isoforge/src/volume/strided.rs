@@ -61,6 +61,25 @@ impl<'a, S: Sample> StridedSamples<'a, S> {
         same.then(|| &self.samples[self.first..self.first + n])
     }
 
+    /// The memory of a packed layout with its axes permuted or reversed (Fortran order, a
+    /// reversed axis): exactly the lattice's samples, in memory order; None for other layouts.
+    fn permuted_memory(&self) -> Option<&'a [S]> {
+        let dims = self.lattice.dims();
+        let mut axes: Vec<(usize, usize)> =
+            (0..3).filter(|&a| dims[a] > 1).map(|a| (self.strides[a].unsigned_abs(), dims[a] as usize)).collect();
+        axes.sort_unstable();
+        let mut packed = 1;
+        for (stride, d) in axes {
+            if stride != packed {
+                return None;
+            }
+            packed *= d;
+        }
+        let reach: isize = (0..3).map(|a| ((dims[a] as isize - 1) * self.strides[a]).min(0)).sum();
+        let lowest = (self.first as isize + reach) as usize;
+        Some(&self.samples[lowest..lowest + packed])
+    }
+
     /// The sample at point `p`.
     #[inline]
     pub fn get(&self, p: [u32; 3]) -> S {
@@ -82,8 +101,8 @@ impl<'a, S: Sample> StridedSamples<'a, S> {
     /// The smallest and largest sample (NaN skipped; None when all are NaN), read slab by slab
     /// unless packed.
     pub fn value_range(&self) -> Option<ValueRange> {
-        if let Some(packed) = self.contiguous() {
-            return value_range_of(packed);
+        if let Some(memory) = self.contiguous().or_else(|| self.permuted_memory()) {
+            return value_range_of(memory);
         }
         let [nx, ny, nz] = self.lattice.dims().map(|d| d as usize);
         let block = self.block();
