@@ -19,6 +19,11 @@ def marching_cubes(volume, level=None, *, spacing=(1.0, 1.0, 1.0), gradient_dire
     times ``spacing``; ``method='lorensen'`` is classic marching cubes, ``'lewiner'`` is isoforge's
     MC33 (the topology of the trilinear interpolant). The object is ``volume > level`` for
     ``gradient_direction='descent'``. Integer volumes are not converted to float32.
+
+    The array is not copied, whatever its layout (C or Fortran order, steps, reversed axes): it
+    is read where numpy keeps it, without the GIL and without a lock. Another thread writing
+    the array (or a view of its memory) during the call is a data race: the result may mix old
+    and new values, or the walk may fail with RuntimeError; pass ``volume.copy()`` then.
     """
     if method == "lorensen":
         name = "mc"
@@ -157,6 +162,10 @@ def extract(source, iso, *, method="mc33", spacing=(1.0, 1.0, 1.0), origin=(0.0,
     (``mc``, ``mc33``, ``mt5``, ``mt6``, ``surface-nets``, ``dc``, ``emc``…); quads are split into
     triangles.
     ``threads=None`` uses every core. The GIL is released during the extraction.
+
+    An array is not copied, whatever its layout: it is read where numpy keeps it, without the
+    GIL and without a lock, so another thread writing it during the call is a data race (the
+    mesh may mix old and new values, or the walk fail with RuntimeError); pass a copy then.
 
     Raises ValueError for bad arguments or files (the library's one-line message) and
     MemoryError for requests over the library's size limits.

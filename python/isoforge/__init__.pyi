@@ -11,6 +11,8 @@ __all__ = ["Mesh", "extract", "find_contours", "marching_cubes", "read_volume"]
 _Path = Union[str, bytes, "os.PathLike[str]", "os.PathLike[bytes]"]
 _Field = Callable[[np.ndarray, np.ndarray, np.ndarray], npt.ArrayLike]
 
+# marching_cubes and extract read arrays where numpy keeps them (any layout, no copy), without
+# the GIL and without a lock: another thread writing the array during the call is a data race.
 def marching_cubes(
     volume: np.ndarray,
     level: Optional[float] = ...,

@@ -1,6 +1,7 @@
 """Type stubs of isoforge.dask (issue 48)."""
 
-from typing import Any, Optional, Sequence, Union
+import os
+from typing import Any, Dict, Iterable, Literal, Optional, Sequence, Union, overload
 
 import numpy as np
 
@@ -10,6 +11,9 @@ __all__ = ["extract"]
 
 _Chunks = Union[int, Sequence[int], Sequence[Sequence[int]]]
 
+_Path = Union[str, "os.PathLike[str]"]
+
+@overload
 def extract(
     array: Union[np.ndarray, Any],
     iso: float,
@@ -22,4 +26,38 @@ def extract(
     normals: bool = ...,
     fan_in: int = ...,
     threads: Optional[int] = 1,
+    labels: None = ...,
+    out: None = ...,
 ) -> Mesh: ...
+@overload
+def extract(
+    array: Union[np.ndarray, Any],
+    iso: None = ...,
+    *,
+    method: str = ...,
+    spacing: Sequence[float] = ...,
+    origin: Sequence[float] = ...,
+    chunks: Optional[_Chunks] = ...,
+    client: Optional[Any] = ...,
+    normals: bool = ...,
+    fan_in: int = ...,
+    threads: Optional[int] = 1,
+    labels: Union[Literal[True], Iterable[float]],
+    out: None = ...,
+) -> Dict[float, Mesh]: ...
+@overload
+def extract(
+    array: Union[np.ndarray, Any],
+    iso: Optional[float] = ...,
+    *,
+    method: str = ...,
+    spacing: Sequence[float] = ...,
+    origin: Sequence[float] = ...,
+    chunks: Optional[_Chunks] = ...,
+    client: Optional[Any] = ...,
+    normals: bool = ...,
+    fan_in: int = ...,
+    threads: Optional[int] = 1,
+    labels: Union[None, Literal[True], Iterable[float]] = ...,
+    out: _Path,
+) -> Dict[Any, Any]: ...

@@ -18,8 +18,8 @@ use std::time::Duration;
 use isoforge::extract::PointMask;
 use isoforge::grid::{AnyGrid, DenseGrid, Lattice, Sample};
 use isoforge::mesh::{Mesh, Normals};
-use isoforge::pipeline::{extract_grid, extract_request, extract_samples, Method, Options, Request, Source};
-use isoforge::volume::Iso;
+use isoforge::pipeline::{extract_grid, extract_request, extract_strided, Method, Options, Request, Source};
+use isoforge::volume::{AnySamples, Iso, StridedSamples};
 use isoforge::walk::Progress;
 use numpy::{PyArray1, PyArrayMethods, PyReadonlyArray2, PyReadonlyArray3, PyUntypedArray, PyUntypedArrayMethods};
 use pyo3::exceptions::{PyMemoryError, PyRuntimeError, PyValueError};
@@ -42,6 +42,40 @@ fn grid_of<T: Sample + numpy::Element>(
         _ => a.as_array().iter().copied().collect(),
     };
     DenseGrid::new(lattice, data).map_err(value_error)
+}
+
+/// The array's samples where numpy keeps them, in whatever layout (C or Fortran order, steps,
+/// reversed axes, broadcasts), on the swapped lattice (x: the array's last axis; `spacing` in
+/// (x, y, z) order). None when the layout cannot be read as samples in place (unaligned, a
+/// stride that is not a whole number of samples, no samples): the caller copies then.
+///
+/// The samples are read while the GIL is released: another Python thread writing the array
+/// meanwhile is a data race (documented in `marching_cubes` and `extract`).
+fn strided_of<'a, T: Sample + numpy::Element>(
+    a: &'a PyReadonlyArray3<'_, T>,
+    spacing: [f64; 3],
+    origin: [f64; 3],
+) -> PyResult<Option<StridedSamples<'a, T>>> {
+    let (shape, bytes, size) = (a.shape(), a.strides(), std::mem::size_of::<T>() as isize);
+    if !a.is_aligned() || shape.contains(&0) || bytes.iter().any(|b| b % size != 0) {
+        return Ok(None);
+    }
+    let dims = [shape[2], shape[1], shape[0]].map(|d| u32::try_from(d).unwrap_or(u32::MAX));
+    let lattice = Lattice::with_geometry(dims, spacing, origin).map_err(value_error)?;
+    let strides = [bytes[2] / size, bytes[1] / size, bytes[0] / size];
+    // The lowest and highest sample any point reaches, from the first point.
+    let (mut lo, mut hi) = (0isize, 0isize);
+    for axis in 0..3 {
+        let reach = (dims[axis] as isize - 1) * strides[axis];
+        lo += reach.min(0);
+        hi += reach.max(0);
+    }
+    // SAFETY: numpy keeps every element of a view inside one allocation, so the samples from
+    // the lowest to the highest one a point reaches are readable, aligned `T`s (checked above);
+    // they live as long as the borrowed array `a`, which also keeps Rust from writing them. A
+    // Python thread writing them meanwhile is the documented race.
+    let samples = unsafe { std::slice::from_raw_parts(a.data().offset(lo).cast_const(), (hi - lo + 1) as usize) };
+    StridedSamples::new(lattice, samples, (-lo) as usize, strides).map(Some).map_err(value_error)
 }
 
 /// Cancels a walk once the watcher has seen a signal handler raise (Ctrl-C).
@@ -124,9 +158,8 @@ fn any_grid(volume: &Bound<'_, PyUntypedArray>, spacing: [f64; 3], origin: [f64;
 
 /// scikit-image's per-vertex `values`: the largest range (max − min of the 8 corners) among the
 /// cells sharing the vertex's edge (a vertex on a point: its cells).
-fn spreads<S: Sample>(l: &Lattice, samples: &[S], positions: &[[f32; 3]]) -> Vec<f32> {
+fn spreads(l: &Lattice, get: &(impl Fn([u32; 3]) -> f64 + Sync), positions: &[[f32; 3]]) -> Vec<f32> {
     let (dims, spacing) = (l.dims(), l.spacing());
-    let get = |q: [u32; 3]| samples[l.linear(q)];
     use rayon::prelude::*;
     // One vertex's value reads its cells only: in parallel over vertices (serial, this was a
     // quarter of `marching_cubes` at 256³).
@@ -149,7 +182,7 @@ fn spreads<S: Sample>(l: &Lattice, samples: &[S], positions: &[[f32; 3]]) -> Vec
                 let (mut lo, mut hi) = (f64::INFINITY, f64::NEG_INFINITY);
                 for k in 0..8u32 {
                     let q = [0, 1, 2].map(|a| (c[a] + i64::from((k >> a) & 1)) as u32);
-                    let v = get(q).to_f64();
+                    let v = get(q);
                     lo = lo.min(v);
                     hi = hi.max(v);
                 }
@@ -196,22 +229,22 @@ fn extract_array<'py>(
         })
     };
     let iso = Iso::above(level);
-    // C-ordered arrays are walked where numpy keeps them (no copy: issue 48); others are copied
-    // into a grid in the library's axis order first.
+    // Arrays are walked where numpy keeps them, in any layout (issue 48: C order in place,
+    // others slab by slab); only an unaligned array, or one whose strides are not whole samples,
+    // is copied into a grid first.
     let mut borrowed = None;
-    if volume.ndim() == 3 && volume.is_c_contiguous() {
+    if volume.ndim() == 3 {
         macro_rules! walk_in_place {
             ($($t:ty),*) => {
                 $(if let Ok(a) = volume.extract::<PyReadonlyArray3<'py, $t>>() {
-                    if let Ok(data) = a.as_slice() {
-                        let s = a.shape();
-                        let dims = [s[2], s[1], s[0]].map(|d| u32::try_from(d).unwrap_or(u32::MAX));
-                        let lattice = Lattice::with_geometry(dims, xyz, [0.0; 3]).map_err(value_error)?;
+                    if let Some(s) = strided_of(&a, xyz, [0.0; 3])? {
+                        let dims = s.lattice().dims();
                         let opts = options(dims)?;
-                        let mut ex = cancellable(py, |p| extract_samples(&lattice, data, iso, &opts, Some(p)))?;
+                        let mut ex = cancellable(py, |p| extract_strided(&s, iso, &opts, Some(p)))?;
                         ex.mesh.triangulate();
                         let m = ex.mesh;
-                        let values = py.detach(|| in_threads(threads, || spreads(&lattice, data, &m.positions)));
+                        let get = |q: [u32; 3]| s.get(q).to_f64();
+                        let values = py.detach(|| in_threads(threads, || spreads(s.lattice(), &get, &m.positions)));
                         borrowed = Some((m, values));
                     }
                 })*
@@ -228,7 +261,12 @@ fn extract_array<'py>(
             ex.mesh.triangulate();
             let m = ex.mesh;
             let values = py.detach(|| {
-                in_threads(threads, || isoforge::with_grid!(&grid, g => spreads(g.lattice(), g.data(), &m.positions)))
+                in_threads(threads, || {
+                    isoforge::with_grid!(&grid, g => {
+                        let get = |q: [u32; 3]| g.data()[g.lattice().linear(q)].to_f64();
+                        spreads(g.lattice(), &get, &m.positions)
+                    })
+                })
             });
             (m, values)
         }
@@ -311,18 +349,6 @@ fn extract_mesh<'py>(
     normals: bool,
 ) -> PyResult<(Bound<'py, PyAny>, Bound<'py, PyAny>, Bound<'py, PyAny>)> {
     let method = Method::parse(method).ok_or_else(|| PyValueError::new_err(format!("method {method:?}: unknown")))?;
-    let grid = match (volume, path) {
-        (Some(v), None) => {
-            if v.ndim() != 3 {
-                return Err(PyValueError::new_err(format!("volume: {} dimensions, expected 3", v.ndim())));
-            }
-            any_grid(v, spacing, origin)?
-        }
-        (None, Some(p)) => {
-            py.detach(|| isoforge_io::read_volume(&p, &isoforge_io::Limits::default())).map_err(io_error)?
-        }
-        _ => return Err(PyValueError::new_err("extract: pass an array or a path")),
-    };
     let options = Options {
         method,
         normals: if normals { Normals::Gradient } else { Normals::None },
@@ -332,10 +358,38 @@ fn extract_mesh<'py>(
     // The library's one entry point, as the CLI's `extract`: the iso checked against the values,
     // no surface refused with the same sentence.
     let request: Request = Request { isos: vec![iso], options, ..Request::default() };
-    let surfaces = cancellable(py, |p| extract_request(&request, Source::Grid(Cow::Borrowed(&grid)), None, Some(p)))?;
-    let mut mesh = surfaces.into_iter().next().map(|s| s.extraction.mesh).unwrap_or_default();
-    mesh.triangulate();
-    mesh_arrays(py, mesh)
+    let extract = |source: Source<'_>| -> PyResult<(Bound<'py, PyAny>, Bound<'py, PyAny>, Bound<'py, PyAny>)> {
+        let surfaces = cancellable(py, |p| extract_request(&request, source, None, Some(p)))?;
+        let mut mesh = surfaces.into_iter().next().map(|s| s.extraction.mesh).unwrap_or_default();
+        mesh.triangulate();
+        mesh_arrays(py, mesh)
+    };
+    match (volume, path) {
+        (Some(v), None) => {
+            if v.ndim() != 3 {
+                return Err(PyValueError::new_err(format!("volume: {} dimensions, expected 3", v.ndim())));
+            }
+            // Walked where numpy keeps the array, in any layout (issue 48); copied only when
+            // unaligned or strided by parts of a sample.
+            macro_rules! in_place {
+                ($($t:ty => $v:ident),*) => {
+                    $(if let Ok(a) = v.extract::<PyReadonlyArray3<'py, $t>>() {
+                        if let Some(s) = strided_of(&a, spacing, origin)? {
+                            return extract(Source::Samples(AnySamples::$v(s)));
+                        }
+                    })*
+                };
+            }
+            in_place!(u8 => U8, i8 => I8, u16 => U16, i16 => I16, u32 => U32, i32 => I32, f32 => F32, f64 => F64);
+            let grid = any_grid(v, spacing, origin)?;
+            extract(Source::Grid(Cow::Borrowed(&grid)))
+        }
+        (None, Some(p)) => {
+            let grid = py.detach(|| isoforge_io::read_volume(&p, &isoforge_io::Limits::default())).map_err(io_error)?;
+            extract(Source::Grid(Cow::Borrowed(&grid)))
+        }
+        _ => Err(PyValueError::new_err("extract: pass an array or a path")),
+    }
 }
 
 /// A volume file through isoforge-io's readers: `(array of shape (nz, ny, nx) in the file's

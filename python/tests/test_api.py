@@ -164,22 +164,73 @@ def test_sharp_methods_come_closer_to_a_cubes_corners_and_stay_manifold():
     assert worst["emc"] < 0.7 * worst["mc"] and worst["dc"] < 0.7 * worst["mc"] and worst["mc"] > 0.5, worst
 
 
-@pytest.mark.parametrize("dtype", [np.float32, np.float64, np.uint8, np.int16])
-def test_marching_cubes_walks_c_ordered_arrays_in_place_as_their_copies(dtype):
-    # Issue 48's zero copy: a C-ordered array is walked where numpy keeps it; F-ordered and
-    # strided arrays are copied first. Both paths give the same arrays.
-    vol = (ball(23, 8.0) * 10).astype(dtype)
-    level = 80.5
-    want = isoforge.marching_cubes(np.asfortranarray(vol), level, spacing=(1.0, 0.5, 2.0))
-    got = isoforge.marching_cubes(vol, level, spacing=(1.0, 0.5, 2.0))
-    assert vol.flags.c_contiguous and not np.asfortranarray(vol).flags.c_contiguous
-    assert len(got[1]) > 0
-    for g, w in zip(got, want):
-        np.testing.assert_array_equal(g, w)
-    # A strided view (every other plane) against its contiguous copy.
-    view = vol[::2]
-    assert not view.flags.c_contiguous
-    a = isoforge.marching_cubes(view, level, method="lorensen")
-    b = isoforge.marching_cubes(np.ascontiguousarray(view), level, method="lorensen")
+DTYPES = [np.uint8, np.int8, np.uint16, np.int16, np.uint32, np.int32, np.float32, np.float64]
+
+
+def layouts(vol):
+    """The same (z, y, x) values in every layout numpy makes: Fortran order, steps, negative
+    strides, a transposed copy (read slab by slab from where they are), and an unaligned copy
+    (copied into a grid first)."""
+    big = np.zeros((2 * vol.shape[0], vol.shape[1], 2 * vol.shape[2]), vol.dtype)
+    big[::2, :, ::2] = vol
+    rev = np.ascontiguousarray(vol[::-1, :, ::-1])
+    yield "F", np.asfortranarray(vol)
+    yield "stepped", big[::2, :, ::2]
+    yield "reversed", rev[::-1, :, ::-1]
+    yield "transposed", np.ascontiguousarray(vol.transpose(1, 2, 0)).transpose(2, 0, 1)
+    # Unaligned: the samples one byte into a buffer (uint8/int8 are always aligned).
+    raw = np.zeros(vol.nbytes + 1, np.uint8)
+    unaligned = np.frombuffer(raw.data, vol.dtype, vol.size, offset=1).reshape(vol.shape)
+    unaligned[...] = vol
+    yield "unaligned", unaligned
+
+
+@pytest.mark.parametrize("dtype", DTYPES)
+def test_marching_cubes_walks_every_layout_in_place_as_its_copy(dtype):
+    # Issue 48's zero copy: C-ordered arrays are walked where numpy keeps them, other layouts
+    # read slab by slab from where they are; all give exactly the arrays of the copy's walk.
+    vol = (ball(23, 8.0) * 5).astype(dtype)
+    level = 40.5
+    assert vol.flags.c_contiguous
+    for method in ("lewiner", "lorensen"):
+        want = isoforge.marching_cubes(vol, level, spacing=(1.0, 0.5, 2.0), method=method)
+        assert len(want[1]) > 0
+        for name, view in layouts(vol):
+            np.testing.assert_array_equal(view, vol)
+            got = isoforge.marching_cubes(view, level, spacing=(1.0, 0.5, 2.0), method=method)
+            for g, w, what in zip(got, want, ("verts", "faces", "normals", "values")):
+                np.testing.assert_array_equal(g, w, err_msg=f"{name} {method} {what}")
+    # A broadcast (stride 0 along z) against its copy, and a mask on a Fortran-ordered array.
+    plane = (ball(23, 8.0)[11] * 5).astype(dtype)
+    wide = np.broadcast_to(plane, (6,) + plane.shape)
+    a = isoforge.marching_cubes(wide, level)
+    b = isoforge.marching_cubes(np.ascontiguousarray(wide), level)
+    assert len(b[1]) > 0
     for g, w in zip(a, b):
         np.testing.assert_array_equal(g, w)
+    mask = np.zeros(vol.shape, bool)
+    mask[:, :12] = True
+    a = isoforge.marching_cubes(np.asfortranarray(vol), level, mask=mask)
+    b = isoforge.marching_cubes(vol, level, mask=mask)
+    assert 0 < len(b[1]) < len(want[1])
+    for g, w in zip(a, b):
+        np.testing.assert_array_equal(g, w)
+
+
+@pytest.mark.parametrize("dtype", DTYPES)
+def test_extract_walks_every_layout_in_place_as_its_copy(dtype):
+    # Issue 48: `extract` reads arrays where numpy keeps them too (a borrowed-samples source of
+    # the library's entry point): the same mesh in every layout, the same value-range refusal.
+    vol = (ball(23, 8.0) * 5).astype(dtype)
+    for method in ("mc33", "mt6", "dc"):
+        want = isoforge.extract(vol, 40.5, method=method, spacing=(1.0, 0.5, 2.0), origin=(1.0, 2.0, 3.0))
+        assert len(want.faces) > 0
+        for name, view in layouts(vol):
+            got = isoforge.extract(view, 40.5, method=method, spacing=(1.0, 0.5, 2.0), origin=(1.0, 2.0, 3.0))
+            for what in ("vertices", "faces", "normals"):
+                np.testing.assert_array_equal(getattr(got, what), getattr(want, what), err_msg=f"{name} {method}")
+    with pytest.raises(ValueError) as c_order:
+        isoforge.extract(vol, 500.0)
+    with pytest.raises(ValueError) as fortran:
+        isoforge.extract(np.asfortranarray(vol), 500.0)
+    assert str(c_order.value) == str(fortran.value) and "500" in str(fortran.value)

@@ -53,3 +53,20 @@ def test_the_gil_is_released_during_extraction():
     t.join()
     # The counter ran during the call (it ticks about once per ms when it gets the GIL).
     assert len(ticks) > 0.2 * elapsed * 1000, (len(ticks), elapsed)
+
+
+def test_ctrl_c_cancels_a_walk_read_slab_by_slab():
+    # A Fortran-ordered array is streamed from where numpy keeps it (issue 48): the streamed walk
+    # asks after every slab whether to stop.
+    vol = np.asfortranarray(noisy())
+    t0 = time.perf_counter()
+    isoforge.marching_cubes(vol, 0.5, threads=1)
+    full = time.perf_counter() - t0
+    timer = threading.Timer(full * 0.05, _thread.interrupt_main)
+    t0 = time.perf_counter()
+    timer.start()
+    with pytest.raises(KeyboardInterrupt):
+        isoforge.marching_cubes(vol, 0.5, threads=1)
+    cancelled = time.perf_counter() - t0
+    timer.join()
+    assert cancelled < 0.5 * full + 0.05, (cancelled, full)

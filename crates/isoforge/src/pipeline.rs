@@ -31,7 +31,8 @@ use crate::mesh::post::PostProcess;
 use crate::mesh::{KeyRecord, Mesh, MeshBuilder, MeshSink, WriteBehind};
 use crate::volume::catalog::Builtin;
 use crate::volume::{
-    Field, FieldVisitor, GridVolume, Iso, Prefetch, Sampled, SlabSource, SparseVolume, Tabulated, Volume,
+    AnySamples, Field, FieldVisitor, GridVolume, Iso, Prefetch, Sampled, SlabSource, SparseVolume, StridedSamples,
+    StridedSlabs, Tabulated, Volume,
 };
 use crate::walk::{
     walk_cells, walk_ranges, FlyingEdgesWalker, FollowStats, Follower, Progress, SlabWalker, StreamStats, WalkStats,
@@ -476,6 +477,72 @@ pub fn extract_samples<S: Sample>(
         let stats = run(&mut walker(opts, progress), &vol, iso, opts, &mut out)?;
         finish(out, stats)
     })?
+}
+
+/// [`extract_samples`] on samples in any layout ([`StridedSamples`]: a numpy array in Fortran
+/// order, a view with steps or reversed axes): walked in place when packed x fastest, else
+/// streamed slab by slab from where they are ([`extract_streamed`]: each slab gathered when the
+/// walk needs it, a few at a time), never copied whole — the same mesh as a grid holding a copy.
+/// A mask, a range, vertex keys, a pyramid level, a sparse or adaptive walk or surface following
+/// need the whole grid: for those the samples are copied into one first.
+///
+/// # Errors
+/// As [`extract_grid`].
+pub fn extract_strided<S: Sample>(
+    samples: &StridedSamples<'_, S>,
+    iso: Iso,
+    opts: &Options,
+    progress: Option<&dyn Progress>,
+) -> Result<Extraction> {
+    let lattice = samples.lattice();
+    if let Some(packed) = samples.contiguous() {
+        return extract_samples(lattice, packed, iso, opts, progress);
+    }
+    check(iso, opts, lattice.dims())?;
+    let whole_grid = opts.mask.is_some()
+        || opts.range.is_some()
+        || opts.keys != KeyRecord::None
+        || opts.level > 0
+        || opts.sparse == Some(true)
+        || opts.follow.is_some()
+        || adaptive(opts)?.is_some();
+    if whole_grid {
+        let grid = samples.to_grid()?;
+        return in_pool(opts.threads, || grid_walk(&grid, iso, opts, progress))?;
+    }
+    /// The streamed mesh, kept whole.
+    struct Keep(Mesh);
+    impl MeshSink for Keep {
+        fn push(&mut self, b: crate::mesh::MeshBatch<'_>) -> std::result::Result<(), crate::mesh::ExternalError> {
+            self.0.positions.extend_from_slice(b.positions);
+            self.0.normals.extend_from_slice(b.normals);
+            self.0.triangles.extend_from_slice(b.triangles);
+            self.0.quads.extend_from_slice(b.quads);
+            Ok(())
+        }
+    }
+    let mut keep = Keep(Mesh::default());
+    let stats = extract_streamed(&mut samples.slabs(), iso, opts, &mut keep, progress)?;
+    Ok(Extraction { mesh: keep.0, stats: stats.walk, keys: Vec::new() })
+}
+
+/// [`extract_strided`] on samples of any type (matched once).
+///
+/// # Errors
+/// As [`extract_strided`].
+pub fn extract_any_strided(
+    samples: &AnySamples<'_>,
+    iso: Iso,
+    opts: &Options,
+    progress: Option<&dyn Progress>,
+) -> Result<Extraction> {
+    crate::with_samples!(samples, s => extract_strided(s, iso, opts, progress))
+}
+
+impl<S: Sample> AnySlabSource for StridedSlabs<'_, S> {
+    fn dtype(&self) -> DType {
+        S::DTYPE
+    }
 }
 
 /// [`extract_sparse`] on a sparse grid of either sample type (as read from a file).

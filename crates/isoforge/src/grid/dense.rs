@@ -107,33 +107,38 @@ impl<S: Sample> DenseGrid<S> {
 
     /// Smallest and largest sample (NaN samples are skipped; `None` when all are NaN).
     pub fn value_range(&self) -> Option<ValueRange> {
-        // Lanes of running bounds in the sample's own type (exact: `to_f64` is monotonic and
-        // exact), so the loop vectorises; a NaN never compares less or greater, so it is skipped.
-        const LANES: usize = 16;
-        let first = self.data.iter().position(|v| !v.to_f64().is_nan())?;
-        let rest = &self.data[first..];
-        let (mut lo, mut hi) = ([rest[0]; LANES], [rest[0]; LANES]);
-        let mut chunks = rest.chunks_exact(LANES);
-        for c in &mut chunks {
-            for l in 0..LANES {
-                let v = c[l];
-                lo[l] = if v < lo[l] { v } else { lo[l] };
-                hi[l] = if v > hi[l] { v } else { hi[l] };
-            }
-        }
-        for &v in chunks.remainder() {
-            lo[0] = if v < lo[0] { v } else { lo[0] };
-            hi[0] = if v > hi[0] { v } else { hi[0] };
-        }
-        let min = lo.iter().map(|v| v.to_f64()).fold(f64::INFINITY, f64::min);
-        let max = hi.iter().map(|v| v.to_f64()).fold(f64::NEG_INFINITY, f64::max);
-        Some(ValueRange { min, max })
+        value_range_of(&self.data)
     }
 
     /// Consumes the grid, returning its samples.
     pub fn into_data(self) -> Vec<S> {
         self.data
     }
+}
+
+/// The smallest and largest of `data` (NaN skipped; None when there is no other value).
+pub fn value_range_of<S: Sample>(data: &[S]) -> Option<ValueRange> {
+    // Lanes of running bounds in the sample's own type (exact: `to_f64` is monotonic and
+    // exact), so the loop vectorises; a NaN never compares less or greater, so it is skipped.
+    const LANES: usize = 16;
+    let first = data.iter().position(|v| !v.to_f64().is_nan())?;
+    let rest = &data[first..];
+    let (mut lo, mut hi) = ([rest[0]; LANES], [rest[0]; LANES]);
+    let mut chunks = rest.chunks_exact(LANES);
+    for c in &mut chunks {
+        for l in 0..LANES {
+            let v = c[l];
+            lo[l] = if v < lo[l] { v } else { lo[l] };
+            hi[l] = if v > hi[l] { v } else { hi[l] };
+        }
+    }
+    for &v in chunks.remainder() {
+        lo[0] = if v < lo[0] { v } else { lo[0] };
+        hi[0] = if v > hi[0] { v } else { hi[0] };
+    }
+    let min = lo.iter().map(|v| v.to_f64()).fold(f64::INFINITY, f64::min);
+    let max = hi.iter().map(|v| v.to_f64()).fold(f64::NEG_INFINITY, f64::max);
+    Some(ValueRange { min, max })
 }
 
 /// A dense grid of any sample type: the runtime choice, matched once at the top of a pipeline.

@@ -14,7 +14,7 @@ mod sample;
 pub mod sparse;
 
 pub use blocks::BlockBounds;
-pub use dense::{AnyGrid, DenseGrid, NonFinite, ValueRange};
+pub use dense::{value_range_of, AnyGrid, DenseGrid, NonFinite, ValueRange};
 pub use histogram::Histogram;
 pub use lattice::{Lattice, WorldSpace, IDENTITY};
 pub use octree::{OctreeLeaf, OctreeNode, SignedOctree};

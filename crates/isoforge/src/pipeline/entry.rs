@@ -15,15 +15,15 @@ use std::fmt;
 use super::plan::{MemoryPlan, Refusal};
 use super::request::{check_isos_in_range, outside_value, NoSurface, Request};
 use super::{
-    extract_any_sparse, extract_builtin, extract_grid, extract_labels_with_progress, extract_streamed, label_post,
-    post_process, AnySlabSource, Extraction, Options,
+    extract_any_sparse, extract_any_strided, extract_builtin, extract_grid, extract_labels_with_progress,
+    extract_streamed, label_post, post_process, AnySlabSource, Extraction, Options,
 };
 use crate::error::{Error, Result};
 use crate::grid::{AnyGrid, AnySparse, Lattice, Sample};
 use crate::mesh::post::PostStats;
 use crate::mesh::MeshSink;
 use crate::volume::catalog::Builtin;
-use crate::volume::{Iso, SlabSource};
+use crate::volume::{AnySamples, Iso, SlabSource};
 use crate::walk::{Progress, StreamStats};
 
 /// What is meshed: a grid, a built-in field, a sparse grid (borrowed or owned), or a volume that
@@ -37,6 +37,9 @@ pub enum Source<'a> {
     Sparse(Cow<'a, AnySparse>),
     /// Slabs in the file's sample type, z by z.
     Stream(Box<dyn AnySlabSource + Send + 'a>),
+    /// Samples the caller owns, in any layout (a numpy array): walked where they are
+    /// ([`extract_any_strided`]); copied into a grid only for a region, a mask or labels.
+    Samples(AnySamples<'a>),
 }
 
 impl Source<'_> {
@@ -47,6 +50,7 @@ impl Source<'_> {
             Source::Field(_) => "a field",
             Source::Sparse(_) => "a sparse grid",
             Source::Stream(_) => "a stream of slabs",
+            Source::Samples(_) => "borrowed samples",
         }
     }
 }
@@ -143,6 +147,17 @@ pub fn prepare<'a, V>(
     let mut options = request.options.clone();
     let mut input_lattice = None;
     let source = match source {
+        // A region or a mask cuts a grid: the samples are copied into one.
+        Source::Samples(s) if !region.is_identity() || mask.is_some() => {
+            let grid = s.to_grid().map_err(PrepareError::Region)?;
+            return prepare(request, Source::Grid(Cow::Owned(grid)), mask, plan);
+        }
+        Source::Samples(s) => {
+            let range = s.value_range().ok_or(PrepareError::Empty)?;
+            check_isos_in_range(&isos, range.min, range.max).map_err(PrepareError::Isos)?;
+            input_lattice = Some(s.lattice().clone());
+            Source::Samples(s)
+        }
         Source::Grid(g) => {
             let range = g.value_range().ok_or(PrepareError::Empty)?;
             check_isos_in_range(&isos, range.min, range.max).map_err(PrepareError::Isos)?;
@@ -204,6 +219,7 @@ impl Prepared<'_> {
             Source::Grid(g) => extract_grid(g, iso, &self.options, progress),
             Source::Field(b) => extract_builtin(b, iso, &self.options, progress),
             Source::Sparse(s) => extract_any_sparse(s, iso, &self.options),
+            Source::Samples(s) => extract_any_strided(s, iso, &self.options, progress),
             Source::Stream(_) => Err(Error::InvalidInput("a stream of slabs is meshed by streaming it".into())),
         }
     }
@@ -276,8 +292,10 @@ pub fn extract_request<V>(
 ) -> Result<Vec<Surface>> {
     let threads = request.options.threads;
     if let Some(labels) = &request.labels {
-        let Source::Grid(g) = source else {
-            return Err(Error::InvalidInput(format!("labels need a dense label volume, not {}", source.kind())));
+        let g = match source {
+            Source::Grid(g) => g,
+            Source::Samples(s) => Cow::Owned(s.to_grid()?),
+            s => return Err(Error::InvalidInput(format!("labels need a dense label volume, not {}", s.kind()))),
         };
         let g = prepare_labels(request, g)?;
         let post = label_post(&request.post, g.lattice());
@@ -391,6 +409,42 @@ mod tests {
         let roomy = MemoryPlan { bytes: u64::MAX, ..plan };
         let p = prepare(&request(&[]), Source::Field(Cow::Borrowed(&field)), None, Some(&roomy)).unwrap();
         assert_eq!(p.isos, vec![field.iso]);
+    }
+
+    #[test]
+    fn borrowed_samples_in_any_layout_give_the_grid_s_surfaces() {
+        use crate::volume::StridedSamples;
+        let AnyGrid::F32(g) = ball() else { unreachable!() };
+        // The ball's samples in Fortran order (z fastest).
+        let [nx, ny, nz] = g.lattice().dims().map(|d| d as usize);
+        let mut fortran = vec![0f32; nx * ny * nz];
+        for (lin, &v) in g.data().iter().enumerate() {
+            let [x, y, z] = g.lattice().ijk(lin).map(|c| c as usize);
+            fortran[(x * ny + y) * nz + z] = v;
+        }
+        let strides = [(ny * nz) as isize, nz as isize, 1];
+        let samples = StridedSamples::new(g.lattice().clone(), &fortran, 0, strides).unwrap();
+        let grid = AnyGrid::F32(g.clone());
+        let mut r = request(&[0.0, 1.0]);
+        r.options.method = Method::MarchingCubes33;
+        let of = |src: Source<'_>, r: &Request| extract_request(r, src, None, None).unwrap();
+        let want = of(Source::Grid(Cow::Borrowed(&grid)), &r);
+        let got = of(Source::Samples(AnySamples::F32(samples.clone())), &r);
+        assert_eq!(got.len(), 2);
+        for (a, b) in got.iter().zip(&want) {
+            assert_eq!(a.extraction.mesh, b.extraction.mesh);
+        }
+        // The value range is checked as a grid's.
+        let far = request(&[9.0]);
+        let e = extract_request(&far, Source::Samples(AnySamples::F32(samples.clone())), None, None).unwrap_err();
+        let e2 = extract_request(&far, Source::Grid(Cow::Borrowed(&grid)), None, None).unwrap_err();
+        assert_eq!(e.to_string(), e2.to_string());
+        // A region copies the samples into a grid first: the same surfaces.
+        r.region.roi = Some(Roi::Index([(Some(1), Some(9)); 3]));
+        let want = of(Source::Grid(Cow::Borrowed(&grid)), &r);
+        let got = of(Source::Samples(AnySamples::F32(samples)), &r);
+        assert_eq!(got[0].extraction.mesh, want[0].extraction.mesh);
+        assert!(want[0].extraction.mesh.num_triangles() > 0);
     }
 
     /// Slabs of a grid, z by z (a file reader's part in the CLI).

@@ -18,6 +18,7 @@ mod sampled;
 pub mod sdf;
 mod source;
 mod sparse;
+mod strided;
 mod tabulated;
 pub mod texture;
 
@@ -30,6 +31,7 @@ pub use prefetch::Prefetch;
 pub use sampled::Sampled;
 pub use source::SlabSource;
 pub use sparse::SparseVolume;
+pub use strided::{AnySamples, StridedSamples, StridedSlabs};
 pub use tabulated::Tabulated;
 
 use crate::cube::EdgeKey;

@@ -1414,6 +1414,9 @@ impl Ctx<'_, ()> {
             }
             if let Some(p) = progress {
                 p.advance(k as u64 + 1, nz as u64);
+                if p.cancelled() {
+                    return Err(crate::Error::Cancelled);
+                }
             }
         }
         Ok(())

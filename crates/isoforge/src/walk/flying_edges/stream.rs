@@ -249,6 +249,9 @@ impl FlyingEdgesWalker<'_> {
                 }
                 if let Some(p) = progress {
                     p.advance(k as u64 + 1, nz as u64);
+                    if p.cancelled() {
+                        return Err(Error::Cancelled);
+                    }
                 }
             }
         } else {
@@ -275,6 +278,9 @@ impl FlyingEdgesWalker<'_> {
                 }
                 if let Some(p) = progress {
                     p.advance(k as u64 + 1, nz as u64 - 1);
+                    if p.cancelled() {
+                        return Err(Error::Cancelled);
+                    }
                 }
             }
             b.finish()?;
