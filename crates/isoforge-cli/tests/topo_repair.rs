@@ -179,7 +179,10 @@ fn the_knots_tunnel_is_found_on_its_outside_sheets() {
     let cut = json(&tr(&[p(&sog), "--thin", "1e9", "--grow", "1e9", "-o", p(&out), "--json"]));
     assert_eq!(cut["genus_after"], 0);
     let handle = cut["cuts"][0]["size"].as_f64().unwrap();
-    assert!(kept[0]["size"].as_f64().unwrap() > handle, "the knot's membrane is larger than its tube's ({handle}): {j}");
+    assert!(
+        kept[0]["size"].as_f64().unwrap() > handle,
+        "the knot's membrane is larger than its tube's ({handle}): {j}"
+    );
 }
 
 #[test]
