@@ -25,6 +25,10 @@ fn solid(c: &TopoRepairConfig) -> Result<(DenseGrid<f32>, Option<SignedOctree>)>
     Ok(match c.kind {
         SolidInput::Sog => {
             let tree = spin(format!("reading {name}"), || isoforge_io::read_sog(&c.input, &c.limits))?;
+            // The repair's size limit from the tree alone, before its dense sign grid is built.
+            if let Some((lo, hi)) = tree.inside_box() {
+                mend::complex_box(lo.map(i64::from), hi.map(i64::from)).map_err(with_name)?;
+            }
             // Signs as −1 inside and +3 outside: MC33 then has the cell complex's topology
             // (TopoMender's), which ±1 does not (isoforge::mend::sign_like).
             let mut g = tree.to_sign_grid().map_err(with_name)?;

@@ -214,3 +214,22 @@ fn bad_requests_are_refused_in_one_line() {
     let missing = dir.path().join("missing.nrrd");
     fails(&tr(&[p(&missing), "--iso", "0", "--thin", "1", "--grow", "0", "-o", p(&out)]), "missing.nrrd", &out);
 }
+
+/// A SOG whose solid needs a complex beyond the limit is refused from its tree, before its
+/// dense sign grid is built: a tiny file at depth 11 (2049³ points: the sign grid's own limit
+/// would refuse it by another name, after depth 9 and 10 trees had been painted in 0.5 and 4 GB),
+/// a one-line error naming the complex, exit 2, no output.
+#[test]
+fn a_solid_too_big_for_the_complex_is_refused_before_its_grid_is_built() {
+    use isoforge::grid::{OctreeNode, SignedOctree};
+    let dir = tempfile::tempdir().unwrap();
+    let (inside, outside) = (OctreeNode::Empty { outside: false }, OctreeNode::Empty { outside: true });
+    let mut nodes = vec![OctreeNode::Internal, inside];
+    nodes.extend([outside; 6]);
+    nodes.push(inside);
+    let tree = SignedOctree::from_preorder(11, [0.0; 3], 1.0, nodes).unwrap();
+    let sog = dir.path().join("big.sog");
+    isoforge_io::write_sog(&sog, &tree).unwrap();
+    let out = dir.path().join("big.ply");
+    fails(&tr(&[p(&sog), "--thin", "1", "--grow", "0", "-o", p(&out)]), "cell complex elements", &out);
+}

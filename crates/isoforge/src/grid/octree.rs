@@ -475,6 +475,36 @@ impl SignedOctree {
         DenseGrid::new(lattice, data)
     }
 
+    /// The box (lowest and highest point, inclusive) of the lattice points some node paints
+    /// inside, or `None` when none does: from the tree alone, a bound on where
+    /// [`to_sign_grid`](SignedOctree::to_sign_grid) puts its inside points (the same box for a
+    /// consistent tree), for sizing what is built on the solid before building the grid.
+    pub fn inside_box(&self) -> Option<([u32; 3], [u32; 3])> {
+        let mut bounds: Option<([u32; 3], [u32; 3])> = None;
+        let mut grow = |lo: [u32; 3], hi: [u32; 3]| {
+            let b = bounds.get_or_insert((lo, hi));
+            for a in 0..3 {
+                b.0[a] = b.0[a].min(lo[a]);
+                b.1[a] = b.1[a].max(hi[a]);
+            }
+        };
+        self.for_each_empty(|lo, size, outside| {
+            if !outside {
+                grow(lo, lo.map(|v| v + size));
+            }
+        });
+        for l in &self.leaves {
+            for c in 0..8u32 {
+                let o = [c >> 2 & 1, c >> 1 & 1, c & 1];
+                if !l.corner_outside(o) {
+                    let p = [0, 1, 2].map(|a| l.ijk[a] + o[a]);
+                    grow(p, p);
+                }
+            }
+        }
+        bounds
+    }
+
     /// Calls `f(lowest point, size in cells, outside)` for every empty node, in pre-order.
     fn for_each_empty(&self, mut f: impl FnMut([u32; 3], u32, bool)) {
         // (node index, lowest cell, level), children pushed in reverse to pop in pre-order.
@@ -634,6 +664,37 @@ mod tests {
             }
         }
         assert!(t.corner_outside([17, 0, 0]), "beyond the root");
+    }
+
+    #[test]
+    fn the_inside_box_is_the_sign_grids() {
+        for (depth, r) in [(4, 5.0), (4, 2.2), (3, 0.4), (5, 9.5)] {
+            let t = ball(depth, r);
+            let g = t.to_sign_grid().unwrap();
+            let n = g.lattice().dims();
+            let mut expected: Option<([u32; 3], [u32; 3])> = None;
+            for k in 0..n[2] {
+                for j in 0..n[1] {
+                    for i in 0..n[0] {
+                        if g.get([i, j, k]) < 0.0 {
+                            let b = expected.get_or_insert(([i, j, k], [i, j, k]));
+                            for (a, v) in [i, j, k].into_iter().enumerate() {
+                                b.0[a] = b.0[a].min(v);
+                                b.1[a] = b.1[a].max(v);
+                            }
+                        }
+                    }
+                }
+            }
+            assert_eq!(t.inside_box(), expected, "depth {depth}, radius {r}");
+        }
+        // A tree painting inside with empty nodes only: their closed cubes.
+        let (inside, outside) = (OctreeNode::Empty { outside: false }, OctreeNode::Empty { outside: true });
+        let mut nodes = vec![OctreeNode::Internal, inside];
+        nodes.extend([outside; 6]);
+        nodes.push(inside);
+        let t = SignedOctree::from_preorder(9, [0.0; 3], 1.0, nodes).unwrap();
+        assert_eq!(t.inside_box(), Some(([0; 3], [512; 3])));
     }
 
     #[test]

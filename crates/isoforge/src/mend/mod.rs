@@ -180,17 +180,9 @@ pub fn repair(grid: &mut DenseGrid<f32>, iso: Iso, opts: &RepairOptions, skeleto
     if lo[0] > hi[0] {
         return Ok(report);
     }
+    let n = complex_box(lo, hi)?;
     let lo = lo.map(|v| v - MARGIN);
-    let n = [0, 1, 2].map(|a| (hi[a] + MARGIN - lo[a] + 1) as usize);
     report.box_points = n;
-    let needed = CellComplex::elements_for(n, true);
-    if needed > CellComplex::MAX_ELEMENTS {
-        return Err(Error::Limit {
-            what: "cell complex elements (the solid's box, doubled)",
-            requested: needed,
-            allowed: CellComplex::MAX_ELEMENTS,
-        });
-    }
     let in_lattice = |p: [i64; 3]| (0..3).all(|a| p[a] >= 0 && p[a] < dims[a]);
     let mut inside = vec![false; n[0] * n[1] * n[2]];
     for (k, f) in inside.iter_mut().enumerate() {
@@ -261,6 +253,25 @@ pub fn repair(grid: &mut DenseGrid<f32>, iso: Iso, opts: &RepairOptions, skeleto
 
 /// Points of outside around the solid's bounds in the complexes' box.
 const MARGIN: i64 = 3;
+
+/// The points per axis of the box [`repair`] builds its complexes on for a solid whose inside
+/// points span `lo..=hi` (lattice indices): what a caller can check before building the grid
+/// (e.g. from [`SignedOctree::inside_box`](crate::grid::SignedOctree::inside_box)).
+///
+/// # Errors
+/// [`Error::Limit`] when the box needs more than [`CellComplex::MAX_ELEMENTS`] elements.
+pub fn complex_box(lo: [i64; 3], hi: [i64; 3]) -> Result<[usize; 3]> {
+    let n = [0, 1, 2].map(|a| (hi[a] - lo[a] + 2 * MARGIN + 1).max(0) as usize);
+    let needed = CellComplex::elements_for(n, true);
+    if needed > CellComplex::MAX_ELEMENTS {
+        return Err(Error::Limit {
+            what: "cell complex elements (the solid's box, doubled)",
+            requested: needed,
+            allowed: CellComplex::MAX_ELEMENTS,
+        });
+    }
+    Ok(n)
+}
 
 /// `m` (at least a hair) past the iso on the solid's side, or `3m` on the other.
 pub fn sign_like(iso: Iso, solid: bool, m: f64) -> f32 {
